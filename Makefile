@@ -1,0 +1,37 @@
+# physid: two commands on a fresh machine (Python >= 3.10 and pip): `make demo` and `make test`.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+OUT    ?= demo-out
+ARGS   ?=
+
+.PHONY: demo test bench lint clean venv
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+
+# Stamp files record which extras were installed, so re-running is cheap.
+$(VENV)/.core: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e .
+	touch $@
+
+$(VENV)/.full: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -e ".[dev,peers,dask]"
+	touch $@ $(VENV)/.core
+
+demo: $(VENV)/.core
+	$(BIN)/physid demo --out $(OUT) $(ARGS)
+
+test: $(VENV)/.full
+	$(BIN)/python tools/ensure_chromium.py || true
+	MPLBACKEND=Agg $(BIN)/python -m pytest $(ARGS)
+
+bench: $(VENV)/.full
+	MPLBACKEND=Agg $(BIN)/python benchmarks/run.py $(ARGS)
+
+lint: $(VENV)/.full
+	$(BIN)/ruff check src tests benchmarks examples
+
+clean:
+	rm -rf $(VENV) $(OUT) .pytest_cache .physid-cache build src/*.egg-info

@@ -1,0 +1,65 @@
+"""physid: identify physical parameters of mechanical systems from measured signals.
+
+The top-level API is deliberately small (see ``docs/architecture.md``)::
+
+    import physid
+    model = physid.load_model("manipulator")      # or "msd", or a path to a TOML model file
+    rec = physid.load_recording("data.csv")       # CSV / NPZ / MAT / HDF5 -> Recording
+
+Everything else lives in the stage subpackages: `physid.models`, `physid.signals`,
+`physid.filters`, `physid.simulate`, `physid.estimators`, `physid.analysis`,
+`physid.experiments`, `physid.report`.
+"""
+
+from __future__ import annotations
+
+from .errors import (
+    DataFileError,
+    EstimationError,
+    IdentifiabilityError,
+    InputError,
+    ModelFileError,
+    PhysidError,
+    SamplingError,
+    ShapeError,
+    SimulationError,
+)
+from .signals.recording import Recording
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "__version__",
+    "load_model",
+    "load_recording",
+    "Recording",
+    "PhysidError",
+    "InputError",
+    "ShapeError",
+    "SamplingError",
+    "DataFileError",
+    "ModelFileError",
+    "IdentifiabilityError",
+    "EstimationError",
+    "SimulationError",
+]
+
+
+def load_model(name_or_path, **options):
+    """Load a built-in model by name (``"manipulator"``, ``"msd"``) or a TOML model file.
+
+    See `physid.models.load_model` for the options.
+    """
+    from .models import load_model as _load_model
+
+    return _load_model(name_or_path, **options)
+
+
+def load_recording(path, **options):
+    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5.
+
+    See `physid.signals.load_recording` for the options.
+    """
+    from .signals import load_recording as _load_recording
+
+    return _load_recording(path, **options)

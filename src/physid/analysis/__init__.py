@@ -1,0 +1,1 @@
+"""physid.analysis (see docs/architecture.md)."""

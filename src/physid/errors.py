@@ -1,0 +1,56 @@
+"""Errors raised by physid.
+
+Every error says what was received, what was expected and how to fix it. Each class also derives
+from the builtin a caller would naturally catch (``ValueError`` or ``TypeError``), so code written
+against plain Python exceptions keeps working.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "PhysidError",
+    "InputError",
+    "ShapeError",
+    "SamplingError",
+    "DataFileError",
+    "ModelFileError",
+    "IdentifiabilityError",
+    "EstimationError",
+    "SimulationError",
+]
+
+
+class PhysidError(Exception):
+    """Base class of every error physid raises on purpose."""
+
+
+class InputError(PhysidError, ValueError):
+    """An argument has a value outside its allowed range or set."""
+
+
+class ShapeError(PhysidError, ValueError):
+    """An array has the wrong shape, or arrays that must agree in length do not."""
+
+
+class SamplingError(PhysidError, ValueError):
+    """A time vector is not strictly increasing, not uniform, or too short for the request."""
+
+
+class DataFileError(PhysidError, ValueError):
+    """A recording file cannot be read: missing columns, bad cells, unsupported format."""
+
+
+class ModelFileError(PhysidError, ValueError):
+    """A model file (TOML) is malformed: unknown symbol, bad transform, missing value."""
+
+
+class IdentifiabilityError(PhysidError, ValueError):
+    """The data or the model cannot determine a parameter (singular regressor or Jacobian)."""
+
+
+class EstimationError(PhysidError, ValueError):
+    """An estimator cannot run on the given data (no excitation, too few rows)."""
+
+
+class SimulationError(PhysidError, RuntimeError):
+    """The integrator failed (stiff system, blow-up); the message says which settings to change."""

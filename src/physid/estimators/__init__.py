@@ -1,0 +1,1 @@
+"""physid.estimators (see docs/architecture.md)."""

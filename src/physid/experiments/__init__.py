@@ -1,0 +1,1 @@
+"""physid.experiments (see docs/architecture.md)."""

@@ -1,0 +1,1 @@
+"""physid.filters (see docs/architecture.md)."""

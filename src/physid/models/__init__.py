@@ -1,0 +1,1 @@
+"""physid.models (see docs/architecture.md)."""

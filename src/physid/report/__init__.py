@@ -1,0 +1,1 @@
+"""physid.report (see docs/architecture.md)."""

@@ -1,0 +1,5 @@
+"""Recordings, file I/O, excitation signals and measurement noise."""
+
+from .recording import Recording
+
+__all__ = ["Recording"]

@@ -1,0 +1,270 @@
+"""`Recording`: a time vector, named channels with units, and metadata, validated on creation."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from .._validate import as_1d, as_2d, check_finite, check_time, sample_period
+from ..errors import InputError, SamplingError, ShapeError
+
+__all__ = ["Recording"]
+
+
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """Sampled signals of one experiment.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,) [s]
+        Sample times, strictly increasing.
+    data : array_like, shape (n_samples, n_channels)
+        Channel values, time on axis 0. A 1-D array is one channel.
+    names : sequence of str, length n_channels
+        Unique channel names, e.g. ``("q1", "q2", "tau1", "tau2")``.
+    units : sequence of str or mapping name -> unit, optional
+        SI unit of each channel (``""`` when unknown or dimensionless).
+    metadata : mapping, optional
+        Free-form JSON-serialisable information (source file, simulation settings, seed ...).
+
+    Notes
+    -----
+    The arrays are copied on creation and made read-only, so a recording never mutates what it was
+    given and cannot be changed behind its back. Sampling need not be uniform to build a recording;
+    methods that need a uniform grid call `dt`, which checks it once and says how to fix it.
+
+    Examples
+    --------
+    >>> rec = Recording([0.0, 0.1, 0.2], [[1.0], [2.0], [3.0]], ["x"], units=["m"])
+    >>> rec["x"].tolist(), rec.dt, rec.unit("x")
+    ([1.0, 2.0, 3.0], 0.1, 'm')
+    """
+
+    t: np.ndarray
+    data: np.ndarray
+    names: tuple[str, ...]
+    units: tuple[str, ...] = ()
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        t = check_time(self.t, "t", min_samples=1) if np.size(self.t) < 2 else check_time(self.t, "t")
+        names = tuple(str(n) for n in self.names)
+        data = as_2d(self.data, "data")
+        if data.shape[0] != t.size:
+            raise ShapeError(
+                f"data has {data.shape[0]} rows but t has {t.size} samples; they must be equal "
+                "(time runs along axis 0 of data)."
+            )
+        if len(names) != data.shape[1]:
+            raise ShapeError(
+                f"got {len(names)} channel name(s) {names} for {data.shape[1]} data column(s); "
+                "give exactly one name per column."
+            )
+        seen: set[str] = set()
+        for n in names:
+            if not n or n.strip() != n:
+                raise InputError(f"channel name {n!r} is empty or has surrounding spaces; rename it.")
+            if n == "t":
+                raise InputError("'t' is reserved for the time vector; rename the channel.")
+            if n in seen:
+                raise InputError(f"duplicate channel name {n!r}; channel names must be unique.")
+            seen.add(n)
+        check_finite(data, "data", names)
+        units = self.units
+        if isinstance(units, Mapping):
+            unknown = set(units) - set(names)
+            if unknown:
+                raise InputError(f"units given for unknown channel(s) {sorted(unknown)}; known: {names}.")
+            units = tuple(str(units.get(n, "")) for n in names)
+        elif len(units) == 0:
+            units = ("",) * len(names)
+        else:
+            units = tuple(str(u) for u in units)
+            if len(units) != len(names):
+                raise ShapeError(f"got {len(units)} unit(s) for {len(names)} channel(s); give one per channel.")
+        object.__setattr__(self, "t", _frozen(t))
+        object.__setattr__(self, "data", _frozen(data))
+        object.__setattr__(self, "names", names)
+        object.__setattr__(self, "units", units)
+        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+
+    # ---------------------------------------------------------------- construction helpers
+    @classmethod
+    def from_columns(
+        cls,
+        t,
+        columns: Mapping[str, Any],
+        units: Mapping[str, str] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ) -> Recording:
+        """Build a recording from ``{name: 1-D array}`` (or ``(n, k)`` arrays named ``name1..namek``).
+
+        A 2-D value of shape (n_samples, k) under key ``"q"`` becomes channels ``q1 .. qk``.
+        """
+        names: list[str] = []
+        cols: list[np.ndarray] = []
+        for key, value in columns.items():
+            arr = np.asarray(value, dtype=float)
+            if arr.ndim == 2:
+                for j in range(arr.shape[1]):
+                    names.append(f"{key}{j + 1}")
+                    cols.append(arr[:, j])
+            else:
+                names.append(key)
+                cols.append(as_1d(arr, f"column {key!r}"))
+        lengths = {c.size for c in cols}
+        if len(lengths) > 1:
+            raise ShapeError(f"columns have different lengths {sorted(lengths)}; they must all match t.")
+        data = np.column_stack(cols) if cols else np.empty((np.size(t), 0))
+        unit_map = {}
+        for name in names:
+            if units and name in units:
+                unit_map[name] = units[name]
+            elif units:
+                stem = name.rstrip("0123456789")
+                unit_map[name] = units.get(stem, "")
+        return cls(t, data, tuple(names), unit_map or (), metadata or {})
+
+    # ---------------------------------------------------------------- access
+    @property
+    def n_samples(self) -> int:
+        """Number of samples."""
+        return int(self.t.size)
+
+    @property
+    def n_channels(self) -> int:
+        """Number of channels."""
+        return len(self.names)
+
+    @property
+    def dt(self) -> float:
+        """Sample period [s]; raises `SamplingError` if the sampling is not uniform."""
+        return sample_period(self.t, "the recording's time vector")
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample [s]."""
+        return float(self.t[-1] - self.t[0])
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.names
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Return one channel as a read-only 1-D array."""
+        return self.data[:, self._index(name)]
+
+    def unit(self, name: str) -> str:
+        """Unit of channel ``name``."""
+        return self.units[self._index(name)]
+
+    def _index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise InputError(
+                f"the recording has no channel {name!r}; it has {list(self.names)}."
+            ) from None
+
+    def select(self, names: Iterable[str]) -> np.ndarray:
+        """Return the named channels as a new array of shape (n_samples, len(names))."""
+        names = list(names)
+        missing = [n for n in names if n not in self.names]
+        if missing:
+            raise InputError(
+                f"the recording lacks channel(s) {missing}; it has {list(self.names)}."
+            )
+        return self.data[:, [self.names.index(n) for n in names]].copy()
+
+    def channels(self, prefix: str) -> list[str]:
+        """Names ``prefix1, prefix2, ...`` present in order (e.g. ``channels("q")`` -> q1..qn)."""
+        out = []
+        k = 1
+        while f"{prefix}{k}" in self.names:
+            out.append(f"{prefix}{k}")
+            k += 1
+        return out
+
+    # ---------------------------------------------------------------- derived recordings
+    def with_channels(self, columns: Mapping[str, Any], units: Mapping[str, str] | None = None) -> Recording:
+        """Return a new recording with channels added or replaced."""
+        names = list(self.names)
+        data = [self.data[:, i] for i in range(self.n_channels)]
+        unit_list = list(self.units)
+        for key, value in columns.items():
+            col = as_1d(value, f"column {key!r}")
+            if col.size != self.n_samples:
+                raise ShapeError(f"column {key!r} has {col.size} samples; the recording has {self.n_samples}.")
+            unit = (units or {}).get(key, "")
+            if key in names:
+                i = names.index(key)
+                data[i] = col
+                unit_list[i] = unit or unit_list[i]
+            else:
+                names.append(key)
+                data.append(col)
+                unit_list.append(unit)
+        return Recording(self.t, np.column_stack(data), tuple(names), tuple(unit_list), dict(self.metadata))
+
+    def slice_time(self, start: float | None = None, stop: float | None = None) -> Recording:
+        """Return the samples with ``start <= t <= stop`` [s]."""
+        keep = np.ones(self.n_samples, dtype=bool)
+        if start is not None:
+            keep &= self.t >= start
+        if stop is not None:
+            keep &= self.t <= stop
+        if not keep.any():
+            raise SamplingError(
+                f"no sample lies in [{start}, {stop}] s; the record spans [{self.t[0]}, {self.t[-1]}] s."
+            )
+        return Recording(self.t[keep], self.data[keep], self.names, self.units, dict(self.metadata))
+
+    def resample(self, dt: float | None = None) -> Recording:
+        """Linearly interpolate onto a uniform grid of period ``dt`` [s] (default: the mean period)."""
+        if dt is None:
+            dt = self.duration / (self.n_samples - 1)
+        if not (np.isfinite(dt) and dt > 0):
+            raise InputError(f"dt must be finite and > 0; got {dt!r}.")
+        n = int(np.floor(self.duration / dt + 1e-9)) + 1
+        t_new = self.t[0] + dt * np.arange(n)
+        data = np.column_stack([np.interp(t_new, self.t, self.data[:, i]) for i in range(self.n_channels)])
+        meta = dict(self.metadata)
+        meta["resampled_from"] = {"n_samples": self.n_samples, "dt": float(dt)}
+        return Recording(t_new, data, self.names, self.units, meta)
+
+    # ---------------------------------------------------------------- export
+    def to_dict(self) -> dict[str, Any]:
+        """Columns as lists, plus units and metadata (JSON-ready)."""
+        return {
+            "t": self.t.tolist(),
+            "channels": {n: self[n].tolist() for n in self.names},
+            "units": dict(zip(self.names, self.units)),
+            "metadata": json.loads(json.dumps(dict(self.metadata), default=str)),
+        }
+
+    def __repr__(self) -> str:
+        chans = ", ".join(f"{n} [{u}]" if u else n for n, u in zip(self.names, self.units))
+        span = f"{self.t[0]:.6g}..{self.t[-1]:.6g} s" if self.n_samples else "empty"
+        return f"Recording({self.n_samples} samples, {span}; {chans})"
+
+    def save(self, path, **kwargs) -> None:
+        """Write to CSV or NPZ (chosen by the suffix); see `physid.signals.io.save_recording`."""
+        from .io import save_recording
+
+        save_recording(self, path, **kwargs)
+
+    def plot(self, names: Sequence[str] | None = None, ax=None):
+        """Plot channels against time; returns the matplotlib Figure (see `physid.report`)."""
+        from ..report.figures import plot_recording
+
+        return plot_recording(self, names=names, ax=ax)

@@ -1,0 +1,1 @@
+"""physid.simulate (see docs/architecture.md)."""
