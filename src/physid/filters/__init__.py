@@ -1,1 +1,26 @@
-"""physid.filters (see docs/architecture.md)."""
+"""Differential filters: the Harris-windowed FIR low-pass, d/dt and d²/dt² of Cedro & Janecki.
+
+Design (`design_filter`) is separate from application (`DifferentialFilter.apply`); every filter
+reports its delay, valid range, frequency response and white-noise gain. `filter_derivatives`
+returns the low-passed signal and both derivatives, aligned on the same output times.
+"""
+
+from .differential import (
+    KINDS,
+    DifferentialFilter,
+    FilteredDerivatives,
+    design_filter,
+    filter_derivatives,
+    harris_window,
+    ideal_impulse_response,
+)
+
+__all__ = [
+    "KINDS",
+    "DifferentialFilter",
+    "FilteredDerivatives",
+    "design_filter",
+    "filter_derivatives",
+    "harris_window",
+    "ideal_impulse_response",
+]

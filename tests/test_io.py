@@ -1,0 +1,260 @@
+"""Recording file I/O: round trips and every error path of `physid.signals.load_recording`."""
+
+from __future__ import annotations
+
+import sys
+
+import h5py
+import numpy as np
+import pytest
+import scipy.io
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import physid
+from physid.errors import DataFileError, PhysidError
+from physid.signals import Recording, load_recording, save_recording
+
+
+@pytest.fixture
+def rec():
+    rng = np.random.default_rng(3)
+    t = 1e-3 * np.arange(50)
+    data = np.column_stack([np.sin(t), rng.standard_normal(50), 1e-9 * rng.standard_normal(50)])
+    return Recording(
+        t, data, ("q1", "q2", "tau1"), ("rad", "rad", "N·m"), {"seed": 3, "note": "ünïcode"}
+    )
+
+
+def _write(tmp_path, text, name="r.csv"):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _assert_same(a: Recording, b: Recording):
+    np.testing.assert_array_equal(a.t, b.t)
+    np.testing.assert_array_equal(a.data, b.data)
+    assert a.names == b.names
+    assert a.units == b.units
+
+
+# ------------------------------------------------------------------------------- round trips
+@pytest.mark.parametrize("suffix", [".csv", ".npz"])
+def test_round_trip_is_bit_exact(tmp_path, rec, suffix):
+    path = save_recording(rec, tmp_path / f"r{suffix}")
+    back = load_recording(path)
+    _assert_same(rec, back)
+    assert back.metadata["seed"] == 3 and back.metadata["note"] == "ünïcode"
+    assert back.metadata["format"] == suffix[1:] and back.metadata["source"] == str(path)
+
+
+def test_recording_save_method_and_top_level_loader(tmp_path, rec):
+    rec.save(tmp_path / "r.csv")
+    _assert_same(rec, physid.load_recording(tmp_path / "r.csv"))
+
+
+def test_csv_header_has_units(tmp_path, rec):
+    path = save_recording(rec, tmp_path / "r.csv")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert lines[1] == "t [s],q1 [rad],q2 [rad],tau1 [N·m]"
+
+
+def test_mat_v5_round_trip_per_variable(tmp_path):
+    t = 0.01 * np.arange(20)
+    q = np.column_stack([np.cos(t), np.sin(t)])
+    scipy.io.savemat(
+        tmp_path / "r.mat", {"t": t[:, None], "q": q, "u": t**2, "fs": 100.0, "note": "bench"}
+    )
+    back = load_recording(tmp_path / "r.mat")
+    assert back.names == ("q1", "q2", "u")
+    assert back.metadata["ignored_variables"] == ["fs", "note"]
+    np.testing.assert_array_equal(back.t, t)
+    np.testing.assert_array_equal(back.data, np.column_stack([q, t**2]))
+    assert back.dt == pytest.approx(0.01)
+
+
+def test_mat_v5_data_names_units(tmp_path):
+    t = 0.5 * np.arange(4)
+    data = np.arange(8.0).reshape(4, 2)
+    names = np.array(["x", "u"], dtype=object)
+    units = np.array(["m", "m/s^2"], dtype=object)
+    scipy.io.savemat(tmp_path / "r.mat", {"t": t, "data": data, "names": names, "units": units})
+    back = load_recording(tmp_path / "r.mat")
+    assert back.names == ("x", "u") and back.units == ("m", "m/s^2")
+    np.testing.assert_array_equal(back.data, data)
+
+
+def test_mat_v73_is_read_through_h5py(tmp_path):
+    # A MATLAB v7.3 file is HDF5 with a 512-byte user block whose header says version 0x0200;
+    # MATLAB stores arrays column-major, so an (n, 2) matrix appears as (2, n) to h5py.
+    path = tmp_path / "r73.mat"
+    t = 0.1 * np.arange(10)
+    q = np.column_stack([t, 2 * t])
+    with h5py.File(path, "w", userblock_size=512) as f:
+        f["t"] = t[None, :]  # MATLAB column vector (n, 1) -> (1, n)
+        f["q"] = q.T
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: test HDF5 schema 1.00 ."
+    with open(path, "r+b") as fh:
+        fh.write(header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02IM")
+    with pytest.raises(NotImplementedError):
+        scipy.io.loadmat(path)  # proves the file is what scipy calls v7.3
+    back = load_recording(path)
+    assert back.names == ("q1", "q2")
+    np.testing.assert_array_equal(back.data, q)
+    np.testing.assert_array_equal(back.t, t)
+
+
+def test_hdf5_with_unit_attributes(tmp_path):
+    path = tmp_path / "r.h5"
+    t = 0.2 * np.arange(6)
+    with h5py.File(path, "w") as f:
+        f["t"] = t
+        f["x"] = np.sqrt(t)
+        f["x"].attrs["unit"] = "m"
+        f["u"] = -t
+    back = load_recording(path)
+    assert set(back.names) == {"x", "u"}
+    assert back.unit("x") == "m"
+    np.testing.assert_array_equal(back["x"], np.sqrt(t))
+
+
+def test_missing_h5py_gives_clear_error(tmp_path, monkeypatch):
+    path = tmp_path / "r.h5"
+    with h5py.File(path, "w") as f:
+        f["t"] = np.arange(3.0)
+    monkeypatch.setitem(sys.modules, "h5py", None)  # import h5py now raises ImportError
+    with pytest.raises(DataFileError, match=r"needs h5py, which is not installed.*pip install"):
+        load_recording(path)
+
+
+def test_csv_variants_semicolon_comments_blank_lines_quotes_and_ms(tmp_path):
+    text = '# a comment\n\n"t [ms]";"x [m]"\n0;1\n\n1;"2"\n2;3\n# trailing comment\n'
+    back = load_recording(_write(tmp_path, text))
+    np.testing.assert_allclose(back.t, [0.0, 1e-3, 2e-3])
+    np.testing.assert_array_equal(back["x"], [1.0, 2.0, 3.0])
+    assert back.unit("x") == "m"
+
+
+def test_small_time_rounding_is_snapped_onto_the_grid(tmp_path):
+    # times written with 4 decimals: intervals deviate ~1e-4 relative, within the 1e-3 default
+    t = np.round(np.arange(30) / 3.0, 4)
+    text = "t,x\n" + "\n".join(f"{ti},{i}" for i, ti in enumerate(t))
+    back = load_recording(_write(tmp_path, text))
+    assert back.dt == pytest.approx(t[-1] / 29, rel=1e-12)
+    assert 0 < back.metadata["max_sampling_deviation"] < 1e-3
+
+
+def test_resample_and_keep_non_uniform(tmp_path):
+    text = "t,x\n0,0\n0.1,1\n0.3,3\n0.4,4\n"
+    path = _write(tmp_path, text)
+    back = load_recording(path, resample=True)
+    np.testing.assert_allclose(back.t, [0.0, 0.4 / 3, 0.8 / 3, 0.4])
+    np.testing.assert_allclose(back["x"], 10 * back.t)  # linear data: interpolation is exact
+    kept = load_recording(path, uniform_rtol=None)
+    np.testing.assert_array_equal(kept.t, [0.0, 0.1, 0.3, 0.4])
+
+
+# ------------------------------------------------------------------------------- error paths
+@pytest.mark.parametrize(
+    ("text", "pattern"),
+    [
+        ("", r"r\.csv: the file is empty \(no header row\)"),
+        ("# only a comment\n\n", r"the file is empty"),
+        ("t,x\n", r"the header is there but there are no data rows"),
+        ("t,x\n0,1\n", r"holds only 1 sample"),
+        ("time,x\n0,1\n1,2\n", r"no time column 't' in the header 'time,x' \(line 1\)"),
+        ("t\n0\n1\n", r"has a time column 't' but no channels"),
+        ("t,x\n0,1\n1,abc\n2,3\n", r"non-numeric cell 'abc' in column 'x' at line 3"),
+        ("t,x\n0,1\n1,\n", r"empty cell in column 'x' at line 3"),
+        ("t,x,y\n0,1,2\n1,2\n", r"line 3 has 2 cell\(s\) but the header has 3 column\(s\)"),
+        ("t,x\n0,1\n1,nan\n2,3\n", r"channel 'x' holds nan at data row 2 \(line 3\)"),
+        ("t,x,y\n0,1,2\n1,2,3\n2,3,-inf\n", r"channel 'y' holds -inf at data row 3 \(line 4\)"),
+        ("t,x\n0,1\nnan,2\n", r"time column 't' holds nan at data row 2"),
+        ("t,x\n0,1\n0.2,2\n0.1,3\n", r"not strictly increasing: t = 0\.1 at data row 3 \(line 4\)"),
+        ("t,x\n0,1\n0,2\n", r"not strictly increasing"),
+        ("t,x,x\n0,1,2\n1,2,3\n", r"duplicate channel name 'x' \(channels 1 and 2\)"),
+        ("t,x,t\n0,1,2\n1,2,3\n", r"'t' appears twice"),
+        ("t [min],x\n0,1\n1,2\n", r"time column has unit 'min'.*Convert the column to seconds"),
+        ("t, x \n0,1\n1,2\n2,3\n", None),  # spaces around names are stripped: loads
+    ],
+)
+def test_csv_errors_name_file_row_and_column(tmp_path, text, pattern):
+    path = _write(tmp_path, text)
+    if pattern is None:
+        assert load_recording(path).names == ("x",)
+        return
+    with pytest.raises(DataFileError, match=pattern):
+        load_recording(path)
+
+
+def test_non_uniform_sampling_reports_worst_deviation(tmp_path):
+    text = "t,x\n0,0\n0.1,1\n0.2,2\n0.35,3\n0.4,4\n"
+    with pytest.raises(
+        DataFileError,
+        match=r"not uniformly sampled: the interval from data row 3 \(line 4\) to data row 4 "
+        r"\(line 5\) is 0\.15 s against a mean period of 0\.1 s \(worst relative deviation 0\.5, "
+        r"tolerance 0\.001\)\. "
+        r"Pass resample=True",
+    ):
+        load_recording(_write(tmp_path, text))
+
+
+def test_unknown_suffix_missing_file_and_bad_bytes(tmp_path):
+    with pytest.raises(DataFileError, match=r"cannot read files with suffix '\.xlsx'; supported"):
+        load_recording(tmp_path / "r.xlsx")
+    with pytest.raises(DataFileError, match=r"nope\.csv: no such file"):
+        load_recording(tmp_path / "nope.csv")
+    bad = tmp_path / "latin1.csv"
+    bad.write_bytes(b"t,x\n0,\xe9\n")
+    with pytest.raises(DataFileError, match="is not UTF-8 text"):
+        load_recording(bad)
+
+
+def test_save_errors(tmp_path, rec):
+    with pytest.raises(DataFileError, match=r"cannot save to suffix '\.mat'"):
+        save_recording(rec, tmp_path / "r.mat")
+    save_recording(rec, tmp_path / "r.npz")
+    with pytest.raises(DataFileError, match="exists; pass overwrite=True"):
+        save_recording(rec, tmp_path / "r.npz", overwrite=False)
+    with pytest.raises(DataFileError, match="does not exist; create it first"):
+        save_recording(rec, tmp_path / "missing" / "r.csv")
+    with pytest.raises(DataFileError, match="expects a Recording"):
+        save_recording({"t": [0, 1]}, tmp_path / "r.csv")
+
+
+def test_npz_and_mat_structure_errors(tmp_path):
+    np.savez(tmp_path / "a.npz", x=np.arange(3.0))
+    with pytest.raises(DataFileError, match=r"no variable 't' \(time in s\); found \['x'\]"):
+        load_recording(tmp_path / "a.npz")
+    np.savez(tmp_path / "b.npz", t=np.arange(3.0), x=np.arange(4.0))
+    with pytest.raises(DataFileError, match=r"variable 'x' has shape \(4,\); channels must have"):
+        load_recording(tmp_path / "b.npz")
+    np.savez(tmp_path / "c.npz", t=np.arange(3.0), data=np.zeros((3, 2)), names=np.array(["a"]))
+    with pytest.raises(DataFileError, match=r"'data' has shape \(3, 2\) but 'names' lists 1"):
+        load_recording(tmp_path / "c.npz")
+    np.savez(tmp_path / "d.npz", t=np.arange(3.0), x=np.array([1.0, np.inf, 2.0]))
+    with pytest.raises(DataFileError, match=r"channel 'x' holds inf at sample 1"):
+        load_recording(tmp_path / "d.npz")
+    (tmp_path / "e.mat").write_bytes(b"not a mat file at all")
+    with pytest.raises(DataFileError, match="e.mat"):
+        load_recording(tmp_path / "e.mat")
+
+
+# ------------------------------------------------------------------------------- fuzzing
+_CSV_ALPHABET = st.sampled_from(list("t,;x01.-e+n a\n\r\t#[]\"'") + ["nan", "inf", "1e999", "é"])
+
+
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(text=st.one_of(st.text(max_size=80), st.lists(_CSV_ALPHABET, max_size=60).map("".join)))
+def test_csv_loader_loads_or_raises_physid_error(tmp_path, text):
+    path = tmp_path / "fuzz.csv"
+    path.write_text(text, encoding="utf-8", errors="surrogatepass")
+    try:
+        rec = load_recording(path)
+    except PhysidError:
+        return
+    assert isinstance(rec, Recording)
+    assert np.all(np.isfinite(rec.data)) and np.all(np.diff(rec.t) > 0)
