@@ -1,0 +1,110 @@
+"""On-disk cache of generated model code, keyed by a hash of the model's content.
+
+One JSON file per entry, ``<cache dir>/<kind>-<key>.json``, holding the generated source text and
+the metadata needed to rebuild a model without sympy. The folder is ``$PHYSID_CACHE_DIR`` if set,
+else ``$XDG_CACHE_HOME/physid`` or ``~/.cache/physid``.
+
+The key also covers a hash of the code-generating modules' source (`code_fingerprint`), so
+editing them never serves stale code. Robustness: entries are written to a temporary file in
+the same folder and moved into place with ``os.replace`` (atomic on POSIX and Windows), so a
+reader never sees half a file; every entry records `CACHE_FORMAT` and its own key, and anything
+unreadable, from another format, or with a mismatching key counts as a miss and is rebuilt (and
+overwritten). A cache folder that cannot be written is not an error: the model is simply
+derived again next time.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+__all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry"]
+
+#: Bump when the generated code or the metadata layout changes: old entries then miss.
+CACHE_FORMAT = "physid-models-9"
+
+
+def cache_dir() -> Path:
+    """The folder of the derivation cache (created on first write)."""
+    env = os.environ.get("PHYSID_CACHE_DIR")
+    if env:
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg) if xdg else Path.home() / ".cache"
+    return base / "physid"
+
+
+@functools.lru_cache(maxsize=1)
+def code_fingerprint() -> str:
+    """Hash of the code-generating modules' source: any edit to them misses the cache."""
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for name in ("lagrange.py", "codegen.py", "chain.py", "spec.py"):
+        try:
+            digest.update((here / name).read_bytes())
+        except OSError:  # pragma: no cover - e.g. a zipped install; the format string still guards
+            digest.update(name.encode())
+    return digest.hexdigest()[:16]
+
+
+def content_key(content) -> str:
+    """SHA-256 of the canonical JSON of ``content``, cache format, code and Python version."""
+    payload = json.dumps(
+        {
+            "format": CACHE_FORMAT,
+            "code": code_fingerprint(),
+            "python": list(sys.version_info[:2]),
+            "content": content,
+        },
+        sort_keys=True,
+        separators=(",", ":"),
+    )
+    return hashlib.sha256(payload.encode("utf-8")).hexdigest()[:32]
+
+
+def _path(kind: str, key: str) -> Path:
+    return cache_dir() / f"{kind}-{key}.json"
+
+
+def load_entry(kind: str, key: str) -> dict | None:
+    """Return the cached entry, or None on a miss (absent, unreadable, corrupt, stale)."""
+    path = _path(kind, key)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            entry = json.load(fh)
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if (
+        not isinstance(entry, dict)
+        or entry.get("format") != CACHE_FORMAT
+        or entry.get("key") != key
+    ):
+        return None
+    data = entry.get("data")
+    return data if isinstance(data, dict) else None
+
+
+def save_entry(kind: str, key: str, data: dict) -> bool:
+    """Write an entry atomically; return False (silently) if the folder is not writable."""
+    folder = cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{kind}-", suffix=".tmp", dir=folder)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                json.dump({"format": CACHE_FORMAT, "key": key, "data": data}, fh)
+            os.replace(tmp, _path(kind, key))
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+    except OSError:
+        return False
+    return True

@@ -1,0 +1,398 @@
+"""sympy expressions → Python source of fast numeric functions (common-subexpression eliminated).
+
+Two flavours of generated code:
+
+* **vectorised** (`vector_function_source`, `SharedExpressions.vector_function`): every input
+  symbol is bound to a 1-D numpy array (one value per sample) or a scalar; output i becomes row i
+  of an ``(n_outputs, n)`` array. No Python loop over samples.
+* **scalar** (`SharedExpressions.scalar_lines_split`, `cholesky_solve_lines`): plain Python
+  floats and the ``math`` module, for the single-state right-hand sides that ODE integrators
+  call thousands of times; the overhead of a numpy call (~1 µs) would dominate there.
+
+The generated *source text* is what the on-disk cache stores (`source_to_function` turns it back
+into a function with ``compile`` + ``exec``), so a warm load never imports sympy.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+__all__ = [
+    "vector_function_source",
+    "source_to_function",
+    "cholesky_solve_lines",
+    "VECTOR_NAMESPACE",
+    "SharedExpressions",
+    "SCALAR_NAMESPACE",
+]
+
+
+def _scalar_sign(x: float) -> float:
+    """sign(x) for Python floats: −1, 0 or +1 (as numpy.sign)."""
+    return (x > 0) - (x < 0)
+
+
+#: Names the vectorised sources may use (numpy ufuncs by their short names).
+VECTOR_NAMESPACE = {
+    name: getattr(np, name)
+    for name in (
+        "sin",
+        "cos",
+        "tan",
+        "arcsin",
+        "arccos",
+        "arctan",
+        "arctan2",
+        "sinh",
+        "cosh",
+        "tanh",
+        "exp",
+        "log",
+        "sqrt",
+        "abs",
+        "sign",
+        "pi",
+        "empty",
+        "zeros",
+        "float64",
+        "hypot",
+    )
+}
+VECTOR_NAMESPACE.update(numpy=np, select=np.select, amax=np.amax, amin=np.amin)
+
+#: Names the scalar sources may use (the math module, and sign for Python floats).
+SCALAR_NAMESPACE = {name: getattr(math, name) for name in dir(math) if not name.startswith("_")}
+SCALAR_NAMESPACE.update(sign=_scalar_sign, abs=abs)
+
+
+@functools.lru_cache(maxsize=1)
+def _printers():
+    from sympy.printing.numpy import NumPyPrinter
+    from sympy.printing.pycode import PythonCodePrinter
+
+    class _VectorPrinter(NumPyPrinter):
+        def _print_sign(self, expr):  # numpy.sign, not sympy's piecewise default
+            return f"sign({self._print(expr.args[0])})"
+
+    class _ScalarPrinter(PythonCodePrinter):
+        def _print_sign(self, expr):
+            return f"sign({self._print(expr.args[0])})"
+
+    settings = {"fully_qualified_modules": False}
+    return _VectorPrinter(settings), _ScalarPrinter(settings)
+
+
+def _cse(exprs):
+    import sympy as sp
+
+    symbols = sp.numbered_symbols("_x")
+    return sp.cse(list(exprs), symbols=symbols, optimizations=None, order="none")
+
+
+def vector_function_source(
+    name: str,
+    arg_groups: Sequence[tuple[str, Sequence]],
+    outputs: Sequence,
+    *,
+    docstring: str = "",
+) -> str:
+    """Source of ``def name(<group names>..., n)`` returning a ``(len(outputs), n)`` array.
+
+    Row i holds output i for every sample (rows are contiguous, so each write is one fast
+    vectorised assignment).
+
+    Parameters
+    ----------
+    name : str
+        Function name.
+    arg_groups : sequence of (str, sequence of sympy.Symbol)
+        Each group becomes one argument: a sequence (tuple/list) whose entries are unpacked into
+        the group's symbols. Entries may be 1-D arrays of length ``n`` or scalars.
+    outputs : sequence of sympy.Expr
+        One expression per output column. Exact zeros are skipped (the array starts at zero).
+    """
+    import sympy as sp
+
+    vec, _ = _printers()
+    outputs = [sp.sympify(e) for e in outputs]
+    replacements, reduced = _cse(outputs)
+    lines = [f"def {name}({', '.join(g for g, _ in arg_groups)}, n):"]
+    if docstring:
+        lines.append(f"    {docstring!r}")
+    for group, syms in arg_groups:
+        syms = list(syms)
+        if syms:
+            lines.append(f"    {', '.join(str(s) for s in syms)}, = {group}")
+    for sym, expr in replacements:
+        lines.append(f"    {sym} = {vec.doprint(expr)}")
+    lines.append(f"    out = zeros(({len(outputs)}, n))")
+    for i, expr in enumerate(reduced):
+        if expr == 0:
+            continue
+        lines.append(f"    out[{i}] = {vec.doprint(expr)}")
+    lines.append("    return out")
+    return "\n".join(lines) + "\n"
+
+
+def cholesky_solve_lines(
+    n: int, matrix: str, rhs: str, result: str, zero: set | None = None
+) -> list[str]:
+    """Unrolled Cholesky solve ``M x = b`` for a symmetric positive-definite ``n × n`` matrix.
+
+    The matrix entries must be bound to names ``{matrix}{i}_{j}`` (i ≥ j, lower triangle) and
+    the right-hand side to ``{rhs}{i}``; the solution is bound to ``{result}{i}``. Entries listed
+    in ``zero`` (pairs ``(i, j)``) are structurally zero and skipped, so a diagonal matrix costs
+    ``n`` divisions. Cholesky (M = L Lᵀ) rather than Gaussian elimination: M is symmetric
+    positive definite for positive masses, and the factorisation needs no pivoting.
+    """
+    zero = zero or set()
+    if all((i, j) in zero for i in range(n) for j in range(i)):
+        return [f"{result}{i} = {rhs}{i} / {matrix}{i}_{i}" for i in range(n)]
+    lines = []
+    lz = set()  # structurally-zero entries of L
+    for j in range(n):
+        # L_jj = sqrt(M_jj - Σ_k<j L_jk²)
+        terms = [f"L{j}_{k}*L{j}_{k}" for k in range(j) if (j, k) not in lz]
+        lines.append(f"L{j}_{j} = sqrt({matrix}{j}_{j}{''.join(' - ' + t for t in terms)})")
+        for i in range(j + 1, n):
+            # L_ij = (M_ij - Σ_k<j L_ik L_jk) / L_jj
+            terms = [
+                f"L{i}_{k}*L{j}_{k}" for k in range(j) if (i, k) not in lz and (j, k) not in lz
+            ]
+            if (i, j) in zero and not terms:
+                lz.add((i, j))
+                continue
+            head = "0.0" if (i, j) in zero else f"{matrix}{i}_{j}"
+            lines.append(f"L{i}_{j} = ({head}{''.join(' - ' + t for t in terms)}) / L{j}_{j}")
+    # forward substitution L z = b
+    for i in range(n):
+        terms = [f"L{i}_{k}*z{k}" for k in range(i) if (i, k) not in lz]
+        lines.append(f"z{i} = ({rhs}{i}{''.join(' - ' + t for t in terms)}) / L{i}_{i}")
+    # back substitution Lᵀ x = z
+    for i in reversed(range(n)):
+        terms = [f"L{k}_{i}*{result}{k}" for k in range(i + 1, n) if (k, i) not in lz]
+        lines.append(f"{result}{i} = (z{i}{''.join(' - ' + t for t in terms)}) / L{i}_{i}")
+    return lines
+
+
+def source_to_function(source: str, name: str, *, scalar: bool = False, extra: dict | None = None):
+    """Compile generated ``source`` and return the function called ``name``."""
+    namespace = dict(SCALAR_NAMESPACE if scalar else VECTOR_NAMESPACE)
+    if extra:
+        namespace.update(extra)
+    code = compile(source, f"<physid-generated {name}>", "exec")
+    exec(code, namespace)  # noqa: S102 - our own generated source (or our own cache of it)
+    return namespace[name]
+
+
+def _topological(lines):
+    """Order ``(symbol, expr)`` lines so every symbol is defined before it is used (stable)."""
+    defined = {sym for sym, _ in lines}
+    done: set = set()
+    out = []
+    pending = list(lines)
+    while pending:
+        rest = []
+        for sym, expr in pending:
+            if all(s in done or s not in defined for s in expr.free_symbols):
+                out.append((sym, expr))
+                done.add(sym)
+            else:
+                rest.append((sym, expr))
+        if len(rest) == len(pending):  # pragma: no cover - would be a cycle
+            raise RuntimeError("cyclic definitions in generated code")
+        pending = rest
+    return out
+
+
+def angle_sum_definitions(exprs, angles):
+    """Replace sin/cos of sums of joint angles by symbols defined through angle addition.
+
+    cos(a + b) = cos a cos b − sin a sin b and sin(a + b) = sin a cos b + cos a sin b, built up
+    one angle at a time and shared between sums with a common prefix. A numpy ``cos`` over an
+    array costs tens of multiplications, so for vectorised code this is several times cheaper;
+    for scalar code it is about even. Arguments must be sums of ±1 times the ``angles``.
+
+    Returns (new expressions, [(symbol, definition), ...]).
+    """
+    import sympy as sp
+
+    index = {a: i for i, a in enumerate(angles)}
+
+    def key_of(arg):
+        key = [0] * len(angles)
+        for term in sp.Add.make_args(arg):
+            c, rest = term.as_coeff_Mul()
+            if rest not in index or c not in (1, -1):
+                return None
+            key[index[rest]] += int(c)
+        if sum(abs(k) for k in key) < 2 or any(abs(k) > 1 for k in key):
+            return None
+        return tuple(key)
+
+    table: dict = {}  # key -> (cos symbol, sin symbol)
+    defs: list = []
+
+    def cs(key):
+        nz = [i for i, k in enumerate(key) if k]
+        if len(nz) == 1:
+            i = nz[0]
+            a = angles[i] * key[i]
+            return sp.cos(a), sp.sin(a)
+        if key in table:
+            return table[key]
+        last = nz[-1]
+        head = tuple(k if i != last else 0 for i, k in enumerate(key))
+        ch, sh = cs(head)
+        ct, st = cs(tuple(key[i] if i == last else 0 for i in range(len(key))))
+        name = "".join(("p" if k > 0 else "m") + str(i) for i, k in enumerate(key) if k)
+        c_sym, s_sym = sp.Symbol(f"_c{name}"), sp.Symbol(f"_s{name}")
+        defs.append((c_sym, ch * ct - sh * st))  # cos(a + b) = cos a cos b − sin a sin b
+        defs.append((s_sym, sh * ct + ch * st))  # sin(a + b) = sin a cos b + cos a sin b
+        table[key] = (c_sym, s_sym)
+        return table[key]
+
+    mapping = {}
+    for e in exprs:
+        for f in e.atoms(sp.sin, sp.cos):
+            key = key_of(f.args[0])
+            if key is not None:
+                c_sym, s_sym = cs(key)
+                mapping[f] = c_sym if isinstance(f, sp.cos) else s_sym
+    return [e.xreplace(mapping) for e in exprs], defs
+
+
+class SharedExpressions:
+    """One common-subexpression elimination over many outputs, reused by several functions.
+
+    ``reduced[i]`` is output i written in the cse symbols ``_x0, _x1, ...``; each generated
+    function prints only the replacement lines its outputs need (found by walking dependencies),
+    so the mass-matrix function never computes velocity terms, yet the expensive ``cse`` and
+    printing run once.
+    """
+
+    def __init__(self, exprs, angles: Sequence = ()):
+        import sympy as sp
+
+        exprs = [sp.sympify(e) for e in exprs]
+        defs: list = []
+        if angles:
+            exprs, defs = angle_sum_definitions(exprs, angles)
+        n_out = len(exprs)
+        replacements, reduced = _cse(exprs + [e for _, e in defs])
+        self.reduced = reduced[:n_out]
+        # angle-sum definitions become ordinary lines; sort all lines by dependency
+        lines = list(replacements) + [
+            (sym, e) for (sym, _), e in zip(defs, reduced[n_out:], strict=False)
+        ]
+        self.replacements = _topological(lines)
+        self._index = {sym: i for i, (sym, _) in enumerate(self.replacements)}
+        self._deps = [
+            [self._index[s] for s in expr.free_symbols if s in self._index]
+            for _, expr in self.replacements
+        ]
+        self._printed: dict = {}
+
+    def _needed(self, exprs) -> list[int]:
+        stack = [self._index[s] for e in exprs for s in e.free_symbols if s in self._index]
+        seen: set = set()
+        while stack:
+            i = stack.pop()
+            if i in seen:
+                continue
+            seen.add(i)
+            stack.extend(self._deps[i])
+        return sorted(seen)
+
+    def _line(self, i: int, scalar: bool) -> str:
+        key = (i, scalar)
+        if key not in self._printed:
+            vec, sca = _printers()
+            sym, expr = self.replacements[i]
+            self._printed[key] = f"{sym} = {(sca if scalar else vec).doprint(expr)}"
+        return self._printed[key]
+
+    def vector_function(self, name: str, arg_groups, outputs) -> str:
+        """Like `vector_function_source`, with ``outputs`` written in the reduced expressions."""
+        import sympy as sp
+
+        vec, _ = _printers()
+        outputs = [sp.sympify(e) for e in outputs]
+        lines = [f"def {name}({', '.join(g for g, _ in arg_groups)}, n):"]
+        for group, syms in arg_groups:
+            syms = list(syms)
+            if syms:
+                lines.append(f"    {', '.join(str(s) for s in syms)}, = {group}")
+        lines += [f"    {self._line(i, False)}" for i in self._needed(outputs)]
+        lines.append(f"    out = zeros(({len(outputs)}, n))")
+        for i, expr in enumerate(outputs):
+            if expr != 0:
+                lines.append(f"    out[{i}] = {vec.doprint(expr)}")
+        lines.append("    return out")
+        return "\n".join(lines) + "\n"
+
+    def scalar_lines_split(self, assignments, constant_symbols) -> tuple[list[str], list[str]]:
+        """Like `scalar_lines`, split into (lines depending only on ``constant_symbols``, the rest).
+
+        The constant part (typically parameter-only products such as ``m2*l2**2``) can be
+        evaluated once when parameters are bound, not at every call. Inside the remaining lines,
+        the constant terms of a sum and the constant factors of a product are hoisted too
+        (``(13/12)*m1*l1**2 + m2*l1**2 + f(q)`` → ``_k0 + f(q)`` with ``_k0`` precomputed).
+        """
+        import sympy as sp
+
+        _, sca = _printers()
+        const = set(constant_symbols)
+        exprs = [sp.sympify(e) for _, e in assignments]
+        needed = self._needed(exprs)
+        const_rep: set = set()
+        head, body = [], []
+        hoisted: dict = {}
+
+        def is_const(e):
+            return all(s in const or s in const_rep for s in e.free_symbols)
+
+        def hoist(expr):
+            if not isinstance(expr, (sp.Add, sp.Mul)):
+                return expr
+            parts = [a for a in expr.args if is_const(a)]
+            worth = len(parts) >= 2 or (
+                len(parts) == 1 and not (parts[0].is_Symbol or parts[0].is_Number)
+            )
+            if not worth or len(parts) == len(expr.args):
+                return expr
+            part = expr.func(*parts)
+            if part not in hoisted:
+                name = sp.Symbol(f"_k{len(hoisted)}")
+                hoisted[part] = name
+                head.append(f"{name} = {sca.doprint(part)}")
+            rest = [a for a in expr.args if not is_const(a)]
+            return expr.func(hoisted[part], *rest)
+
+        for i in needed:
+            sym, expr = self.replacements[i]
+            if is_const(expr):
+                const_rep.add(sym)
+                head.append(self._line(i, True))
+            else:
+                body.append(f"{sym} = {sca.doprint(hoist(expr))}")
+        for (t, _), e in zip(assignments, exprs, strict=False):
+            if is_const(e):
+                head.append(f"{t} = {sca.doprint(e)}")
+            else:
+                body.append(f"{t} = {sca.doprint(hoist(e))}")
+        return head, body
+
+    def scalar_lines(self, assignments) -> list[str]:
+        """Scalar ``target = expression`` lines for reduced expressions, with what they need."""
+        import sympy as sp
+
+        _, sca = _printers()
+        exprs = [sp.sympify(e) for _, e in assignments]
+        lines = [self._line(i, True) for i in self._needed(exprs)]
+        lines += [f"{t} = {sca.doprint(e)}" for (t, _), e in zip(assignments, exprs, strict=False)]
+        return lines

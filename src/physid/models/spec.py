@@ -1,0 +1,776 @@
+"""TOML model files → model specifications → models, with errors that name the line and the fix.
+
+The format is documented in ``docs/model-files.md``. Two kinds of model:
+
+* ``kind = "chain"``: a serial manipulator, one ``[[joints]]`` table per revolute joint, each with
+  ``dh = {a, alpha, d, offset}`` or ``transform = [[...4×4...]]``, a point ``mass`` and optional
+  ``rotor_inertia``, ``viscous``, ``coulomb``; ``gravity = [gx, gy, gz]`` and
+  ``kinetic_energy = "exact" | "paper"``.
+* ``kind = "linear_ode"``: Σ a_i y^(i) = Σ b_i u^(i), with ``[ode] a = [...]`` (a_0 … a_{n−1};
+  a_n = 1) and ``b = [...]`` (b_0 … b_m), each entry a parameter name.
+
+Expressions are strings (or plain numbers) in the parameter names, the joint variable ``q<k>`` of
+their own joint, ``pi`` and the usual functions (sin, cos, tan, sqrt, exp, log, ...).
+
+The specification objects (`ChainSpec`, `LinearODESpec`) are plain frozen dataclasses: hashing
+the derivation-relevant part (`ChainSpec.derivation_content`) keys the on-disk cache, and a warm
+load never needs sympy.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import ModelFileError
+
+__all__ = [
+    "ParameterSpec",
+    "JointSpec",
+    "ChainSpec",
+    "LinearODESpec",
+    "read_model_file",
+    "parse_model_text",
+    "load_model_file",
+    "dh_transform",
+    "RESERVED_NAMES",
+]
+
+#: Function and constant names an expression may use.
+FUNCTION_NAMES = (
+    "sin",
+    "cos",
+    "tan",
+    "asin",
+    "acos",
+    "atan",
+    "atan2",
+    "sinh",
+    "cosh",
+    "tanh",
+    "sqrt",
+    "exp",
+    "log",
+    "Abs",
+    "sign",
+    "pi",
+)
+#: Names a parameter may not take (functions, joint variables and their derivatives).
+RESERVED_NAMES = frozenset(FUNCTION_NAMES) | {"t", "E", "I", "S", "N", "Q", "O", "g"}
+_RESERVED_PATTERN = re.compile(r"^(q|qd|qdd|tau|r)\d+$")
+_NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+KINDS = ("chain", "linear_ode")
+
+
+def _tomllib():
+    try:
+        import tomllib  # Python ≥ 3.11
+    except ModuleNotFoundError:  # pragma: no cover - Python 3.10
+        try:
+            import tomli as tomllib
+        except ModuleNotFoundError:
+            raise ModelFileError(
+                "reading TOML model files needs Python ≥ 3.11 (tomllib) or the 'tomli' package on "
+                "Python 3.10; install it with `pip install tomli`."
+            ) from None
+    return tomllib
+
+
+# ---------------------------------------------------------------------------------------------
+# specification objects
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One model parameter: nominal ``value`` in SI ``unit``; ``identify`` marks it unknown."""
+
+    name: str
+    value: float
+    unit: str = ""
+    identify: bool = True
+    description: str = ""
+    where: str = ""
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """One revolute joint and the link it moves.
+
+    Exactly one of ``dh`` (tuple of (key, expression) for ``a, alpha, d, offset``) and
+    ``transform`` (4 × 4 tuple of expression strings) is set. ``mass`` sits at the origin of the
+    link frame; ``rotor_inertia`` J adds ½ J q̇²; ``viscous``·q̇ + ``coulomb``·sign(q̇) is friction.
+    """
+
+    mass: str
+    dh: tuple | None = None
+    transform: tuple | None = None
+    rotor_inertia: str = "0"
+    viscous: str = "0"
+    coulomb: str = "0"
+    name: str = ""
+    where: str = ""
+
+    def content(self) -> dict:
+        return {
+            "mass": self.mass,
+            "dh": self.dh,
+            "transform": self.transform,
+            "rotor_inertia": self.rotor_inertia,
+            "viscous": self.viscous,
+            "coulomb": self.coulomb,
+        }
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """A serial chain model: parameters, joints, gravity [m/s²] and kinetic-energy mode."""
+
+    name: str
+    parameters: tuple
+    joints: tuple
+    gravity: tuple = (0.0, 0.0, -9.81)
+    kinetic: str = "exact"
+    description: str = ""
+    source: str = "<built-in>"
+    text: str = field(default="", repr=False, compare=False)
+
+    @property
+    def parameter_names(self) -> tuple:
+        return tuple(p.name for p in self.parameters)
+
+    def derivation_content(self) -> dict:
+        """What the symbolic derivation depends on (not values, units or descriptions)."""
+        return {
+            "kind": "chain",
+            "parameters": list(self.parameter_names),
+            "joints": [j.content() for j in self.joints],
+            "gravity": [float(g) for g in self.gravity],
+            "kinetic": self.kinetic,
+        }
+
+
+@dataclass(frozen=True)
+class LinearODESpec:
+    """A linear ODE Σ a_i y^(i) = Σ b_i u^(i) with a_n = 1; ``a``/``b`` hold parameter names."""
+
+    name: str
+    parameters: tuple
+    a: tuple
+    b: tuple
+    input_name: str = "u"
+    output_name: str = "x"
+    description: str = ""
+    source: str = "<built-in>"
+
+
+# ---------------------------------------------------------------------------------------------
+# locating things in the TOML text (for error messages)
+# ---------------------------------------------------------------------------------------------
+
+
+def _line_of(text: str, key: str, *, table: str | None = None, index: int = 0) -> int | None:
+    """1-based line of ``key = ...`` in the ``index``-th ``[table]``/``[[table]]`` (best effort)."""
+    if not text:
+        return None
+    lines = text.splitlines()
+    start, end = 0, len(lines)
+    if table is not None:
+        header = re.compile(r"^\s*\[\[?\s*" + re.escape(table) + r"(\.[^\]]*)?\s*\]\]?\s*(#.*)?$")
+        hits = [i for i, line in enumerate(lines) if header.match(line)]
+        if index < len(hits):
+            start = hits[index]
+            nxt = [
+                i
+                for i, line in enumerate(lines)
+                if i > start and re.match(r"^\s*\[", line) and not header.match(line)
+            ]
+            same = [i for i in hits if i > start]
+            end = min([*nxt, *same, len(lines)])
+        elif hits:
+            start = hits[-1]
+    pattern = re.compile(r"^\s*" + re.escape(key) + r"\s*[=.]")
+    for i in range(start, end):
+        if pattern.match(lines[i]):
+            return i + 1
+    if table is not None and start < len(lines):
+        return start + 1
+    return None
+
+
+def _where(
+    source: str, text: str, what: str, key: str, *, table: str | None = None, index: int = 0
+) -> str:
+    line = _line_of(text, key, table=table, index=index)
+    loc = f"{source}, line {line}" if line else source
+    return f"{loc} ({what})"
+
+
+# ---------------------------------------------------------------------------------------------
+# reading TOML
+# ---------------------------------------------------------------------------------------------
+
+
+def read_model_file(path) -> ChainSpec | LinearODESpec:
+    """Read a TOML model file into a specification (no sympy needed)."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ModelFileError(
+            f"model file {str(path)!r} does not exist; give the path of a .toml model file or a "
+            f"built-in name ('manipulator', 'msd')."
+        ) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelFileError(f"cannot read model file {str(path)!r}: {exc}.") from None
+    return parse_model_text(text, source=str(path))
+
+
+def _expr_text(value, where: str) -> str:
+    if isinstance(value, bool):
+        raise ModelFileError(f"{where}: expected a number or an expression string; got {value!r}.")
+    if isinstance(value, (int, float)):
+        return repr(float(value)) if isinstance(value, float) else str(value)
+    if isinstance(value, str) and value.strip():
+        return value.strip()
+    raise ModelFileError(
+        f'{where}: expected a number or an expression string such as "m1*l1**2/12"; got {value!r}.'
+    )
+
+
+def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearODESpec:
+    """Parse the TOML text of a model file into a specification."""
+    tomllib = _tomllib()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelFileError(
+            f"{source}: not valid TOML: {exc}. Check quoting (expressions are strings: "
+            f'a = "l2"), brackets and that every key is `name = value`.'
+        ) from None
+    kind = data.get("kind", "chain")
+    if kind not in KINDS:
+        raise ModelFileError(
+            f"{_where(source, text, 'kind', 'kind')}: kind must be one of {KINDS}; got {kind!r}."
+        )
+    name = data.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise ModelFileError(f'{source}: the model needs a name, e.g. name = "my_arm" at the top.')
+    params = _parse_parameters(data, text, source)
+    if kind == "chain":
+        return _parse_chain(data, text, source, name, params)
+    return _parse_linear_ode(data, text, source, name, params)
+
+
+def _parse_parameters(data: dict, text: str, source: str) -> tuple:
+    table = data.get("parameters", {})
+    if not isinstance(table, dict):
+        raise ModelFileError(f"{source}: [parameters] must be a table of name = {{ value = ... }}.")
+    params = []
+    for pname, entry in table.items():
+        where = _where(source, text, f"parameter {pname!r}", pname, table="parameters")
+        if not _NAME_PATTERN.match(pname):
+            raise ModelFileError(
+                f"{where}: parameter name {pname!r} must start with a letter and hold only "
+                "letters, "
+                f"digits and '_'."
+            )
+        if pname in RESERVED_NAMES or _RESERVED_PATTERN.match(pname):
+            raise ModelFileError(
+                f"{where}: parameter name {pname!r} is reserved (function names, joint variables "
+                f"q1, qd1, qdd1, tau1, r1, ...); rename it, e.g. {pname + '_'!r}."
+            )
+        if isinstance(entry, (int, float)) and not isinstance(entry, bool):
+            entry = {"value": entry}
+        if not isinstance(entry, dict):
+            raise ModelFileError(
+                f'{where}: write the parameter as {pname} = {{ value = 1.0, unit = "kg" }}; '
+                f"got {entry!r}."
+            )
+        unknown = set(entry) - {"value", "unit", "identify", "description"}
+        if unknown:
+            raise ModelFileError(
+                f"{where}: unknown key(s) {sorted(unknown)} for a parameter; allowed: value, unit, "
+                f"identify, description."
+            )
+        if "value" not in entry:
+            raise ModelFileError(
+                f"{where}: parameter {pname!r} has no value; add value = <nominal value in SI "
+                "units>."
+            )
+        value = entry["value"]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+            raise ModelFileError(
+                f"{where}: the value of {pname!r} must be a finite number; got {value!r}."
+            )
+        identify = entry.get("identify", True)
+        if not isinstance(identify, bool):
+            raise ModelFileError(f"{where}: identify must be true or false; got {identify!r}.")
+        params.append(
+            ParameterSpec(
+                name=pname,
+                value=float(value),
+                unit=str(entry.get("unit", "")),
+                identify=identify,
+                description=str(entry.get("description", "")),
+                where=where,
+            )
+        )
+    return tuple(params)
+
+
+_JOINT_KEYS = {"name", "dh", "transform", "mass", "rotor_inertia", "viscous", "coulomb"}
+_DH_KEYS = ("a", "alpha", "d", "offset")
+
+
+def _parse_chain(data, text, source, name, params) -> ChainSpec:
+    allowed_top = {
+        "name",
+        "kind",
+        "description",
+        "gravity",
+        "kinetic_energy",
+        "parameters",
+        "joints",
+    }
+    extra = set(data) - allowed_top
+    if extra:
+        raise ModelFileError(
+            f"{_where(source, text, 'top level', sorted(extra)[0])}: unknown key(s) "
+            f"{sorted(extra)} "
+            f"for a chain model; allowed: {sorted(allowed_top)}."
+        )
+    gravity = data.get("gravity", [0.0, 0.0, -9.81])
+    where_g = _where(source, text, "gravity", "gravity")
+    if (
+        not isinstance(gravity, list)
+        or len(gravity) != 3
+        or not all(isinstance(g, (int, float)) and not isinstance(g, bool) for g in gravity)
+    ):
+        raise ModelFileError(
+            f"{where_g}: gravity must be three numbers [gx, gy, gz] in m/s² (base frame); got "
+            f"{gravity!r}."
+        )
+    kinetic = data.get("kinetic_energy", "exact")
+    if kinetic not in ("exact", "paper"):
+        raise ModelFileError(
+            f"{_where(source, text, 'kinetic_energy', 'kinetic_energy')}: kinetic_energy must be "
+            f'"exact" or "paper"; got {kinetic!r}.'
+        )
+    joints_raw = data.get("joints")
+    if not isinstance(joints_raw, list) or not joints_raw:
+        raise ModelFileError(
+            f"{source}: a chain model needs at least one [[joints]] table with dh = {{...}} or "
+            f"transform = [[...]] and a mass."
+        )
+    joints = []
+    for k, jt in enumerate(joints_raw):
+        label = f"joints[{k + 1}]"
+
+        def where(key, _k=k, _label=label):
+            return _where(source, text, f"{_label}.{key}", key, table="joints", index=_k)
+
+        unknown = set(jt) - _JOINT_KEYS
+        if unknown:
+            raise ModelFileError(
+                f"{where(sorted(unknown)[0])}: unknown key(s) {sorted(unknown)} in a joint; "
+                "allowed: "
+                f"{sorted(_JOINT_KEYS)}."
+            )
+        has_dh, has_tf = "dh" in jt, "transform" in jt
+        if has_dh == has_tf:
+            raise ModelFileError(
+                f"{_where(source, text, label, 'mass', table='joints', index=k)}: give exactly one "
+                f"of dh = {{a = ..., alpha = ..., d = ..., offset = ...}} or transform = "
+                "[[4×4]] for "
+                f"joint {k + 1}; got {'both' if has_dh else 'neither'}."
+            )
+        dh = transform = None
+        if has_dh:
+            raw = jt["dh"]
+            if not isinstance(raw, dict):
+                raise ModelFileError(
+                    f"{where('dh')}: dh must be a table {{a = 0, alpha = 0, d = 0, offset = 0}}."
+                )
+            bad = set(raw) - set(_DH_KEYS)
+            if bad:
+                raise ModelFileError(
+                    f"{where('dh')}: unknown DH key(s) {sorted(bad)}; allowed: a, alpha, d, offset "
+                    f"(the joint angle itself is q{k + 1})."
+                )
+            dh = tuple((key, _expr_text(raw.get(key, 0), where("dh"))) for key in _DH_KEYS)
+        else:
+            raw = jt["transform"]
+            shape_ok = (
+                isinstance(raw, list)
+                and len(raw) == 4
+                and all(isinstance(r, list) and len(r) == 4 for r in raw)
+            )
+            if not shape_ok:
+                shape = (
+                    f"{len(raw)} rows of lengths "
+                    f"{[len(r) if isinstance(r, list) else 1 for r in raw]}"
+                    if isinstance(raw, list)
+                    else type(raw).__name__
+                )
+                raise ModelFileError(
+                    f"{where('transform')}: transform must be a 4×4 homogeneous matrix "
+                    f"(4 rows of 4 entries); got {shape}."
+                )
+            transform = tuple(tuple(_expr_text(v, where("transform")) for v in row) for row in raw)
+        key0 = "dh" if has_dh else "transform"
+        if "mass" not in jt:
+            raise ModelFileError(
+                f"{_where(source, text, label, key0, table='joints', index=k)}: joint {k + 1} "
+                f'has no mass; add mass = "m{k + 1}" (a parameter name, expression or number).'
+            )
+        joints.append(
+            JointSpec(
+                mass=_expr_text(jt["mass"], where("mass")),
+                dh=dh,
+                transform=transform,
+                rotor_inertia=_expr_text(jt.get("rotor_inertia", 0), where("rotor_inertia")),
+                viscous=_expr_text(jt.get("viscous", 0), where("viscous")),
+                coulomb=_expr_text(jt.get("coulomb", 0), where("coulomb")),
+                name=str(jt.get("name", f"joint{k + 1}")),
+                where=_where(
+                    source, text, label, "dh" if has_dh else "transform", table="joints", index=k
+                ),
+            )
+        )
+    return ChainSpec(
+        name=name,
+        parameters=params,
+        joints=tuple(joints),
+        gravity=tuple(float(g) for g in gravity),
+        kinetic=kinetic,
+        description=str(data.get("description", "")),
+        source=source,
+        text=text,
+    )
+
+
+def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
+    allowed_top = {"name", "kind", "description", "parameters", "ode"}
+    extra = set(data) - allowed_top
+    if extra:
+        raise ModelFileError(
+            f"{_where(source, text, 'top level', sorted(extra)[0])}: unknown key(s) "
+            f"{sorted(extra)} "
+            f"for a linear_ode model; allowed: {sorted(allowed_top)}."
+        )
+    ode = data.get("ode")
+    if not isinstance(ode, dict):
+        raise ModelFileError(
+            f"{source}: a linear_ode model needs an [ode] table with a = [a_0, ..., a_(n-1)] and "
+            f"b = [b_0, ..., b_m] (parameter names; a_n = 1)."
+        )
+    names = {p.name for p in params}
+    out = {}
+    for key in ("a", "b"):
+        where = _where(source, text, f"ode.{key}", key, table="ode")
+        seq = ode.get(key)
+        if not isinstance(seq, list) or not seq or not all(isinstance(s, str) for s in seq):
+            example = '["theta2", "theta1"]' if key == "a" else '["b0"]'
+            raise ModelFileError(
+                f"{where}: {key} must be a non-empty list of parameter names, e.g. {example}; "
+                f"got {seq!r}."
+            )
+        for s in seq:
+            if s not in names:
+                raise ModelFileError(
+                    f"{where}: unknown symbol {s!r} in ode.{key}; declare it under [parameters] "
+                    f"({s} = {{ value = ..., identify = true }}). Known: {sorted(names)}."
+                )
+        out[key] = tuple(seq)
+    if len(out["b"]) > len(out["a"]):
+        raise ModelFileError(
+            f"{_where(source, text, 'ode.b', 'b', table='ode')}: the input order m = "
+            f"{len(out['b']) - 1} "
+            f"must be below the output order n = {len(out['a'])} (a strictly proper model); drop "
+            f"entries from b or add entries to a."
+        )
+    return LinearODESpec(
+        name=name,
+        parameters=params,
+        a=out["a"],
+        b=out["b"],
+        input_name=str(ode.get("input", "u")),
+        output_name=str(ode.get("output", "x")),
+        description=str(data.get("description", "")),
+        source=source,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# symbolic side (sympy only imported here and in the derivation)
+# ---------------------------------------------------------------------------------------------
+
+
+def dh_transform(a, alpha, d, theta):
+    """Standard (distal) Denavit–Hartenberg transform T = Rz(θ) Tz(d) Tx(a) Rx(α).
+
+    ::
+
+        ⎡cos θ  −sin θ cos α   sin θ sin α   a cos θ⎤
+        ⎢sin θ   cos θ cos α  −cos θ sin α   a sin θ⎥
+        ⎢  0        sin α         cos α         d   ⎥
+        ⎣  0          0             0           1   ⎦
+
+    With a = 0, α = π/2 this is the paper's T1 and with a = l_k, α = 0 its T2..T4 (Cedro &
+    Janecki, section 2), for θ = φ_k. Arguments may be numbers or sympy expressions; the result
+    is a sympy Matrix.
+    """
+    import sympy as sp
+
+    ct, st = sp.cos(theta), sp.sin(theta)
+    ca, sa = sp.cos(alpha), sp.sin(alpha)
+    return sp.Matrix(
+        [
+            [ct, -st * ca, st * sa, a * ct],
+            [st, ct * ca, -ct * sa, a * st],
+            [0, sa, ca, d],
+            [0, 0, 0, 1],
+        ]
+    )
+
+
+def _parse_functions():
+    import sympy as sp
+
+    funcs = {
+        "sin": sp.sin,
+        "cos": sp.cos,
+        "tan": sp.tan,
+        "asin": sp.asin,
+        "acos": sp.acos,
+        "atan": sp.atan,
+        "atan2": sp.atan2,
+        "sinh": sp.sinh,
+        "cosh": sp.cosh,
+        "tanh": sp.tanh,
+        "sqrt": sp.sqrt,
+        "exp": sp.exp,
+        "log": sp.log,
+        "Abs": sp.Abs,
+        "abs": sp.Abs,
+        "sign": sp.sign,
+        "pi": sp.pi,
+    }
+    base = {
+        "Integer": sp.Integer,
+        "Float": sp.Float,
+        "Rational": sp.Rational,
+        "Symbol": sp.Symbol,
+        "Function": sp.Function,
+    }
+    return funcs, base
+
+
+def parse_expression(text: str, symbols: dict, where: str, *, allowed_hint: str = ""):
+    """Parse one expression string with only ``symbols`` and the standard functions allowed."""
+    import sympy as sp
+    from sympy.core.function import AppliedUndef
+    from sympy.parsing.sympy_parser import (
+        auto_number,
+        auto_symbol,
+        convert_xor,
+        factorial_notation,
+        repeated_decimals,
+    )
+    from sympy.parsing.sympy_parser import parse_expr as _parse
+
+    funcs, base = _parse_functions()
+    global_dict = {**base, **funcs}
+    transformations = (auto_symbol, repeated_decimals, auto_number, factorial_notation, convert_xor)
+    try:
+        expr = _parse(
+            text,
+            local_dict=dict(symbols),
+            global_dict=global_dict,
+            transformations=transformations,
+            evaluate=True,
+        )
+    except Exception as exc:  # noqa: BLE001 - any parse failure becomes one clear message
+        raise ModelFileError(
+            f"{where}: cannot parse the expression {text!r} ({type(exc).__name__}: {exc}). "
+            "Write it "
+            f'in Python syntax, e.g. "m1*l1**2/12" or "cos(q1)".'
+        ) from None
+    if not isinstance(expr, sp.Basic):
+        expr = sp.sympify(expr)
+    known = set(symbols.values())
+    unknown = sorted(str(s) for s in expr.free_symbols if s not in known)
+    undefined = sorted({type(f).__name__ for f in expr.atoms(AppliedUndef)})
+    if undefined:
+        raise ModelFileError(
+            f"{where}: unknown function(s) {undefined} in {text!r}; allowed functions: "
+            f"{', '.join(n for n in FUNCTION_NAMES if n != 'pi')}."
+        )
+    if unknown:
+        raise ModelFileError(
+            f"{where}: unknown symbol(s) {unknown} in {text!r}; declare each under [parameters] "
+            f'(e.g. {unknown[0]} = {{ value = 1.0, unit = "m" }}){allowed_hint}.'
+        )
+    if expr.has(sp.I) or expr.has(sp.zoo) or expr.has(sp.nan) or expr.has(sp.oo):
+        raise ModelFileError(f"{where}: the expression {text!r} is not a finite real expression.")
+    return expr
+
+
+def check_transform(
+    T, q_sym, theta_syms, theta_values, where: str, *, joint: int, rng=None
+) -> None:
+    """Raise `ModelFileError` unless T is a rigid homogeneous transform at random q.
+
+    Checks: bottom row (0, 0, 0, 1) and R Rᵀ = I, det R = +1 for the rotation part, numerically at
+    five random joint angles with the parameters at their nominal values.
+    """
+    import numpy as np
+    import sympy as sp
+
+    rng = np.random.default_rng(12345) if rng is None else rng
+    f = sp.lambdify([q_sym, *theta_syms], T, modules="numpy")
+    for qv in rng.uniform(-np.pi, np.pi, size=5):
+        try:
+            Tn = np.array(f(qv, *theta_values), dtype=float)
+        except (TypeError, ValueError, ZeroDivisionError) as exc:
+            raise ModelFileError(
+                f"{where}: cannot evaluate the transform numerically ({exc})."
+            ) from None
+        if not np.all(np.isfinite(Tn)):
+            raise ModelFileError(
+                f"{where}: the transform is not finite at q{joint} = {qv:.3f} rad."
+            )
+        if not np.allclose(Tn[3], [0, 0, 0, 1], atol=1e-9):
+            raise ModelFileError(
+                f"{where}: the bottom row of the transform of joint {joint} must be [0, 0, 0, 1]; "
+                f"got {np.round(Tn[3], 6).tolist()} at q{joint} = {qv:.3f} rad."
+            )
+        R = Tn[:3, :3]
+        err = float(np.abs(R @ R.T - np.eye(3)).max())
+        if err > 1e-8 or np.linalg.det(R) < 0:
+            raise ModelFileError(
+                f"{where}: the rotation part (upper-left 3×3) of the transform of joint {joint} is "
+                f"not orthonormal with det +1 (max |R Rᵀ − I| = {err:.3g}, det = "
+                f"{np.linalg.det(R):.4g} at q{joint} = {qv:.3f} rad, nominal parameters). Check "
+                f"signs and sin/cos placement; a rotation about z is [[cos(q), -sin(q), 0], "
+                f"[sin(q), cos(q), 0], [0, 0, 1]]."
+            )
+
+
+def symbolic_chain(spec: ChainSpec):
+    """Parse and validate a chain spec; return the sympy pieces for the derivation.
+
+    Returns a dict with ``q, qd, qdd, theta`` (internal symbols ``_q0``, ``_th0``, ...),
+    ``transforms``, ``masses``, ``rotor_inertias``, ``viscous``, ``coulomb``.
+    """
+    import sympy as sp
+
+    n = len(spec.joints)
+    # plain symbols (no assumptions): assumption queries dominate sympy's time on big trees
+    q = tuple(sp.Symbol(f"_q{i}") for i in range(n))
+    qd = tuple(sp.Symbol(f"_qd{i}") for i in range(n))
+    qdd = tuple(sp.Symbol(f"_qdd{i}") for i in range(n))
+    theta = tuple(sp.Symbol(f"_th{i}") for i in range(len(spec.parameters)))
+    param_syms = {p.name: s for p, s in zip(spec.parameters, theta, strict=False)}
+    values = [p.value for p in spec.parameters]
+    out = {
+        "q": q,
+        "qd": qd,
+        "qdd": qdd,
+        "theta": theta,
+        "transforms": [],
+        "axis_static": [],
+        "masses": [],
+        "rotor_inertias": [],
+        "viscous": [],
+        "coulomb": [],
+    }
+    declared = ", ".join(param_syms) or "none"
+    for k, joint in enumerate(spec.joints):
+        jt_where = joint.where or f"{spec.source} (joints[{k + 1}])"
+        with_q = dict(param_syms)
+        with_q[f"q{k + 1}"] = q[k]
+        hint_q = f"; the transform may use the joint variable q{k + 1} and: {declared}"
+        hint = f"; declared parameters: {declared}"
+        if joint.dh is not None:
+            dh = {
+                key: parse_expression(txt, param_syms, f"{jt_where} dh.{key}", allowed_hint=hint)
+                for key, txt in joint.dh
+            }
+            T = dh_transform(dh["a"], dh["alpha"], dh["d"], q[k] + dh["offset"])
+            static = dh_transform(dh["a"], dh["alpha"], dh["d"], dh["offset"])  # T = Rz(q) S
+        else:
+            rows = [
+                [
+                    parse_expression(
+                        txt, with_q, f"{jt_where} transform[{r}][{c}]", allowed_hint=hint_q
+                    )
+                    for c, txt in enumerate(row)
+                ]
+                for r, row in enumerate(joint.transform)
+            ]
+            T = sp.Matrix(rows)
+            check_transform(T, q[k], theta, values, jt_where, joint=k + 1)
+            static = None
+        out["transforms"].append(T)
+        out["axis_static"].append(static)
+        for key, attr in (
+            ("masses", "mass"),
+            ("rotor_inertias", "rotor_inertia"),
+            ("viscous", "viscous"),
+            ("coulomb", "coulomb"),
+        ):
+            out[key].append(
+                parse_expression(
+                    getattr(joint, attr), param_syms, f"{jt_where} {attr}", allowed_hint=hint
+                )
+            )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# file → model
+# ---------------------------------------------------------------------------------------------
+
+
+def load_model_file(path, **options):
+    """Load a TOML model file (see ``docs/model-files.md``) into a model.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+    **options
+        For chains: ``kinetic`` ("exact" | "paper", overrides the file), ``cache`` (bool).
+        Linear ODE models take no options.
+    """
+    spec = read_model_file(path)
+    return model_from_spec(spec, **options)
+
+
+def model_from_spec(spec, **options):
+    """Build a `ChainModel` or `LinearODEModel` from a specification."""
+    from ..errors import InputError
+
+    if isinstance(spec, ChainSpec):
+        from .chain import build_chain_model
+
+        allowed = {"kinetic", "cache"}
+        bad = set(options) - allowed
+        if bad:
+            raise InputError(
+                f"unknown option(s) {sorted(bad)} for chain model {spec.name!r}; allowed: "
+                f"{sorted(allowed)}."
+            )
+        return build_chain_model(spec, **options)
+    from .linear_ode import LinearODEModel
+
+    if options:
+        raise InputError(
+            f"linear ODE model {spec.name!r} takes no options; got {sorted(options)}. Edit the "
+            f"parameter values in the model file instead."
+        )
+    return LinearODEModel.from_spec(spec)
