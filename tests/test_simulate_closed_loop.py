@@ -212,7 +212,13 @@ def test_compiled_backend_with_callable_reference_matches_generated(arm):
     def wave(t):
         return [0.2 * np.sin(2 * t), 0.1 * np.cos(3 * t) - 0.1, 0.3 * np.sin(t), 0.05 * t]
 
+    from physid.simulate import compiled
+
     kwargs = dict(kp=KP, kd=KD, reference=wave, duration=1.5, dt=1e-3)
+    if compiled.compiler() is None:  # a machine without cc: the compiled path must say so
+        with pytest.raises(SimulationError, match="no working C compiler"):
+            simulate_closed_loop(arm, backend="compiled", **kwargs)
+        return
     fast = simulate_closed_loop(arm, backend="compiled", **kwargs)
     slow = simulate_closed_loop(arm, backend="generated", **kwargs)
     assert fast.metadata["integrator"]["backend"] == "compiled"

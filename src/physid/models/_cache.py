@@ -23,20 +23,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .._paths import cache_dir
+
 __all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry"]
 
 #: Bump when the generated code or the metadata layout changes: old entries then miss.
 CACHE_FORMAT = "physid-models-9"
-
-
-def cache_dir() -> Path:
-    """The folder of the derivation cache (created on first write)."""
-    env = os.environ.get("PHYSID_CACHE_DIR")
-    if env:
-        return Path(env)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg) if xdg else Path.home() / ".cache"
-    return base / "physid"
 
 
 @functools.lru_cache(maxsize=1)

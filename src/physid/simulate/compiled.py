@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._paths import cache_dir
+
 __all__ = ["compiled_pd_rhs", "compiler", "c_source"]
 
 #: Bump when the generated C changes, so cached libraries are rebuilt.
@@ -44,14 +46,6 @@ def compiler() -> str | None:
             if path:
                 return path
     return None
-
-
-def _cache_dir() -> Path:
-    env = os.environ.get("PHYSID_CACHE_DIR")
-    if env:
-        return Path(env)
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "physid"
 
 
 def c_source(model) -> str:
@@ -165,7 +159,7 @@ def _load_library(model) -> ctypes.CDLL | None:
     key = _library_key(model)
     if key in _LIBS:
         return _LIBS[key]
-    folder = _cache_dir()
+    folder = cache_dir()
     lib_path = folder / f"pdrhs-{key}.so"
     if not lib_path.exists():
         cc = compiler()
