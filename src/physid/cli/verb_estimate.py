@@ -1,0 +1,171 @@
+"""``physid estimate F --model msd|MODEL.toml --method algebraic|rls``: linear ODE coefficients.
+
+The algebraic method is the sliding-window estimator of `physid.estimators.algebraic`; rls is the
+recursive least squares of `physid.estimators.recursive`. ``--json`` prints ``parameters``
+(for the MSD: theta1, theta2, natural_frequency, damping_ratio; the model's coefficient names
+otherwise), ``success``, ``message`` and ``valid_fraction``.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ._common import assignments, print_json, progress
+
+ORDER = 40
+
+_ALGEBRAIC_ONLY = ("window", "mu", "integration", "block", "expanding", "final")
+_RLS_ONLY = ("forgetting", "prefilter_cutoff")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "estimate",
+        help="estimate a linear ODE model's coefficients (algebraic or recursive least squares)",
+        description=(
+            "Estimate the coefficients of a linear ODE model (the built-in mass-spring-damper "
+            "'msd' or a TOML model file) from a recording with an input channel u and an output "
+            "channel x (or y). --method algebraic: the Fliess / Sira-Ramirez sliding-window "
+            "estimator (Oueslati et al. 2011, section 4, corrected; docs/algebraic.md); "
+            "--method rls: recursive least squares with forgetting (section 3). Progress goes to "
+            "stderr; the result (a summary, or one JSON object with --json) to stdout."
+        ),
+    )
+    parser.add_argument("file", metavar="F", help="recording (.csv, .npz, .mat, .h5) with u and x")
+    parser.add_argument(
+        "--model",
+        default="msd",
+        metavar="MODEL",
+        help="'msd' (default) or a path to a TOML linear ODE model file",
+    )
+    parser.add_argument(
+        "--method",
+        choices=["algebraic", "rls"],
+        default="algebraic",
+        help="estimator (default algebraic)",
+    )
+    alg = parser.add_argument_group("algebraic method")
+    alg.add_argument(
+        "--window", type=float, default=None, metavar="S", help="window length T [s] (default 0.05)"
+    )
+    alg.add_argument(
+        "--mu",
+        type=int,
+        default=None,
+        metavar="N",
+        help="smallest power of 1/s (default: model order + 1)",
+    )
+    alg.add_argument(
+        "--integration",
+        choices=["exact", "simpson", "trapezoid"],
+        default=None,
+        help="quadrature of the window integrals (default exact)",
+    )
+    alg.add_argument(
+        "--block",
+        type=int,
+        default=None,
+        metavar="K",
+        help="least squares over K consecutive windows (default 1)",
+    )
+    alg.add_argument(
+        "--expanding",
+        action="store_true",
+        default=None,
+        help="estimate on the growing window [0, t0] before the first full window",
+    )
+    alg.add_argument(
+        "--final",
+        choices=["median", "lstsq"],
+        default=None,
+        help="final estimate: median of the valid windows (default) or pooled least squares",
+    )
+    rls = parser.add_argument_group("rls method")
+    rls.add_argument(
+        "--forgetting",
+        type=float,
+        default=None,
+        metavar="L",
+        help="forgetting factor in (0, 1] (default 1)",
+    )
+    rls.add_argument(
+        "--prefilter-cutoff",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="cut-off of the derivative pre-filter [Hz] (default: automatic)",
+    )
+    parser.add_argument(
+        "--unknown",
+        default=None,
+        metavar="LIST",
+        help="coefficients to estimate, comma-separated (default: the model's)",
+    )
+    parser.add_argument(
+        "--known",
+        default=None,
+        metavar="NAME=VALUE,...",
+        help="values of known coefficients overriding the model's",
+    )
+    parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    parser.set_defaults(func=run)
+
+
+def _options(args, names) -> dict:
+    return {k: getattr(args, k) for k in names if getattr(args, k) is not None}
+
+
+def run(args) -> int:
+    from ..models import load_model
+    from ..signals import load_recording
+
+    other = _RLS_ONLY if args.method == "algebraic" else _ALGEBRAIC_ONLY
+    stray = [k for k in other if getattr(args, k) is not None]
+    if stray:
+        flags = ", ".join("--" + k.replace("_", "-") for k in stray)
+        raise InputError(
+            f"{flags} do(es) not apply to --method {args.method}; drop it or choose the other "
+            "method."
+        )
+    model = load_model(args.model)
+    if not hasattr(model, "a_names"):
+        raise InputError(
+            f"--model {args.model!r} is not a linear ODE model (it has no a_names); "
+            "physid estimate needs 'msd' or a TOML file of kind 'linear_ode'. Use "
+            "'physid identify' for chains."
+        )
+    rec = load_recording(args.file)
+    common = {}
+    if args.unknown is not None:
+        common["unknown"] = tuple(n.strip() for n in args.unknown.split(",") if n.strip())
+        if not common["unknown"]:
+            raise InputError(
+                f"--unknown expects names such as theta1,theta2; got {args.unknown!r}."
+            )
+    known = assignments(args.known, "--known")
+    if known:
+        common["known"] = known
+    progress(
+        f"estimate: {args.method} on {args.file} ({rec.n_samples} samples, model {args.model})"
+    )
+    if args.method == "algebraic":
+        from ..estimators.algebraic import AlgebraicEstimator
+
+        est = AlgebraicEstimator(model, **_options(args, _ALGEBRAIC_ONLY), **common)
+    else:
+        from ..estimators.recursive import RecursiveLeastSquares
+
+        est = RecursiveLeastSquares(model, **_options(args, _RLS_ONLY), **common)
+    result = est.fit(rec).result_
+    if args.json:
+        print_json(
+            {
+                "method": args.method,
+                "parameters": result.parameters,
+                "success": result.success,
+                "message": result.message,
+                "valid_fraction": result.valid_fraction,
+            }
+        )
+    else:
+        print(result.summary())
+    return 0 if result.success else 1

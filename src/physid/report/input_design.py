@@ -1,0 +1,55 @@
+"""Figures of the input-design analysis: log10 K against Z (the paper's Figs. 2 and 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+from matplotlib.figure import Figure
+
+__all__ = ["plot_input_design"]
+
+
+def plot_input_design(result, ax=None) -> Figure:
+    """log10 K(Z) for each forgetting factor (Fig. 2) and, at λ = 1, for each horizon k (Fig. 3).
+
+    Parameters
+    ----------
+    result : InputDesignResult
+        From `physid.analysis.input_design.design_input`.
+    ax : matplotlib Axes, optional
+        Draw only the λ panel there (its figure is returned).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Optimal ratios are marked with dots on each curve.
+    """
+    if ax is not None:
+        fig, axes = ax.figure, [ax]
+    else:
+        fig = Figure(figsize=(9.0, 3.6), layout="constrained")
+        axes = list(fig.subplots(1, 2))
+    Z = result.ratio
+    panel = axes[0]
+    for j, lam in enumerate(result.forgetting):
+        (line,) = panel.plot(Z, np.log10(result.variance_factor[j]), lw=1.2, label=f"λ = {lam:g}")
+        z_opt = result.optimal_ratio[j]
+        panel.plot(z_opt, np.log10(result.optimal_variance_factor[j]), "o", color=line.get_color())
+    panel.set_title(f"Forgetting factor (k = {result.samples}, m = {result.init_samples})")
+    panel.set_xlabel("Z = ω1 / ω0")
+    panel.set_ylabel("log10 K")
+    panel.grid(True, alpha=0.3)
+    panel.legend(fontsize="small")
+    if len(axes) > 1:
+        panel = axes[1]
+        for h, curve, z_opt in zip(
+            result.horizons, result.horizon_variance_factor, result.horizon_optimal_ratio,
+            strict=True,
+        ):
+            (line,) = panel.plot(Z, np.log10(curve), lw=1.2, label=f"k = {h}")
+            panel.axvline(z_opt, color=line.get_color(), lw=0.6, ls=":")
+        panel.set_title(f"Horizon, λ = 1 (T_s = {result.sample_period * 1e3:g} ms)")
+        panel.set_xlabel("Z = ω1 / ω0")
+        panel.set_ylabel("log10 K")
+        panel.grid(True, alpha=0.3)
+        panel.legend(fontsize="small")
+    return fig

@@ -1,0 +1,163 @@
+"""The ``physid estimate`` verb (algebraic and rls methods)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from physid.cli import main
+from physid.signals import Recording, save_recording
+from physid.simulate import simulate_msd
+
+OMEGA0 = math.sqrt(400.0 / 3.0)
+ZETA = 0.3
+
+
+@pytest.fixture(scope="module")
+def msd_csv(tmp_path_factory):
+    """Noise-free ζ = 0.3 MSD driven at 10 ω0 (exact simulation), 1 s at 1 kHz."""
+    rec = simulate_msd(
+        natural_frequency=OMEGA0,
+        damping_ratio=ZETA,
+        amplitude=1000 / 3,
+        ratio=10.0,
+        duration=1.0,
+        dt=1e-3,
+        x0=(0.01, 0.2),
+    )
+    return save_recording(rec, tmp_path_factory.mktemp("est") / "msd.csv")
+
+
+def _json(capsys):
+    return json.loads(capsys.readouterr().out)
+
+
+def test_algebraic_json(msd_csv, capsys):
+    assert (
+        main(
+            [
+                "estimate",
+                str(msd_csv),
+                "--model",
+                "msd",
+                "--method",
+                "algebraic",
+                "--window",
+                "0.05",
+                "--json",
+            ]
+        )
+        == 0
+    )
+    out = _json(capsys)
+    assert set(out) >= {"parameters", "success", "message", "valid_fraction"}
+    p = out["parameters"]
+    assert set(p) == {"theta1", "theta2", "natural_frequency", "damping_ratio"}
+    # CSV keeps ~16 significant digits, so the exact-rule accuracy survives the round trip
+    assert p["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
+    assert p["damping_ratio"] == pytest.approx(ZETA, rel=1e-5)
+    assert p["theta1"] == pytest.approx(2 * ZETA * OMEGA0, rel=1e-5)
+    assert out["success"] is True and 0.8 < out["valid_fraction"] <= 1.0
+
+
+def test_algebraic_options_and_text_summary(msd_csv, capsys):
+    argv = [
+        "estimate",
+        "--final",
+        "lstsq",
+        str(msd_csv),
+        "--window",
+        "0.06",
+        "--mu",
+        "4",
+        "--integration",
+        "simpson",
+        "--block",
+        "3",
+        "--expanding",
+    ]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "AlgebraicResult: success" in text and "natural_frequency" in text
+    assert main([*argv, "--json"]) == 0
+    # Simpson on a 60-sample window: coarser than the exact rule but within 1e-3
+    assert _json(capsys)["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-3)
+
+
+def test_unknown_and_known(msd_csv, capsys):
+    assert (
+        main(
+            [
+                "estimate",
+                str(msd_csv),
+                "--unknown",
+                "theta2",
+                "--known",
+                f"theta1={2 * ZETA * OMEGA0!r}",
+                "--json",
+            ]
+        )
+        == 0
+    )
+    p = _json(capsys)["parameters"]
+    assert set(p) == {"theta2", "natural_frequency", "damping_ratio"}
+    assert p["theta2"] == pytest.approx(OMEGA0**2, rel=1e-6)
+
+
+def test_rls_method(msd_csv, capsys):
+    assert main(["estimate", str(msd_csv), "--method", "rls", "--forgetting", "1.0", "--json"]) == 0
+    out = _json(capsys)
+    assert set(out["parameters"]) >= {"theta1", "theta2", "natural_frequency", "damping_ratio"}
+    assert out["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
+
+
+def test_third_order_model_file(tmp_path, capsys):
+    toml = tmp_path / "third.toml"
+    toml.write_text(
+        'name = "third"\nkind = "linear_ode"\n[parameters]\n'
+        "a0 = { value = 1.0 }\na1 = { value = 1.0 }\na2 = { value = 1.0 }\n"
+        "b0 = { value = 20.0, identify = false }\n"
+        '[ode]\na = ["a0", "a1", "a2"]\nb = ["b0"]\ninput = "u"\noutput = "y"\n'
+    )
+    # y''' + 8 y'' + 37 y' + 50 y = 20 u (poles −2, −3 ± 4j), exact response to two sinusoids
+    a = np.array([50.0, 37.0, 8.0, 1.0])
+    t = np.arange(0.0, 2.0, 1e-3)
+    from scipy import signal
+
+    u = 30 * np.sin(5 * t) + 20 * np.sin(13 * t + 1)
+    sys = signal.StateSpace(*signal.tf2ss([20.0], a[::-1]))
+    # lsim's first-order hold is exact for piecewise-linear u only: use a 0.1 ms grid, subsample
+    tf = np.arange(0.0, 2.0, 1e-4)
+    uf = 30 * np.sin(5 * tf) + 20 * np.sin(13 * tf + 1)
+    y = signal.lsim(sys, uf, tf, interp=True)[1][::10]
+    rec = Recording.from_columns(t, {"u": u, "y": y[: t.size]})
+    path = save_recording(rec, tmp_path / "third.csv")
+    assert main(["estimate", str(path), "--model", str(toml), "--window", "0.5", "--json"]) == 0
+    p = _json(capsys)["parameters"]
+    assert set(p) == {"a0", "a1", "a2"}
+    for name, value in zip(("a0", "a1", "a2"), a[:3], strict=True):
+        assert p[name] == pytest.approx(value, rel=1e-3), name
+
+
+def test_errors(msd_csv, tmp_path, capsys):
+    assert main(["estimate", str(msd_csv), "--window", "5"]) == 2
+    assert "longer than the record" in capsys.readouterr().err
+    assert main(["estimate", str(msd_csv), "--window", "0.003"]) == 2
+    assert "kernels need at least" in capsys.readouterr().err
+    assert main(["estimate", str(msd_csv), "--integration", "simpson", "--window", "0.051"]) == 2
+    assert "even number of sample intervals" in capsys.readouterr().err
+    assert main(["estimate", str(msd_csv), "--unknown", "omega"]) == 2
+    assert "unknown coefficient name" in capsys.readouterr().err
+    assert main(["estimate", str(msd_csv), "--method", "rls", "--window", "0.05"]) == 2
+    assert "--window do(es) not apply to --method rls" in capsys.readouterr().err
+    assert main(["estimate", str(msd_csv), "--forgetting", "0.99"]) == 2
+    assert "--forgetting do(es) not apply" in capsys.readouterr().err
+    t = np.arange(0.0, 0.5, 1e-3)
+    zero = save_recording(
+        Recording.from_columns(t, {"u": 0 * t, "x": 0 * t}), tmp_path / "zero.csv"
+    )
+    assert main(["estimate", str(zero)]) == 2
+    assert "no excitation" in capsys.readouterr().err
