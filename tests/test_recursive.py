@@ -314,7 +314,7 @@ def test_unknown_coefficient_names_and_missing_channels():
     rec = msd_recording(6.0, 100.0, 7.0, duration=0.5)
     with pytest.raises(InputError, match=r"unknown coefficient name\(s\) \['theta3'\]"):
         RecursiveLeastSquares("msd", unknown=("theta3",)).fit(rec)
-    with pytest.raises(InputError, match="both known and unknown"):
+    with pytest.raises(InputError, match="both unknown and known"):
         RecursiveLeastSquares("msd", known={"theta1": 1.0}).fit(rec)
     with pytest.raises(InputError, match="input channel 'u'"):
         RecursiveLeastSquares("msd").fit(Recording(rec.t, rec["x"], ["x"]))
@@ -340,16 +340,16 @@ def test_record_starting_at_rest_needs_no_transient_discard():
 
 
 def test_third_order_model_with_input_derivative():
-    """Any linear ODE: y''' + a2 y'' + a1 y' + a0 y = b1 u' + b0 u (duck-typed model)."""
-    from types import SimpleNamespace
-
+    """Any linear ODE: y''' + a2 y'' + a1 y' + a0 y = b1 u' + b0 u."""
     from scipy.integrate import solve_ivp
 
+    from physid.models import LinearODEModel
+
     a0, a1, a2, b0, b1 = 60.0, 47.0, 12.0, 60.0, 5.0  # (s + 3)(s + 4)(s + 5), b0 known
-    model = SimpleNamespace(
-        order=3, input_order=1, a_names=("a0", "a1", "a2"), b_names=("b0", "b1"),
-        parameters={"a0": 1.0, "a1": 1.0, "a2": 1.0, "b0": b0, "b1": 1.0},
-        unknown=("a0", "a1", "a2", "b1"),
+    model = LinearODEModel(
+        "order3", ("a0", "a1", "a2"), ("b0", "b1"),
+        {"a0": 1.0, "a1": 1.0, "a2": 1.0, "b0": b0, "b1": 1.0},
+        unknown=("a0", "a1", "a2", "b1"), output_name="y",
     )
 
     def u(t, d=0):

@@ -48,6 +48,7 @@ from scipy import ndimage, signal
 
 from .._validate import as_1d, check_finite, check_positive
 from ..errors import EstimationError, InputError, SamplingError, ShapeError
+from ..models.linear_ode import as_linear_ode_model
 from .results import ResultMixin
 
 __all__ = [
@@ -265,29 +266,6 @@ def _taps_for(order, nus, n_derivatives, L, rule, degree):
 # ----------------------------------------------------------------------------------------------
 # Model handling
 # ----------------------------------------------------------------------------------------------
-def _resolve_model(model):
-    if isinstance(model, str):
-        from ..models import load_model
-
-        model = load_model(model)
-    needed = ("order", "input_order", "a_names", "b_names", "parameters")
-    missing = [a for a in needed if not hasattr(model, a)]
-    if missing:
-        raise InputError(
-            f"model must be 'msd', a path to a TOML model file or a LinearODEModel; got "
-            f"{type(model).__name__} without {missing}."
-        )
-    return model
-
-
-def _coefficient_names(model) -> tuple[str, ...]:
-    return tuple(model.a_names) + tuple(model.b_names)
-
-
-def _is_msd(model) -> bool:
-    return tuple(model.a_names) == ("theta2", "theta1")
-
-
 def _natural_frequency_damping(theta1, theta2):
     """ω0 = √θ2 [rad/s], ζ = θ1 / (2 ω0); NaN where θ2 <= 0 (θ1 = 2ζω0, θ2 = ω0², eq. 1)."""
     from ..models.linear_ode import natural_frequency_damping
@@ -363,36 +341,7 @@ def _make_plan(
         raise InputError(
             f"the model needs 0 <= input_order < order; got order {n}, input_order {m}."
         )
-    names = _coefficient_names(model)
-    unknown = tuple(getattr(model, "unknown", names) if unknown is None else unknown)
-    if isinstance(unknown, str):
-        unknown = (unknown,)
-    bad = [u for u in unknown if u not in names]
-    if bad:
-        raise InputError(
-            f"unknown coefficient name(s) {bad}; the model's coefficients are {list(names)}."
-        )
-    if len(set(unknown)) != len(unknown) or not unknown:
-        raise InputError(
-            f"unknown must list distinct coefficient names, at least one; got {unknown}."
-        )
-    values = {k: float(v) for k, v in dict(model.parameters).items() if k in names}
-    known = dict(known or {})
-    bad = [k for k in known if k not in names]
-    if bad:
-        raise InputError(
-            f"known value(s) given for {bad}, which are not coefficients of the model; "
-            f"its coefficients are {list(names)}."
-        )
-    both = [k for k in known if k in unknown]
-    if both:
-        raise InputError(
-            f"{both} cannot be both unknown and known; remove them from one of the two."
-        )
-    values.update({k: float(v) for k, v in known.items()})
-    missing = [k for k in names if k not in unknown and k not in values]
-    if missing:
-        raise InputError(f"no value for the known coefficient(s) {missing}; pass known={{...}}.")
+    unknown, values = model.split_coefficients(unknown, known)
     known_a = [0.0 if name in unknown else values[name] for name in model.a_names] + [1.0]
     known_b = [0.0 if name in unknown else values[name] for name in model.b_names]
     columns = tuple(
@@ -456,7 +405,7 @@ def _make_plan(
         columns=columns,
         known_a=tuple(known_a),
         known_b=tuple(known_b),
-        known=tuple((k, values[k]) for k in names if k not in unknown),
+        known=tuple((k, values[k]) for k in model.coefficient_names if k not in unknown),
         dt=dt,
         L=L,
         rule=integration,
@@ -884,7 +833,7 @@ def _check_signals(u, y, name_u="u", name_y="y"):
 
 
 def _settings_plan(model, dt, settings):
-    return _make_plan(_resolve_model(model), dt, **settings)
+    return _make_plan(as_linear_ode_model(model), dt, **settings)
 
 
 def algebraic_estimates(
@@ -1092,7 +1041,7 @@ class AlgebraicEstimator:
                 f"recording must be a physid Recording; got {type(recording).__name__}. "
                 "Use fit_arrays(u, y, dt) for plain arrays."
             )
-        model = _resolve_model(self.model)
+        model = as_linear_ode_model(self.model)
         in_name = getattr(model, "input_name", "u")
         candidates = [getattr(model, "output_name", "x"), "x", "y"]
         out = next((c for c in candidates if c in names), None)

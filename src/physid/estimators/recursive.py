@@ -63,6 +63,11 @@ from scipy import linalg, signal
 
 from .._validate import as_1d, as_2d, check_finite, check_in_range, check_positive
 from ..errors import EstimationError, IdentifiabilityError, InputError, ShapeError
+from ..models.linear_ode import (
+    LinearODEModel,
+    as_linear_ode_model,
+    natural_frequency_damping,
+)
 from .results import ResultMixin
 
 __all__ = [
@@ -93,85 +98,6 @@ DEFAULT_COVARIANCE_LIMIT_FACTOR = 1e8
 
 
 # =============================================================================== the model
-@dataclass(frozen=True)
-class _ODESpec:
-    """What the estimator needs from a linear ODE model (duck-typed `LinearODEModel`)."""
-
-    order: int
-    input_order: int
-    a_names: tuple[str, ...]
-    b_names: tuple[str, ...]
-    parameters: Mapping[str, float]
-    unknown: tuple[str, ...]
-
-    @property
-    def coefficient_names(self) -> tuple[str, ...]:
-        return self.a_names + self.b_names
-
-    @property
-    def is_msd(self) -> bool:
-        return self.order == 2 and self.a_names == ("theta2", "theta1")
-
-
-#: Fallback for ``model="msd"`` while `physid.models` cannot load it: ẍ + θ1 ẋ + θ2 x = b0 u with
-#: the paper's system (k = 400 N/m, c = 0.05 N·s/m, m = 3 kg; u = F/m so b0 = 1).
-_MSD_FALLBACK = _ODESpec(
-    order=2,
-    input_order=0,
-    a_names=("theta2", "theta1"),
-    b_names=("b0",),
-    parameters={"theta1": 0.05 / 3.0, "theta2": 400.0 / 3.0, "b0": 1.0},
-    unknown=("theta1", "theta2"),
-)
-
-
-def _resolve_model(model) -> _ODESpec:
-    if isinstance(model, str):
-        try:
-            from ..models import load_model
-
-            model = load_model(model)
-        except (ImportError, AttributeError):
-            if model.lower() == "msd":
-                return _MSD_FALLBACK
-            raise InputError(
-                f"model {model!r} cannot be loaded (physid.models is unavailable); pass a "
-                "LinearODEModel or 'msd'."
-            ) from None
-    needed = ("order", "input_order", "a_names", "b_names", "parameters", "unknown")
-    missing = [a for a in needed if not hasattr(model, a)]
-    if missing:
-        raise InputError(
-            "model must be a linear ODE model (LinearODEModel) or 'msd'; got "
-            f"{type(model).__name__} lacking {missing}. Chain models (the manipulator) use "
-            "physid.estimators.input_error."
-        )
-    return _ODESpec(
-        order=int(model.order),
-        input_order=int(model.input_order),
-        a_names=tuple(model.a_names),
-        b_names=tuple(model.b_names),
-        parameters=dict(model.parameters),
-        unknown=tuple(model.unknown),
-    )
-
-
-def _natural_frequency_damping(theta1, theta2):
-    """ω0 = √θ2 [rad/s] and ζ = θ1 / (2 √θ2); NaN where θ2 ≤ 0 or undefined."""
-    try:
-        from ..models.linear_ode import natural_frequency_damping
-
-        return natural_frequency_damping(theta1, theta2)
-    except ImportError:  # pragma: no cover - physid.models not installed in this tree
-        pass
-    theta1 = np.asarray(theta1, dtype=float)
-    theta2 = np.asarray(theta2, dtype=float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        omega0 = np.where(theta2 > 0, np.sqrt(np.where(theta2 > 0, theta2, 1.0)), np.nan)
-        zeta = theta1 / (2.0 * omega0)
-    return omega0, zeta
-
-
 # =============================================================================== the pre-filter
 def default_prefilter_cutoff(dt: float, characteristic_frequency: float | None = None) -> float:
     """Default SVF cut-off [Hz]: ``min(10 f_model, f_s / 10)``, or ``f_s / 20`` without a model.
@@ -190,7 +116,7 @@ def default_prefilter_cutoff(dt: float, characteristic_frequency: float | None =
     return float(min(10.0 * characteristic_frequency, fs / 10.0))
 
 
-def _model_frequency(spec: _ODESpec) -> float | None:
+def _model_frequency(spec: LinearODEModel) -> float | None:
     try:
         a = [float(spec.parameters[name]) for name in spec.a_names]
     except (KeyError, TypeError, ValueError):
@@ -359,41 +285,13 @@ def build_regression(
         Samples to drop at the start (default `svf_transient_samples`; the differential filters
         drop their half-width at each end instead).
     """
-    spec = spec_or_model if isinstance(spec_or_model, _ODESpec) else _resolve_model(spec_or_model)
+    spec = as_linear_ode_model(spec_or_model)
     n, m = spec.order, spec.input_order
     y = as_1d(y, "y")
     u = as_1d(u, "u")
     if y.size != u.size:
         raise ShapeError(f"y has {y.size} samples but u has {u.size}; they must be equal.")
-    names_all = spec.coefficient_names
-    unknown = tuple(spec.unknown if unknown is None else unknown)
-    bad = [name for name in unknown if name not in names_all]
-    if bad:
-        raise InputError(
-            f"unknown coefficient name(s) {bad}; the model's coefficients are {list(names_all)}."
-        )
-    if len(set(unknown)) != len(unknown) or not unknown:
-        raise InputError(
-            f"unknown must list distinct coefficient names, at least one; got {unknown}."
-        )
-    values = dict(spec.parameters)
-    if known:
-        bad = [name for name in known if name not in names_all]
-        if bad:
-            raise InputError(
-                f"known names coefficient(s) {bad} the model does not have; it has "
-                f"{list(names_all)}."
-            )
-        clash = [name for name in known if name in unknown]
-        if clash:
-            raise InputError(f"coefficient(s) {clash} are both known and unknown; list each once.")
-        values.update({k: float(v) for k, v in known.items()})
-    missing = [name for name in names_all if name not in unknown and name not in values]
-    if missing:
-        raise InputError(
-            f"coefficient(s) {missing} are neither estimated nor given a value; add them to "
-            "unknown or give them in known."
-        )
+    unknown, values = spec.split_coefficients(unknown, known)
 
     if discard is not None and (
         isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
@@ -1083,7 +981,7 @@ class RecursiveLeastSquares:
         r = check_positive(self.weight, "weight")
         if self.covariance not in ("full", "diagonal"):
             raise InputError(f"covariance must be 'full' or 'diagonal'; got {self.covariance!r}.")
-        spec = _resolve_model(self.model)
+        spec = as_linear_ode_model(self.model)
         names = getattr(recording, "names", None)
         if names is None:
             raise InputError(f"fit expects a Recording; got {type(recording).__name__}.")
@@ -1137,8 +1035,8 @@ class RecursiveLeastSquares:
                 np.isnan(estimates[:, 0]), np.nan, values["theta1"])
             th2 = estimates[:, reg.names.index("theta2")] if "theta2" in reg.names else np.where(
                 np.isnan(estimates[:, 0]), np.nan, values["theta2"])
-            omega0, zeta = _natural_frequency_damping(th1, th2)
-            w_final, z_final = _natural_frequency_damping(
+            omega0, zeta = natural_frequency_damping(th1, th2)
+            w_final, z_final = natural_frequency_damping(
                 parameters.get("theta1", values.get("theta1")),
                 parameters.get("theta2", values.get("theta2")),
             )

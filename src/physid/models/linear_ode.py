@@ -19,6 +19,7 @@ from .spec import LinearODESpec
 
 __all__ = [
     "LinearODEModel",
+    "as_linear_ode_model",
     "msd_model",
     "msd_from_physical",
     "natural_frequency_damping",
@@ -131,6 +132,59 @@ class LinearODEModel:
     @property
     def parameters(self) -> dict:
         return dict(self._nominal)
+
+    @property
+    def is_msd(self) -> bool:
+        """True for the mass–spring–damper form ẍ + θ1 ẋ + θ2 x = b0 u."""
+        return self.a_names == ("theta2", "theta1")
+
+    def split_coefficients(self, unknown=None, known=None) -> tuple[tuple[str, ...], dict]:
+        """Validate which coefficients an estimator estimates and which it is given.
+
+        Parameters
+        ----------
+        unknown : str or sequence of str, optional
+            Coefficients to estimate (default: the model's ``unknown``).
+        known : mapping, optional
+            Values of other coefficients, overriding the nominal ``parameters``.
+
+        Returns
+        -------
+        unknown : tuple of str
+        values : dict
+            Value of every coefficient that is not estimated, and of the others' nominal values.
+        """
+        names = self.coefficient_names
+        unknown = self.unknown if unknown is None else unknown
+        unknown = (unknown,) if isinstance(unknown, str) else tuple(unknown)
+        bad = [u for u in unknown if u not in names]
+        if bad:
+            raise InputError(
+                f"unknown coefficient name(s) {bad}; the model's coefficients are {list(names)}."
+            )
+        if len(set(unknown)) != len(unknown) or not unknown:
+            raise InputError(
+                f"unknown must list distinct coefficient names, at least one; got {unknown}."
+            )
+        known = dict(known or {})
+        bad = [k for k in known if k not in names]
+        if bad:
+            raise InputError(
+                f"known value(s) given for {bad}, which are not coefficients of the model; "
+                f"its coefficients are {list(names)}."
+            )
+        both = [k for k in known if k in unknown]
+        if both:
+            raise InputError(
+                f"{both} cannot be both unknown and known; remove them from one of the two."
+            )
+        values = {k: v for k, v in self._nominal.items() if k in names}
+        for k, v in known.items():
+            try:
+                values[k] = float(v)
+            except (TypeError, ValueError):
+                raise InputError(f"known[{k!r}] must be a number; got {v!r}.") from None
+        return unknown, values
 
     def __repr__(self) -> str:
         return (
@@ -291,3 +345,22 @@ def msd_model(
         description=f"mass-spring-damper m={mass} kg, c={damping} N·s/m, k={stiffness} N/m, "
         f"input={input}",
     )
+
+
+def as_linear_ode_model(model) -> LinearODEModel:
+    """Return ``model`` as a `LinearODEModel`: a name (``"msd"``), a TOML path, or a model.
+
+    Raises `InputError` for anything else (chain models are identified with
+    `physid.estimators.input_error`).
+    """
+    if isinstance(model, str):
+        from .library import load_model
+
+        model = load_model(model)
+    if not isinstance(model, LinearODEModel):
+        raise InputError(
+            "model must be a linear ODE model: 'msd', a path to a TOML model file of kind "
+            f"'linear_ode', or a LinearODEModel; got {type(model).__name__}. Chain models (the "
+            "manipulator) are identified with physid.estimators.input_error."
+        )
+    return model
