@@ -17,6 +17,7 @@ __all__ = [
     "IdentifiabilityError",
     "EstimationError",
     "SimulationError",
+    "MissingDependencyError",
 ]
 
 
@@ -54,3 +55,10 @@ class EstimationError(PhysidError, ValueError):
 
 class SimulationError(PhysidError, RuntimeError):
     """The integrator failed (stiff system, blow-up); the message says which settings to change."""
+
+
+class MissingDependencyError(PhysidError, ImportError):
+    """An optional dependency (Dask, h5py, pinocchio ...) is needed for the requested feature.
+
+    The message names the extra to install, e.g. ``pip install "physid[dask]"``.
+    """

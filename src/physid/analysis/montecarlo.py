@@ -1,0 +1,1199 @@
+"""Monte-Carlo sweeps: a grid of settings × seeds, run locally or on a Dask cluster.
+
+A sweep runs one *trial function* for every point of a grid (the Cartesian product of named axes,
+e.g. SNR × frequency ratio × estimator settings) and every trial number ``0 .. trials-1``. It
+returns a tidy table: one row per trial holding the settings, the seed, the trial's outputs (its
+estimates and metrics), a ``status`` (``"ok"``, a status the trial reported itself, or ``"error"``
+when it raised) and a ``message``.
+
+Reproducibility
+    Every trial's seed comes from one root seed through `numpy.random.SeedSequence`: the trial at
+    grid index ``(i_1, ..., i_k)`` and trial number ``j`` uses ``SeedSequence(root,
+    spawn_key=(i_1, ..., i_k, j))``, which is exactly the child reached by the nested calls
+    ``SeedSequence(root).spawn(n_1)[i_1]. ... .spawn(trials)[j]``. The seed depends only on the grid
+    position, never on which worker ran the trial or when, so the same root seed gives the same bits
+    with every backend. Axes named in ``shared_seed_axes`` are left out of the key: trials that
+    differ only along them see the same random data (the MSD sweep uses this so that the algebraic
+    and the recursive estimator are compared on the very same noisy records).
+
+Backends (``scheduler=``)
+    ``"local"`` (default): a process pool of ``workers`` processes (default: every CPU) fed with
+    chunks of trials; tiny sweeps (or ``workers=1``) run in this process. ``"serial"`` always runs
+    in this process. ``"local:N"`` starts a Dask ``LocalCluster`` with N single-threaded worker
+    processes for the duration of the sweep; ``"tcp://HOST:PORT"`` connects to a running Dask
+    scheduler; a ``distributed.Client`` is used as is. Dask is optional (``pip install
+    physid[dask]``) and imported only for those schedulers. Dask reruns the trials of a worker that
+    dies (and retries a chunk that raised an unexpected error ``retries`` times); the local pool
+    restarts itself after a crashed worker the same number of times.
+
+Failures
+    A trial that raises is recorded with ``status="error"`` and the exception in ``message``; the
+    sweep goes on. A trial may also return its own ``status`` and ``message`` (e.g. an estimator
+    that ran but did not succeed).
+
+Outputs (`write_sweep`)
+    ``trials.csv`` (and ``trials.parquet`` when pyarrow is installed), ``summary.json`` (grouped
+    count, mean, median, spread per grid cell, plus run information). Every file is written to a
+    temporary file in the target folder and renamed into place, so an interrupted sweep never leaves
+    a half-written file.
+
+The MSD study of Oueslati et al. (2011, section 5) is `msd_sweep` / `msd_trial`.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import csv
+import io
+import itertools
+import json
+import math
+import multiprocessing
+import os
+import pickle
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, MissingDependencyError
+from ..estimators.results import ResultMixin, jsonable
+from . import metrics
+
+__all__ = [
+    "MissingDependencyError",
+    "TrialSpec",
+    "SweepResult",
+    "trial_specs",
+    "run_sweep",
+    "write_sweep",
+    "read_table",
+    "atomic_write",
+    "parse_scheduler",
+    "msd_trial",
+    "msd_sweep",
+    "msd_estimator_variants",
+    "MSD_TIME_COLUMNS",
+]
+
+DASK_HINT = "pip install physid[dask]"
+#: Sweeps with at most this many trials run in-process under scheduler="local" (a pool costs more).
+IN_PROCESS_LIMIT = 8
+#: Columns of the MSD table that are convergence times (NaN = not converged; medians are censored).
+MSD_TIME_COLUMNS = ("t_first_hit", "t_settle")
+
+
+# =========================================================================== grid and seeds
+@dataclass(frozen=True)
+class TrialSpec:
+    """One trial of a sweep: where it sits in the grid and the seed it must use.
+
+    Attributes
+    ----------
+    index : int
+        Row number in the table (grid points in C order, trial number innermost).
+    grid_index : tuple of int
+        Index along each axis.
+    trial : int
+        Trial number within its grid cell.
+    settings : dict
+        Axis name -> value; mapping-valued axis values are merged in (their keys become settings).
+    spawn_key : tuple of int
+        Key of the trial's `numpy.random.SeedSequence` under the root seed.
+    seed : int
+        A 64-bit integer drawn from that SeedSequence; the trial function seeds its generator with
+        (``np.random.default_rng(seed)``), so a row of the table is reproducible on its own.
+    """
+
+    index: int
+    grid_index: tuple[int, ...]
+    trial: int
+    settings: dict
+    spawn_key: tuple[int, ...]
+    seed: int
+
+
+def _check_grid(grid: Mapping[str, Sequence]) -> dict[str, tuple]:
+    if not isinstance(grid, Mapping) or not grid:
+        raise InputError(
+            f"grid must be a non-empty mapping axis name -> list of values; got {grid!r}."
+        )
+    out = {}
+    for name, values in grid.items():
+        if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
+            raise InputError(
+                f"grid axis {name!r} must be a list of values; got {values!r}. "
+                "Wrap a single value: "
+                f"[{values!r}]."
+            )
+        values = tuple(values)
+        if not values:
+            raise InputError(f"grid axis {name!r} is empty; give it at least one value.")
+        out[str(name)] = values
+    return out
+
+
+def _settings_of(axes: Mapping[str, tuple], idx: Sequence[int]) -> dict:
+    settings: dict[str, Any] = {}
+    for (name, values), i in zip(axes.items(), idx, strict=True):
+        value = values[i]
+        if isinstance(value, Mapping):
+            settings.update(value)
+        else:
+            settings[name] = value
+    return settings
+
+
+def _seed_for(root: int, key: tuple[int, ...]) -> int:
+    # SeedSequence(root, spawn_key=key) is the child nested .spawn() calls reach (see module doc)
+    return int(np.random.SeedSequence(root, spawn_key=key).generate_state(1, np.uint64)[0])
+
+
+def _check_seed(seed) -> int:
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer; got {seed!r}.")
+    return int(seed)
+
+
+def trial_specs(
+    grid: Mapping[str, Sequence],
+    trials: int,
+    seed: int = 0,
+    *,
+    shared_seed_axes: Sequence[str] = (),
+) -> list[TrialSpec]:
+    """Every trial of a grid with its seed, in table order.
+
+    Parameters
+    ----------
+    grid : mapping of str to sequence
+        Axis name -> values. A value may itself be a mapping (e.g. one estimator configuration
+        ``{"method": "rls", "forgetting": 0.99}``); its keys are merged into the settings.
+    trials : int
+        Trials (seeds) per grid point, >= 1.
+    seed : int
+        Root seed (non-negative integer).
+    shared_seed_axes : sequence of str
+        Axes whose index is left out of the seed's spawn key (trials that differ only along them
+        share their random data).
+
+    Returns
+    -------
+    list of TrialSpec
+        ``prod(len(axis)) * trials`` specs; index = row number.
+
+    Examples
+    --------
+    >>> specs = trial_specs({"snr_db": [25, 80], "ratio": [1, 10]}, trials=3, seed=7)
+    >>> len(specs), specs[5].settings, specs[5].trial, specs[5].spawn_key
+    (12, {'snr_db': 25, 'ratio': 10}, 2, (0, 1, 2))
+    """
+    axes = _check_grid(grid)
+    if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 1:
+        raise InputError(f"trials must be an integer >= 1; got {trials!r}.")
+    root = _check_seed(seed)
+    unknown = set(shared_seed_axes) - set(axes)
+    if unknown:
+        raise InputError(
+            f"shared_seed_axes names unknown axes {sorted(unknown)}; "
+            f"the grid's axes are {list(axes)}."
+        )
+    keep = [k for k, name in enumerate(axes) if name not in set(shared_seed_axes)]
+    shape = [len(v) for v in axes.values()]
+    specs = []
+    for index, (*idx, j) in enumerate(itertools.product(*map(range, shape), range(int(trials)))):
+        key = tuple(idx[k] for k in keep) + (j,)
+        specs.append(
+            TrialSpec(index, tuple(idx), j, _settings_of(axes, idx), key, _seed_for(root, key))
+        )
+    return specs
+
+
+# =========================================================================== running trials
+def _run_one(trial: Callable, spec: TrialSpec) -> dict:
+    """Run one trial; never raises (an exception becomes status='error')."""
+    row = _base_row(spec)
+    try:
+        out = trial(dict(spec.settings), spec.seed)
+        if out is None:
+            out = {}
+        if not isinstance(out, Mapping):
+            raise TypeError(
+                f"the trial function must return a mapping name -> value; got {type(out).__name__}"
+            )
+        out = dict(out)
+        status = str(out.pop("status", "ok"))
+        message = str(out.pop("message", ""))
+        for name, value in out.items():
+            row[str(name)] = _scalar(value, name)
+    except Exception as exc:  # recorded, never fatal
+        status, message = "error", f"{type(exc).__name__}: {exc}"
+    row["status"] = status
+    row["message"] = message
+    return row
+
+
+def _setting_cell(value):
+    if value is None or isinstance(value, (str, bool, int, float)):
+        return value
+    try:
+        return _scalar(value, "setting")
+    except TypeError:  # a structured setting (e.g. estimator options): JSON text in the table
+        return json.dumps(jsonable(value), sort_keys=True)
+
+
+def _base_row(spec: TrialSpec) -> dict[str, Any]:
+    return {
+        "index": spec.index,
+        **{k: _setting_cell(v) for k, v in spec.settings.items()},
+        "trial": spec.trial,
+        "seed": spec.seed,
+        "spawn_key": "-".join(map(str, spec.spawn_key)),
+    }
+
+
+def _scalar(value, name):
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, (np.bool_,)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value)
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return _scalar(value.item(), name)
+    raise TypeError(
+        f"trial output {name!r} must be a scalar (number, str, bool or None) to fit in a table; "
+        "got "
+        f"{type(value).__name__}"
+    )
+
+
+def _run_chunk(specs: Sequence[TrialSpec], trial: Callable) -> list[dict]:
+    """Run a chunk of trials in order (the unit of work of every backend)."""
+    return [_run_one(trial, spec) for spec in specs]
+
+
+class _Progress:
+    """A one-line text progress bar on stderr (no dependency)."""
+
+    def __init__(self, total: int, label: str, enabled: bool, stream=None):
+        self.total = max(int(total), 1)
+        self.done = 0
+        self.label = label
+        self.enabled = enabled
+        self.stream = stream if stream is not None else sys.stderr
+        self.start = time.perf_counter()
+        self._last = -1.0
+        self._tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self._printed_decile = -1
+
+    def advance(self, n: int) -> None:
+        self.done += n
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        finished = self.done >= self.total
+        if self._tty:
+            if finished or now - self._last > 0.1:
+                self._last = now
+                self.stream.write("\r" + self._line(now))
+                if finished:
+                    self.stream.write("\n")
+                self.stream.flush()
+        else:  # a log file: one line per 10 %
+            decile = int(10 * self.done / self.total)
+            if decile > self._printed_decile:
+                self._printed_decile = decile
+                self.stream.write(self._line(now) + "\n")
+                self.stream.flush()
+
+    def _line(self, now: float) -> str:
+        width = 30
+        filled = int(width * self.done / self.total)
+        bar = "#" * filled + "." * (width - filled)
+        return f"{self.label} [{bar}] {self.done}/{self.total} trials {now - self.start:6.1f} s"
+
+
+def _chunks(specs: list[TrialSpec], chunksize: int) -> list[list[TrialSpec]]:
+    return [specs[i : i + chunksize] for i in range(0, len(specs), chunksize)]
+
+
+def _default_chunksize(n: int, workers: int) -> int:
+    # about 4 chunks per worker: balanced load, little scheduling overhead
+    return max(1, math.ceil(n / (4 * max(workers, 1))))
+
+
+def parse_scheduler(scheduler) -> tuple[str, Any]:
+    """Classify a ``scheduler`` argument as ``(kind, argument)``.
+
+    ``kind`` is one of ``"serial"``, ``"local"``, ``"dask-local"``, ``"dask-address"``,
+    ``"dask-client"``.
+
+    Examples
+    --------
+    >>> parse_scheduler("local:3"), parse_scheduler("tcp://10.0.0.2:8786")
+    (('dask-local', 3), ('dask-address', 'tcp://10.0.0.2:8786'))
+    """
+    if scheduler is None or scheduler == "local":
+        return "local", None
+    if scheduler == "serial":
+        return "serial", None
+    if isinstance(scheduler, str):
+        if scheduler.startswith("local:"):
+            n = scheduler.partition(":")[2]
+            if not n.isdigit() or int(n) < 1:
+                raise InputError(
+                    f"scheduler {scheduler!r}: 'local:N' needs a worker count N >= 1, "
+                    "e.g. 'local:2'."
+                )
+            return "dask-local", int(n)
+        if "://" in scheduler:
+            return "dask-address", scheduler
+        raise InputError(
+            "scheduler must be 'local', 'serial', 'local:N' (a Dask LocalCluster with N workers) "
+            "or "
+            f"a Dask scheduler address such as 'tcp://HOST:8786'; got {scheduler!r}."
+        )
+    if hasattr(scheduler, "map") and hasattr(scheduler, "gather"):
+        return "dask-client", scheduler
+    raise InputError(
+        f"scheduler must be a string ('local', 'local:N', 'tcp://HOST:PORT') or a "
+        f"distributed.Client; got {type(scheduler).__name__}."
+    )
+
+
+def _import_distributed():
+    try:
+        import distributed
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"Dask schedulers need the optional 'dask' extra ({exc}); install it with "
+            f"`{DASK_HINT}`, or use scheduler='local'."
+        ) from None
+    return distributed
+
+
+def _run_serial(trial, specs, bar):
+    rows = []
+    for spec in specs:
+        rows.append(_run_one(trial, spec))
+        bar.advance(1)
+    return rows
+
+
+def _pool_context(trial):
+    # fork is cheapest (workers inherit this process's imports and caches), but forking a process
+    # that runs other threads (a Dask client, a GUI) can deadlock; then use a fork server.
+    methods = multiprocessing.get_all_start_methods()
+    if "fork" in methods and threading.active_count() == 1:
+        return multiprocessing.get_context("fork")
+    if "forkserver" in methods:
+        ctx = multiprocessing.get_context("forkserver")
+        # the fork server imports these once; each pool worker then starts as a cheap fork of it
+        preload = ["numpy", "physid.analysis.montecarlo", *getattr(trial, "preload_modules", ())]
+        module = getattr(trial, "__module__", None)
+        if module and module != "__main__" and module not in preload:
+            preload.append(module)
+        ctx.set_forkserver_preload(preload)
+        return ctx
+    return multiprocessing.get_context("spawn")
+
+
+_BLAS_THREAD_SETTERS = (
+    "openblas_set_num_threads",
+    "openblas_set_num_threads64_",
+    "scipy_openblas_set_num_threads",
+    "scipy_openblas_set_num_threads64_",
+    "MKL_Set_Num_Threads",
+)
+
+
+def _single_threaded_blas() -> None:
+    """Pool-worker initializer: one BLAS thread per worker process.
+
+    Trials use tiny matrices; with several worker processes a multi-threaded BLAS only adds
+    contention (measured: 3.5x slower per MSD trial on a busy 2-core machine). The environment
+    variables (OPENBLAS_NUM_THREADS=1 ...) act only before numpy is imported, and forked workers
+    inherit an initialised BLAS, so the libraries already loaded are told directly, the way
+    threadpoolctl does it. Linux only (reads /proc/self/maps); elsewhere this does nothing. Dask's
+    nanny already starts its workers with these variables set to 1.
+    """
+    import ctypes
+
+    for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ[name] = "1"  # for libraries imported later in this worker
+    try:
+        with open("/proc/self/maps", encoding="utf-8") as fh:
+            libs = {line.split()[-1] for line in fh if "blas" in line.lower() or "mkl" in line}
+    except OSError:
+        return
+    for path in libs:
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for symbol in _BLAS_THREAD_SETTERS:
+            setter = getattr(lib, symbol, None)
+            if setter is not None:
+                setter(1)
+
+
+def _failed_rows(chunk: Sequence[TrialSpec], message: str) -> list[dict]:
+    return [{**_base_row(spec), "status": "error", "message": message} for spec in chunk]
+
+
+def _run_pool(trial, specs, workers, chunksize, retries, bar):
+    pending = _chunks(specs, chunksize)
+    rows: list[dict] = []
+    attempts = 0
+    while pending:
+        broken: list[list[TrialSpec]] = []
+        pool = cf.ProcessPoolExecutor(
+            max_workers=workers, mp_context=_pool_context(trial), initializer=_single_threaded_blas
+        )
+        try:
+            futures = {pool.submit(_run_chunk, chunk, trial): chunk for chunk in pending}
+            for fut in cf.as_completed(futures):
+                try:
+                    chunk_rows = fut.result()
+                except cf.process.BrokenProcessPool:  # a worker died: rerun its chunk
+                    broken.append(futures[fut])
+                    continue
+                except Exception as exc:  # infrastructure (e.g. unpicklable output): record it
+                    chunk_rows = _failed_rows(futures[fut], f"{type(exc).__name__}: {exc}")
+                rows.extend(chunk_rows)
+                bar.advance(len(chunk_rows))
+        except BaseException:  # Ctrl-C: do not wait for the queued chunks
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        pool.shutdown(wait=True)
+        pending = broken
+        if pending:
+            attempts += 1
+            if attempts > retries:
+                lost = [s for chunk in pending for s in chunk]
+                rows.extend(_failed_rows(lost, f"worker process died {attempts} times running it"))
+                bar.advance(len(lost))
+                pending = []
+    return rows
+
+
+def _run_dask(client, trial, specs, chunksize, retries, bar):
+    distributed = _import_distributed()
+    chunks = _chunks(specs, chunksize)
+    futures = client.map(_run_chunk, chunks, trial=trial, retries=retries, pure=False)
+    chunk_of = {fut.key: chunk for fut, chunk in zip(futures, chunks, strict=True)}
+    rows: list[dict] = []
+    try:
+        for fut in distributed.as_completed(futures):
+            try:
+                chunk_rows = fut.result()
+            except Exception as exc:  # e.g. KilledWorker after repeated deaths: record, go on
+                chunk_rows = _failed_rows(chunk_of[fut.key], f"{type(exc).__name__}: {exc}")
+            rows.extend(chunk_rows)
+            bar.advance(len(chunk_rows))
+    except BaseException:  # Ctrl-C: free the cluster
+        client.cancel(futures)
+        raise
+    return rows
+
+
+def _dask_workers(client) -> int:
+    try:
+        return max(1, sum(client.nthreads().values()))
+    except Exception:  # a client that cannot say: assume one worker
+        return 1
+
+
+# =========================================================================== the result
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+@dataclass(frozen=True)
+class SweepResult(ResultMixin):
+    """The table of a sweep and how it was run.
+
+    Attributes
+    ----------
+    grid : dict
+        Axis name -> values, as given.
+    trials : int
+        Trials per grid point.
+    seed : int
+        Root seed.
+    columns : tuple of str
+        Column names, in table order: ``index``, the settings, ``trial``, ``seed``, ``spawn_key``,
+        the trial outputs, ``status``, ``message``.
+    rows : tuple of dict
+        One row per trial, sorted by ``index``.
+    setting_columns : tuple of str
+        The columns that identify a grid cell (used to group the summary).
+    censored_columns : tuple of str
+        Output columns that are convergence times (NaN = never converged).
+    backend : str
+        What ran it (``serial``, ``local pool (2 workers)``, ``dask tcp://...``).
+    elapsed_s : float
+        Wall time of the sweep [s] (not part of the table, which is bit-reproducible).
+    success : bool
+        True when every trial has status ``"ok"``.
+    message : str
+    """
+
+    grid: dict
+    trials: int
+    seed: int
+    columns: tuple[str, ...]
+    rows: tuple[dict, ...]
+    setting_columns: tuple[str, ...]
+    censored_columns: tuple[str, ...]
+    backend: str
+    elapsed_s: float
+    success: bool
+    message: str
+
+    _history_fields = ("rows",)
+
+    @property
+    def parameters(self) -> dict[str, float]:
+        """Counts for `summary`: trials run and trials not ``ok``."""
+        n_bad = sum(r["status"] != "ok" for r in self.rows)
+        return {"trials_run": float(len(self.rows)), "trials_not_ok": float(n_bad)}
+
+    def column(self, name: str) -> np.ndarray:
+        """One column as an array (float where every value is a number or None, else object)."""
+        if name not in self.columns:
+            raise InputError(f"no column {name!r}; the table has {list(self.columns)}.")
+        values = [r.get(name) for r in self.rows]
+        if all(v is None or _is_number(v) for v in values):
+            return np.array([math.nan if v is None else v for v in values], dtype=float)
+        return np.array(values, dtype=object)
+
+    def select(self, **conditions) -> list[dict]:
+        """Rows whose columns equal the given values, e.g. ``select(method="rls", snr_db=80)``."""
+        return [r for r in self.rows if all(r.get(k) == v for k, v in conditions.items())]
+
+    def status_counts(self) -> dict[str, int]:
+        """Number of trials per status."""
+        counts: dict[str, int] = {}
+        for r in self.rows:
+            counts[r["status"]] = counts.get(r["status"], 0) + 1
+        return counts
+
+    def summarize(self) -> list[dict]:
+        """Per grid cell: the settings, the counts and, for each numeric output, its statistics.
+
+        Returns
+        -------
+        list of dict
+            One entry per grid cell (table order): the setting values, ``n`` (trials),
+            ``n_ok`` and for each numeric output column a dict with ``n_finite``, ``mean``,
+            ``median``, ``std`` (ddof = 1), ``min``, ``max`` over the finite values of the ``ok``
+            trials; convergence-time columns also get ``median_censored`` (NaN counted as
+            "never", `physid.analysis.metrics.censored_median`) and ``converged_fraction``.
+        """
+        skip = {"index", "trial", "seed", "spawn_key", "status", "message", *self.setting_columns}
+        outputs = [c for c in self.columns if c not in skip]
+        cells: dict[tuple, list[dict]] = {}
+        for r in self.rows:
+            cells.setdefault(tuple(r.get(c) for c in self.setting_columns), []).append(r)
+        summary = []
+        for key, rows in cells.items():
+            ok_rows = [r for r in rows if r["status"] == "ok"]
+            entry: dict[str, Any] = dict(zip(self.setting_columns, key, strict=True))
+            entry["n"] = len(rows)
+            entry["n_ok"] = len(ok_rows)
+            for col in outputs:
+                vals = [r.get(col) for r in ok_rows]
+                if not vals or not all(v is None or _is_number(v) for v in vals):
+                    continue
+                arr = np.array([math.nan if v is None else v for v in vals], dtype=float)
+                entry[col] = _column_stats(arr, censored=col in self.censored_columns)
+            summary.append(entry)
+        return summary
+
+    def to_csv_text(self) -> str:
+        """The table as CSV text (floats written exactly, with ``repr``; NaN as ``nan``)."""
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(self.columns)
+        for r in self.rows:
+            writer.writerow([_csv_cell(r.get(c)) for c in self.columns])
+        return buf.getvalue()
+
+    def write(self, out_dir, **kwargs) -> dict[str, Path]:
+        """Write the outputs into ``out_dir`` (see `write_sweep`)."""
+        return write_sweep(self, out_dir, **kwargs)
+
+    def plot(self, **kwargs):
+        """Convergence-time heat maps (`physid.report.msd.plot_convergence_maps`)."""
+        from ..report.msd import plot_convergence_maps
+
+        return plot_convergence_maps(self, **kwargs)
+
+
+def _column_stats(arr: np.ndarray, censored: bool) -> dict[str, Any]:
+    finite = arr[np.isfinite(arr)]
+    stats: dict[str, Any] = {"n_finite": int(finite.size)}
+    if finite.size:
+        stats.update(
+            mean=float(finite.mean()),
+            median=float(np.median(finite)),
+            std=float(finite.std(ddof=1)) if finite.size > 1 else math.nan,
+            min=float(finite.min()),
+            max=float(finite.max()),
+        )
+    else:
+        stats.update(mean=math.nan, median=math.nan, std=math.nan, min=math.nan, max=math.nan)
+    if censored:
+        stats["median_censored"] = metrics.censored_median(arr) if arr.size else math.nan
+        stats["converged_fraction"] = float(np.isfinite(arr).mean()) if arr.size else math.nan
+    return stats
+
+
+def _csv_cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v)  # shortest exact round-trip text
+    return str(v)
+
+
+def _column_order(rows: Sequence[dict], setting_columns: Sequence[str]) -> tuple[str, ...]:
+    head = ["index", *setting_columns, "trial", "seed", "spawn_key"]
+    outputs: dict[str, None] = {}
+    for r in rows:
+        for k in r:
+            if k not in head and k not in ("status", "message"):
+                outputs.setdefault(k, None)
+    return (*head, *outputs, "status", "message")
+
+
+# =========================================================================== the driver
+def run_sweep(
+    trial: Callable[[dict, int], Mapping[str, Any]],
+    grid: Mapping[str, Sequence],
+    *,
+    trials: int = 1,
+    seed: int = 0,
+    scheduler: Any = "local",
+    workers: int | None = None,
+    chunksize: int | None = None,
+    retries: int = 2,
+    shared_seed_axes: Sequence[str] = (),
+    censored_columns: Sequence[str] = (),
+    progress: bool = True,
+    label: str = "sweep",
+) -> SweepResult:
+    """Run ``trial`` on every grid point and trial number; return the tidy table.
+
+    Parameters
+    ----------
+    trial : callable
+        ``trial(settings: dict, seed: int) -> mapping`` of scalar outputs (numbers, str, bool,
+        None); may include ``status`` and ``message``. Must be picklable (a module-level function)
+        for the process pool and Dask. It should seed all its randomness from ``seed``.
+    grid : mapping of str to sequence
+        Axis name -> values (see `trial_specs`).
+    trials : int
+        Trials per grid point.
+    seed : int
+        Root seed.
+    scheduler : str or distributed.Client
+        ``"local"`` (process pool; in-process for tiny sweeps), ``"serial"``, ``"local:N"`` (Dask
+        LocalCluster with N worker processes, one thread each), ``"tcp://HOST:PORT"`` (a running
+        Dask scheduler) or a ``distributed.Client``.
+    workers : int, optional
+        Processes of the local pool; default: every CPU (``os.cpu_count()``).
+    chunksize : int, optional
+        Trials per task; default about four tasks per worker.
+    retries : int
+        Dask: how many times a task that raised is retried (a task whose worker died is rerun by the
+        scheduler anyway). Local pool: how many times the pool is restarted after a worker crash.
+    shared_seed_axes : sequence of str
+        Axes left out of the seed key (see `trial_specs`).
+    censored_columns : sequence of str
+        Output columns holding convergence times (NaN = never); used by `SweepResult.summarize`.
+    progress : bool
+        Show a progress bar on stderr.
+    label : str
+        Text in front of the progress bar.
+
+    Returns
+    -------
+    SweepResult
+
+    Examples
+    --------
+    >>> def noisy_mean(settings, seed):
+    ...     x = np.random.default_rng(seed).normal(settings["mu"], 1.0, 100)
+    ...     return {"mean": x.mean()}
+    >>> res = run_sweep(noisy_mean, {"mu": [0.0, 5.0]}, trials=3, seed=1, scheduler="serial",
+    ...                 progress=False)
+    >>> len(res.rows), res.success, res.summarize()[1]["mean"]["n_finite"]
+    (6, True, 3)
+    """
+    if not callable(trial):
+        raise InputError(f"trial must be a callable trial(settings, seed) -> dict; got {trial!r}.")
+    if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
+        raise InputError(f"retries must be an integer >= 0; got {retries!r}.")
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1
+    ):
+        raise InputError(
+            f"workers must be an integer >= 1 (or None for every CPU); got {workers!r}."
+        )
+    if chunksize is not None and (
+        isinstance(chunksize, bool) or not isinstance(chunksize, (int, np.integer)) or chunksize < 1
+    ):
+        raise InputError(f"chunksize must be an integer >= 1 (or None); got {chunksize!r}.")
+    kind, arg = parse_scheduler(scheduler)
+    if workers is not None and kind != "local":
+        raise InputError(
+            f"workers={workers} applies to scheduler='local' only; with {scheduler!r} the "
+            "worker count is the scheduler's (use 'local:N' for a Dask LocalCluster of N workers)."
+        )
+    specs = trial_specs(grid, trials, seed, shared_seed_axes=shared_seed_axes)
+    axes = _check_grid(grid)
+    setting_columns: list[str] = []
+    for spec in specs:
+        for k in spec.settings:
+            if k not in setting_columns:
+                setting_columns.append(k)
+    bar = _Progress(len(specs), label, progress)
+    start = time.perf_counter()
+    if kind == "serial" or (kind == "local" and (workers == 1 or len(specs) <= IN_PROCESS_LIMIT)):
+        backend = "serial (in-process)"
+        rows = _run_serial(trial, specs, bar)
+    elif kind == "local":
+        n_workers = int(workers or os.cpu_count() or 1)
+        if n_workers == 1:
+            backend = "serial (in-process)"
+            rows = _run_serial(trial, specs, bar)
+        else:
+            try:
+                pickle.dumps(trial)
+            except Exception as exc:
+                raise InputError(
+                    f"the trial function {trial!r} cannot be sent to worker processes ({exc}); "
+                    "define it at module level (not a lambda or a nested function), or use "
+                    "scheduler='serial'."
+                ) from None
+            size = chunksize or _default_chunksize(len(specs), n_workers)
+            backend = f"local process pool ({n_workers} workers, {size} trials per task)"
+            rows = _run_pool(trial, specs, n_workers, size, int(retries), bar)
+    else:
+        distributed = _import_distributed()
+        cluster = None
+        client = None
+        try:
+            if kind == "dask-client":
+                client = arg
+                backend = (
+                    f"dask client {getattr(client, 'scheduler', None) and client.scheduler.address}"
+                )
+            elif kind == "dask-local":
+                import logging
+
+                cluster = distributed.LocalCluster(
+                    n_workers=arg,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                )
+                client = distributed.Client(cluster)
+                backend = f"dask LocalCluster ({arg} worker processes)"
+            else:
+                client = distributed.Client(arg, timeout="30s")
+                backend = f"dask {arg}"
+            n_workers = _dask_workers(client)
+            size = chunksize or _default_chunksize(len(specs), n_workers)
+            rows = _run_dask(client, trial, specs, size, int(retries), bar)
+        finally:
+            if client is not None and kind != "dask-client":
+                client.close()
+            if cluster is not None:
+                cluster.close()
+    elapsed = time.perf_counter() - start
+    rows.sort(key=lambda r: r["index"])
+    for r in rows:  # rows of trials that failed early lack some outputs: fill with None
+        for c in setting_columns:
+            r.setdefault(c, None)
+    columns = _column_order(rows, setting_columns)
+    full_rows = tuple({c: r.get(c) for c in columns} for r in rows)
+    n_bad = sum(r["status"] != "ok" for r in full_rows)
+    message = f"{len(full_rows)} trials on {backend} in {elapsed:.1f} s" + (
+        f"; {n_bad} not ok (see the status and message columns)" if n_bad else ""
+    )
+    return SweepResult(
+        grid={k: list(v) for k, v in axes.items()},
+        trials=int(trials),
+        seed=int(seed),
+        columns=columns,
+        rows=full_rows,
+        setting_columns=tuple(setting_columns),
+        censored_columns=tuple(censored_columns),
+        backend=backend,
+        elapsed_s=float(elapsed),
+        success=n_bad == 0,
+        message=message,
+    )
+
+
+# =========================================================================== writing
+def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) -> Path:
+    """Write a file atomically: ``write(handle)`` fills a temporary file that replaces ``path``.
+
+    The temporary file lives in the same folder (so the final `os.replace` is an atomic rename on
+    POSIX and Windows); it is flushed and fsync'ed first. If ``write`` raises, the temporary file is
+    removed, an existing ``path`` is left untouched, and the exception propagates.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination file.
+    write : callable
+        Receives the open temporary file (text, UTF-8, or binary with ``binary=True``).
+    binary : bool
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(
+            fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": ""})
+        ) as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return path
+
+
+def _summary_document(result: SweepResult) -> dict:
+    return jsonable(
+        {
+            "grid": result.grid,
+            "trials": result.trials,
+            "seed": result.seed,
+            "n_rows": len(result.rows),
+            "status_counts": result.status_counts(),
+            "setting_columns": list(result.setting_columns),
+            "censored_columns": list(result.censored_columns),
+            "cells": result.summarize(),
+            "run": {
+                "backend": result.backend,
+                "elapsed_s": result.elapsed_s,
+                "message": result.message,
+            },
+        }
+    )
+
+
+def write_sweep(
+    result: SweepResult,
+    out_dir,
+    *,
+    stem: str = "trials",
+    figures: Mapping[str, Any] | None = None,
+) -> dict[str, Path]:
+    """Write a sweep's table and summary (and optional figures) atomically into ``out_dir``.
+
+    Writes ``STEM.csv``, ``STEM.parquet`` (only when pyarrow is importable), ``summary.json`` and
+    ``NAME.png`` for each ``figures`` entry (name -> matplotlib Figure).
+
+    Returns
+    -------
+    dict of str to Path
+        ``{"csv": ..., "summary": ..., ["parquet": ...], ["figure:NAME": ...]}``.
+    """
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"out_dir {str(out)!r} exists and is not a folder; give a folder path.")
+    out.mkdir(parents=True, exist_ok=True)
+    paths: dict[str, Path] = {}
+    text = result.to_csv_text()
+    paths["csv"] = atomic_write(out / f"{stem}.csv", lambda fh: fh.write(text))
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        pass
+    else:
+        table = pa.table({c: [r.get(c) for r in result.rows] for c in result.columns})
+        paths["parquet"] = atomic_write(
+            out / f"{stem}.parquet", lambda fh: pq.write_table(table, fh), binary=True
+        )
+    doc = _summary_document(result)
+    paths["summary"] = atomic_write(
+        out / "summary.json", lambda fh: json.dump(doc, fh, indent=2, allow_nan=False)
+    )
+    for name, fig in (figures or {}).items():
+        paths[f"figure:{name}"] = atomic_write(
+            out / f"{name}.png",
+            lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110),
+            binary=True,
+        )
+    return paths
+
+
+def read_table(path) -> list[dict]:
+    """Read a ``trials.csv`` back: numbers as float/int, empty cells as None, text as str."""
+    rows = []
+    with open(path, newline="", encoding="utf-8") as fh:
+        for raw in csv.DictReader(fh):
+            rows.append({k: _parse_cell(v) for k, v in raw.items()})
+    return rows
+
+
+def _parse_cell(text: str):
+    if text == "":
+        return None
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
+# =========================================================================== the MSD study
+def msd_estimator_variants(
+    methods: Sequence[str] = ("algebraic", "rls"),
+    *,
+    windows: Sequence[float] = (0.05,),
+    forgettings: Sequence[float] = (1.0,),
+) -> list[dict]:
+    """Estimator configurations for the MSD sweep: algebraic × windows and rls × forgetting factors.
+
+    Examples
+    --------
+    >>> msd_estimator_variants(["algebraic", "rls"], windows=[0.05], forgettings=[1.0, 0.99])
+    ... # doctest: +NORMALIZE_WHITESPACE
+    [{'method': 'algebraic', 'window': 0.05, 'forgetting': None},
+     {'method': 'rls', 'window': None, 'forgetting': 1.0},
+     {'method': 'rls', 'window': None, 'forgetting': 0.99}]
+    """
+    variants: list[dict] = []
+    for method in methods:
+        if method == "algebraic":
+            variants += [
+                {"method": "algebraic", "window": float(w), "forgetting": None} for w in windows
+            ]
+        elif method == "rls":
+            variants += [
+                {"method": "rls", "window": None, "forgetting": float(f)} for f in forgettings
+            ]
+        else:
+            raise InputError(f"method must be 'algebraic' or 'rls'; got {method!r}.")
+    return variants
+
+
+def _msd_estimator(settings: Mapping[str, Any]):
+    method = settings.get("method", "algebraic")
+    if method == "algebraic":
+        from ..estimators.algebraic import AlgebraicEstimator
+
+        kwargs = dict(settings.get("estimator_options") or {})
+        return AlgebraicEstimator(
+            model="msd", window=float(settings.get("window") or 0.05), **kwargs
+        )
+    if method == "rls":
+        from ..estimators.recursive import RecursiveLeastSquares
+
+        kwargs = dict(settings.get("estimator_options") or {})
+        forgetting = settings.get("forgetting")
+        kwargs.setdefault("covariance", "diagonal")  # the sweep needs θ̂ only: 4x less memory
+        return RecursiveLeastSquares(
+            model="msd", forgetting=1.0 if forgetting is None else float(forgetting), **kwargs
+        )
+    raise InputError(f"method must be 'algebraic' or 'rls'; got {method!r}.")
+
+
+def _msd_truth(rec, default: float) -> float:
+    meta = getattr(rec, "metadata", {}) or {}
+    for key in ("natural_frequency", "omega0"):
+        if key in meta and np.isscalar(meta[key]):
+            return float(meta[key])
+    return default
+
+
+#: The paper's MSD (k = 400 N/m, m = 3 kg): ω0 = sqrt(k / m) [rad/s].
+MSD_NATURAL_FREQUENCY = math.sqrt(400.0 / 3.0)
+
+
+def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
+    """One trial of the MSD study: simulate the paper's scenario, estimate ω0, measure convergence.
+
+    Parameters
+    ----------
+    settings : mapping
+        ``snr_db`` (None = noise-free), ``ratio`` (Z = ω1/ω0), ``method`` (``"algebraic"`` or
+        ``"rls"``), ``window`` [s] (algebraic), ``forgetting`` (rls), and optionally ``duration``
+        [s] (default 5), ``dt`` [s] (1e-3), ``tolerance`` (0.02), ``estimator_options`` (dict
+        passed to the estimator).
+    seed : int
+        Seed of the measurement noise.
+
+    Returns
+    -------
+    dict
+        ``omega0_true``, ``omega0_final``, ``zeta_final`` (the estimator's final estimates),
+        ``final_error`` (relative ω0 error of the final estimate), ``t_first_hit`` and ``t_settle``
+        [s] (`physid.analysis.metrics`; NaN = not within 2 % by the end), ``valid_fraction``, and a
+        ``status`` ``"estimator-failed"`` with the estimator's message when it did not succeed.
+    """
+    from ..simulate import msd_paper_scenario
+
+    rec = msd_paper_scenario(
+        ratio=float(settings["ratio"]),
+        snr_db=None if settings.get("snr_db") is None else float(settings["snr_db"]),
+        duration=float(settings.get("duration", 5.0)),
+        dt=float(settings.get("dt", 1e-3)),
+        seed=int(seed),
+    )
+    truth = _msd_truth(rec, MSD_NATURAL_FREQUENCY)
+    result = _msd_estimator(settings).fit(rec).result_
+    tol = float(settings.get("tolerance", metrics.DEFAULT_TOLERANCE))
+    t, omega, valid = metrics.estimate_trace(result, "natural_frequency")
+    conv = metrics.convergence_times(t, omega, truth, tol, valid=valid)
+    params = dict(getattr(result, "parameters", {}) or {})
+    omega_final = float(params.get("natural_frequency", math.nan))
+    out = {
+        "omega0_true": truth,
+        "omega0_final": omega_final,
+        "zeta_final": float(params.get("damping_ratio", math.nan)),
+        "final_error": abs(omega_final - truth) / truth if math.isfinite(omega_final) else math.nan,
+        "t_first_hit": conv["first_hit"],
+        "t_settle": conv["settle"],
+        "valid_fraction": float(getattr(result, "valid_fraction", math.nan)),
+    }
+    if not getattr(result, "success", True):
+        out["status"] = "estimator-failed"
+        out["message"] = str(getattr(result, "message", ""))
+    return out
+
+
+msd_trial.preload_modules = (  # type: ignore[attr-defined]
+    "physid.simulate",
+    "physid.estimators.algebraic",
+    "physid.estimators.recursive",
+)
+
+
+def _warm_up(variants: Sequence[Mapping[str, Any]]) -> None:
+    """Run each estimator configuration once on a short clean record (fills in-memory caches)."""
+    from ..simulate import msd_paper_scenario
+
+    rec = msd_paper_scenario(ratio=10.0, duration=0.6, dt=float(variants[0].get("dt", 1e-3)))
+    for settings in variants:
+        try:
+            _msd_estimator(settings).fit(rec)
+        except Exception:  # noqa: S112 - the real trials will report the problem with its message
+            continue
+
+
+def msd_sweep(
+    snr_db: Sequence[float | None] = (25.0, 50.0, 80.0),
+    ratio: Sequence[float] = (0.5, 1.0, 2.0, 5.0, 10.0),
+    *,
+    trials: int = 10,
+    methods: Sequence[str] = ("algebraic", "rls"),
+    windows: Sequence[float] = (0.05,),
+    forgettings: Sequence[float] = (1.0,),
+    duration: float = 5.0,
+    dt: float = 1e-3,
+    seed: int = 0,
+    scheduler: Any = "local",
+    workers: int | None = None,
+    chunksize: int | None = None,
+    progress: bool = True,
+    estimator_options: Mapping[str, Mapping[str, Any]] | None = None,
+) -> SweepResult:
+    """The convergence study of Oueslati et al. (2011, Figs. 5–6): SNR × Z × estimator × seeds.
+
+    Every (SNR, Z, trial) simulates one noisy record of the paper's MSD (`msd_paper_scenario`),
+    shared by all estimator configurations (paired comparison), and each configuration estimates ω0
+    on it (`msd_trial`).
+
+    Parameters
+    ----------
+    snr_db : sequence of float [dB]
+        Signal-to-noise ratios (None = noise-free).
+    ratio : sequence of float
+        Input frequency ratios Z = ω1 / ω0.
+    trials : int
+        Noise realisations per (SNR, Z).
+    methods : sequence of {"algebraic", "rls"}
+    windows : sequence of float [s]
+        Algebraic window lengths.
+    forgettings : sequence of float
+        RLS forgetting factors λ in (0, 1].
+    duration, dt : float [s]
+        Record length and sample period.
+    seed : int
+        Root seed.
+    scheduler, workers, chunksize, progress
+        See `run_sweep`.
+    estimator_options : mapping, optional
+        ``{"algebraic": {...}, "rls": {...}}`` extra keyword arguments per method.
+
+    Returns
+    -------
+    SweepResult
+    """
+    snr_values = [None if s is None else float(s) for s in snr_db]
+    ratio_values = [float(z) for z in ratio]
+    if any(z <= 0 for z in ratio_values) or not ratio_values:
+        raise InputError(f"ratio must be a non-empty list of positive numbers; got {list(ratio)}.")
+    for f in forgettings:
+        if not 0 < float(f) <= 1:
+            raise InputError(f"forgetting factors must lie in (0, 1]; got {f!r}.")
+    for w in windows:
+        if not float(w) > 0:
+            raise InputError(f"windows must be positive lengths [s]; got {w!r}.")
+    variants = msd_estimator_variants(methods, windows=windows, forgettings=forgettings)
+    options = dict(estimator_options or {})
+    for v in variants:
+        v["duration"] = float(duration)
+        v["dt"] = float(dt)
+        if options.get(v["method"]):
+            v["estimator_options"] = dict(options[v["method"]])
+    grid = {"snr_db": snr_values, "ratio": ratio_values, "estimator": variants}
+    kind, _ = parse_scheduler(scheduler)
+    if kind == "local":
+        _warm_up(variants)  # derive the estimators' kernels once here; forked workers inherit them
+    return run_sweep(
+        msd_trial,
+        grid,
+        trials=trials,
+        seed=seed,
+        scheduler=scheduler,
+        workers=workers,
+        chunksize=chunksize,
+        shared_seed_axes=("estimator",),
+        censored_columns=MSD_TIME_COLUMNS,
+        progress=progress,
+        label="sweep msd",
+    )

@@ -1,0 +1,294 @@
+"""Monte-Carlo sweeps: seeding, backends (in-process, pool, Dask), failures, atomic output."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from physid.analysis import montecarlo as mc
+from physid.errors import InputError
+
+GRID = {"mu": [0.0, 2.0, -1.0], "sigma": [0.5, 1.0]}
+
+
+# --------------------------------------------------------------------------- toy trials (picklable)
+def toy_trial(settings, seed):
+    """Sample mean and standard deviation of 200 normal draws: known expectations."""
+    x = np.random.default_rng(seed).normal(settings["mu"], settings["sigma"], 200)
+    return {"mean": x.mean(), "std": x.std(ddof=1), "label": f"mu={settings['mu']}"}
+
+
+def failing_trial(settings, seed):
+    if settings["mu"] == 2.0 and settings["sigma"] == 1.0:
+        raise FloatingPointError("made to fail for this cell")
+    return toy_trial(settings, seed)
+
+
+def soft_failing_trial(settings, seed):
+    out = toy_trial(settings, seed)
+    if settings["mu"] < 0:
+        out.update(status="estimator-failed", message="no excitation")
+    return out
+
+
+def killing_trial(settings, seed):
+    """Kills its own worker process the first time it runs trial 0 of the first cell."""
+    flag = Path(settings["flag"])
+    if settings["mu"] == 0.0 and settings["sigma"] == 0.5 and not flag.exists():
+        flag.write_text("killed once")
+        os._exit(1)
+    return toy_trial(settings, seed)
+
+
+# --------------------------------------------------------------------------- fixtures
+@pytest.fixture(scope="module")
+def dask_client():
+    distributed = pytest.importorskip(
+        "distributed", reason="Dask is an optional extra (physid[dask])"
+    )
+    import logging
+
+    cluster = distributed.LocalCluster(
+        n_workers=2,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    client = distributed.Client(cluster)
+    yield client
+    client.close()
+    cluster.close()
+
+
+def _strip(rows):
+    return [dict(r) for r in rows]
+
+
+# --------------------------------------------------------------------------- seeds
+def test_seeds_equal_nested_spawn_and_depend_only_on_grid_position():
+    specs = mc.trial_specs(GRID, trials=4, seed=123)
+    assert len(specs) == 3 * 2 * 4
+    spec = specs[(2 * 2 + 1) * 4 + 3]  # mu index 2, sigma index 1, trial 3
+    assert spec.settings == {"mu": -1.0, "sigma": 1.0} and spec.trial == 3
+    nested = np.random.SeedSequence(123).spawn(3)[2].spawn(2)[1].spawn(4)[3]
+    assert spec.seed == int(nested.generate_state(1, np.uint64)[0])
+    assert len({s.seed for s in specs}) == len(specs)  # every trial its own stream
+    # adding a value at the END of an axis leaves the existing trials' seeds unchanged
+    bigger = mc.trial_specs({"mu": [0.0, 2.0, -1.0, 7.0], "sigma": [0.5, 1.0]}, trials=4, seed=123)
+    by_key = {s.spawn_key: s.seed for s in bigger}
+    assert all(by_key[s.spawn_key] == s.seed for s in specs)
+
+
+def test_shared_seed_axes_give_the_same_data_to_every_setting_along_them():
+    specs = mc.trial_specs(GRID, trials=2, seed=5, shared_seed_axes=("sigma",))
+    seeds = {}
+    for s in specs:
+        seeds.setdefault((s.settings["mu"], s.trial), set()).add(s.seed)
+    assert all(len(v) == 1 for v in seeds.values())
+    assert len({next(iter(v)) for v in seeds.values()}) == 3 * 2
+
+
+def test_mapping_valued_axis_merges_its_keys_into_the_settings():
+    variants = [{"method": "a", "window": 0.1}, {"method": "b", "forgetting": 0.9}]
+    specs = mc.trial_specs({"snr": [1, 2], "est": variants}, trials=1, seed=0)
+    assert specs[1].settings == {"snr": 1, "method": "b", "forgetting": 0.9}
+
+
+# --------------------------------------------------------------------------- results and backends
+def test_serial_sweep_statistics_match_the_distribution():
+    res = mc.run_sweep(toy_trial, GRID, trials=40, seed=1, scheduler="serial", progress=False)
+    assert res.success and len(res.rows) == 240
+    assert res.columns[:6] == ("index", "mu", "sigma", "trial", "seed", "spawn_key")
+    assert res.columns[-2:] == ("status", "message")
+    for cell in res.summarize():
+        stats = cell["mean"]
+        # mean of 40 sample means of 200 draws: standard error sigma / sqrt(8000)
+        assert abs(stats["mean"] - cell["mu"]) < 4 * cell["sigma"] / math.sqrt(8000)
+        assert cell["std"]["median"] == pytest.approx(cell["sigma"], rel=0.05)
+        assert cell["n"] == cell["n_ok"] == 40
+        assert "label" not in cell  # text outputs are not summarised
+
+
+def test_local_pool_and_dask_give_identical_tables(dask_client):
+    serial = mc.run_sweep(toy_trial, GRID, trials=5, seed=9, scheduler="serial", progress=False)
+    pool = mc.run_sweep(
+        toy_trial, GRID, trials=5, seed=9, scheduler="local", workers=2, progress=False
+    )
+    dask = mc.run_sweep(
+        toy_trial, GRID, trials=5, seed=9, scheduler=dask_client, chunksize=3, progress=False
+    )
+    assert "process pool" in pool.backend and "dask" in dask.backend
+    assert serial.to_csv_text() == pool.to_csv_text() == dask.to_csv_text()
+    assert _strip(serial.rows) == _strip(dask.rows)
+
+
+def test_same_seed_same_bits_other_seed_other_bits():
+    a = mc.run_sweep(toy_trial, GRID, trials=3, seed=4, scheduler="serial", progress=False)
+    b = mc.run_sweep(toy_trial, GRID, trials=3, seed=4, scheduler="serial", progress=False)
+    c = mc.run_sweep(toy_trial, GRID, trials=3, seed=5, scheduler="serial", progress=False)
+    assert a.to_csv_text() == b.to_csv_text()
+    assert np.array_equal(a.column("mean"), b.column("mean"))
+    assert not np.any(a.column("mean") == c.column("mean"))
+
+
+def test_a_trial_that_raises_is_recorded_not_fatal():
+    res = mc.run_sweep(
+        failing_trial,
+        GRID,
+        trials=2,
+        seed=0,
+        scheduler="local",
+        workers=2,
+        chunksize=1,
+        progress=False,
+    )
+    bad = [r for r in res.rows if r["status"] != "ok"]
+    assert len(res.rows) == 12 and len(bad) == 2
+    assert all(r["mu"] == 2.0 and r["sigma"] == 1.0 for r in bad)
+    assert all(r["message"] == "FloatingPointError: made to fail for this cell" for r in bad)
+    assert all(r["mean"] is None for r in bad)
+    assert not res.success and "2 not ok" in res.message
+    ok = [r for r in res.rows if r["status"] == "ok"]
+    assert all(np.isfinite(r["mean"]) for r in ok)
+
+
+def test_a_trial_may_report_its_own_status():
+    res = mc.run_sweep(
+        soft_failing_trial, GRID, trials=1, seed=0, scheduler="serial", progress=False
+    )
+    assert res.status_counts() == {"ok": 4, "estimator-failed": 2}
+    cell = [c for c in res.summarize() if c["mu"] == -1.0][0]
+    assert cell["n"] == 1 and cell["n_ok"] == 0 and "mean" not in cell
+
+
+def test_a_killed_dask_worker_costs_no_trial(dask_client, tmp_path):
+    flag = tmp_path / "killed.flag"
+    grid = {**GRID, "flag": [str(flag)]}
+    res = mc.run_sweep(
+        killing_trial, grid, trials=2, seed=3, scheduler=dask_client, chunksize=2, progress=False
+    )
+    assert flag.exists(), "the trial did not kill its worker: the test would prove nothing"
+    assert res.success and len(res.rows) == 12
+    ref = mc.run_sweep(toy_trial, grid, trials=2, seed=3, scheduler="serial", progress=False)
+    assert res.column("mean").tolist() == ref.column("mean").tolist()
+
+
+def test_a_crashed_local_pool_worker_is_restarted(tmp_path):
+    flag = tmp_path / "killed.flag"
+    grid = {**GRID, "flag": [str(flag)]}
+    res = mc.run_sweep(
+        killing_trial,
+        grid,
+        trials=2,
+        seed=3,
+        scheduler="local",
+        workers=2,
+        chunksize=2,
+        progress=False,
+    )
+    assert flag.exists() and res.success and len(res.rows) == 12
+    ref = mc.run_sweep(toy_trial, grid, trials=2, seed=3, scheduler="serial", progress=False)
+    assert res.to_csv_text() == ref.to_csv_text()
+
+
+def test_progress_bar_goes_to_stderr(capsys):
+    mc.run_sweep(toy_trial, GRID, trials=2, seed=0, scheduler="serial", progress=True, label="toy")
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert "toy [" in captured.err and "12/12 trials" in captured.err
+
+
+# --------------------------------------------------------------------------- output files
+def test_write_sweep_outputs_round_trip(tmp_path):
+    res = mc.run_sweep(failing_trial, GRID, trials=3, seed=2, scheduler="serial", progress=False)
+    paths = res.write(tmp_path / "out")
+    rows = mc.read_table(paths["csv"])
+    assert len(rows) == 18
+    for back, orig in zip(rows, res.rows, strict=True):
+        assert back["seed"] == orig["seed"] and back["status"] == orig["status"]
+        if orig["status"] == "ok":
+            assert back["mean"] == orig["mean"]  # floats are written exactly
+    doc = json.loads(paths["summary"].read_text())  # strict JSON (NaN would fail allow_nan=False)
+    assert doc["status_counts"] == {"ok": 15, "error": 3}
+    cell = doc["cells"][0]
+    means = [r["mean"] for r in res.rows if r["mu"] == 0.0 and r["sigma"] == 0.5]
+    assert cell["mean"]["mean"] == pytest.approx(np.mean(means), rel=1e-14)
+    assert cell["mean"]["std"] == pytest.approx(np.std(means, ddof=1), rel=1e-12)
+    leftovers = [p.name for p in (tmp_path / "out").iterdir() if p.name.endswith(".tmp")]
+    assert leftovers == []
+
+
+def test_atomic_write_leaves_no_partial_file_when_interrupted(tmp_path):
+    target = tmp_path / "trials.csv"
+
+    def boom(fh):
+        fh.write("index,mu\n0,1.0\n")
+        raise KeyboardInterrupt  # interrupted half-way
+
+    with pytest.raises(KeyboardInterrupt):
+        mc.atomic_write(target, boom)
+    assert not target.exists() and list(tmp_path.iterdir()) == []
+    target.write_text("old complete table\n")
+    with pytest.raises(KeyboardInterrupt):
+        mc.atomic_write(target, boom)
+    assert target.read_text() == "old complete table\n"  # the previous file survives intact
+    assert [p.name for p in tmp_path.iterdir()] == ["trials.csv"]
+
+
+def test_summary_medians_of_convergence_times_are_censored():
+    rows_times = [0.1, 0.2, math.nan, math.nan, math.nan]
+
+    def timing_trial(settings, seed):
+        return {"t_conv": rows_times[settings["k"]]}
+
+    res = mc.run_sweep(
+        timing_trial,
+        {"k": [0, 1, 2, 3, 4]},
+        trials=1,
+        scheduler="serial",
+        censored_columns=("t_conv",),
+        progress=False,
+    )
+    assert res.column("t_conv")[:2].tolist() == [0.1, 0.2]
+    cells = res.summarize()
+    assert cells[0]["t_conv"]["converged_fraction"] == 1.0
+    assert math.isnan(cells[2]["t_conv"]["median_censored"])
+
+
+# --------------------------------------------------------------------------- errors
+def test_missing_dask_gives_install_hint(monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed -> ImportError
+    with pytest.raises(mc.MissingDependencyError, match=r"pip install physid\[dask\]"):
+        mc.run_sweep(toy_trial, GRID, scheduler="local:2", progress=False)
+
+
+def test_bad_arguments_raise_clear_errors():
+    with pytest.raises(InputError, match="'local:N' needs a worker count"):
+        mc.parse_scheduler("local:zero")
+    with pytest.raises(InputError, match="scheduler must be 'local', 'serial'"):
+        mc.parse_scheduler("cluster")
+    with pytest.raises(InputError, match="grid axis 'mu' must be a list of values"):
+        mc.trial_specs({"mu": 1.0}, trials=1)
+    with pytest.raises(InputError, match="grid axis 'mu' is empty"):
+        mc.trial_specs({"mu": []}, trials=1)
+    with pytest.raises(InputError, match="trials must be an integer >= 1"):
+        mc.trial_specs(GRID, trials=0)
+    with pytest.raises(InputError, match="seed must be a non-negative integer"):
+        mc.trial_specs(GRID, trials=1, seed=-3)
+    with pytest.raises(InputError, match="shared_seed_axes names unknown axes"):
+        mc.trial_specs(GRID, trials=1, shared_seed_axes=("snr",))
+    with pytest.raises(InputError, match="workers must be an integer >= 1"):
+        mc.run_sweep(toy_trial, GRID, workers=0)
+    with pytest.raises(InputError, match="applies to scheduler='local' only"):
+        mc.run_sweep(toy_trial, GRID, scheduler="serial", workers=2)
+    with pytest.raises(InputError, match="cannot be sent to worker processes"):
+        mc.run_sweep(lambda s, seed: {}, GRID, trials=5, scheduler="local", workers=2)
+    with pytest.raises(InputError, match="no column 'nope'"):
+        mc.run_sweep(toy_trial, GRID, scheduler="serial", progress=False).column("nope")
