@@ -317,7 +317,7 @@ def build_regression(
                 f"prefilter='differential' provides derivatives up to order 2; this model needs "
                 f"order {highest}. Use prefilter='butterworth'."
             )
-        from ..filters.differential import design_filter
+        from ..filters import design_filter_bank
 
         cutoff = (
             default_prefilter_cutoff(dt, _model_frequency(spec))
@@ -327,10 +327,9 @@ def build_regression(
         omega = 2 * np.pi * cutoff * dt  # [rad/sample]
         half = max(highest + 1, int(round(4 * np.pi / omega)))  # ≈ 2 main-lobe widths of the kernel
         sig = np.column_stack([y, u])
-        parts = [
-            design_filter(kind, half, omega, dt).apply(sig)
-            for kind in ("lowpass", "first", "second")[: highest + 1]
-        ]
+        # consistent bank: F_k = s^k F0 in the pass band, so the pre-filter adds no bias
+        bank = design_filter_bank(half, omega, dt, design="consistent")
+        parts = [f.apply(sig) for f in bank[: highest + 1]]
         yd = np.stack([p[:, 0] for p in parts], axis=-1)
         ud = np.stack([p[:, 1] for p in parts], axis=-1)
         skip = half if discard is None else max(int(discard), half)

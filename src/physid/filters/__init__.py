@@ -6,16 +6,20 @@ returns the low-passed signal and both derivatives, aligned on the same output t
 """
 
 from .differential import (
+    BANK_DESIGNS,
     KINDS,
     DifferentialFilter,
     FilteredDerivatives,
     design_filter,
+    design_filter_bank,
     filter_derivatives,
     harris_window,
     ideal_impulse_response,
 )
 
 __all__ = [
+    "BANK_DESIGNS",
+    "design_filter_bank",
     "KINDS",
     "DifferentialFilter",
     "FilteredDerivatives",

@@ -1,0 +1,177 @@
+"""``physid identify`` (physid.cli.verb_identify)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from physid.cli import main
+from physid.signals import Recording, save_recording
+from physid.simulate.closed_loop import paper_manipulator_experiment
+
+TOML = Path(__file__).resolve().parents[1] / "examples" / "models" / "manipulator.toml"
+PAPER_INITIAL = "m1=50.1,m2=25.1,m3=15.1,m4=5.1,l1=0.41,l2=0.79,l3=0.59,l4=0.19"
+TRUTH = {"m1": 50.0, "m2": 25.0, "m3": 15.0, "m4": 5.0, "l1": 0.4, "l2": 0.8, "l3": 0.6, "l4": 0.2}
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """The paper's experiment (paper kinetic energy) as CSV, and a copy without torques/metadata."""
+    folder = tmp_path_factory.mktemp("identify")
+    rec = paper_manipulator_experiment(kinetic="paper")
+    full = folder / "arm.csv"
+    save_recording(rec, full)
+    names = ["q1", "q2", "q3", "q4", "r1", "r2", "r3", "r4"]
+    bare = folder / "bare.csv"
+    save_recording(Recording(rec.t, rec.select(names), names), bare)
+    return full, bare
+
+
+def run_json(capsys, argv):
+    code = main(argv + ["--json"])
+    captured = capsys.readouterr()
+    return code, json.loads(captured.out), captured.err
+
+
+def test_json_output_reproduces_the_paper(files, capsys):
+    code, out, err = run_json(
+        capsys,
+        [
+            "identify",
+            str(files[0]),
+            "--model",
+            "manipulator",
+            "--kinetic",
+            "paper",
+            "--torque",
+            "pd",
+            "--derivatives",
+            "paper",
+            "--initial",
+            PAPER_INITIAL,
+        ],
+    )
+    assert code == 0
+    for key in (
+        "parameters",
+        "stderr",
+        "cost",
+        "nfev",
+        "njev",
+        "success",
+        "message",
+        "unidentifiable",
+        "fixed",
+    ):
+        assert key in out
+    assert out["success"] is True
+    assert out["unidentifiable"] == ["m1*l1**2"]
+    assert out["fixed"] == {"l1": 0.41}
+    assert out["stderr"]["l1"] is None  # held: not estimated
+    assert out["cost"] == pytest.approx(0.0223076, rel=0.10)  # the paper's J
+    for name in ("m2", "m3", "m4", "l2", "l3", "l4"):
+        assert out["parameters"][name] == pytest.approx(TRUTH[name], rel=1e-3)
+    assert "m1 and l1 enter only as m1*l1**2" in err  # the warning goes to stderr
+
+
+def test_fix_and_measured_torque(files, capsys):
+    code, out, err = run_json(
+        capsys,
+        [
+            "identify",
+            str(files[0]),
+            "--model",
+            "manipulator",
+            "--kinetic",
+            "paper",
+            "--fix",
+            "l1=0.4",
+            "--half-width",
+            "100",
+            "--cutoff",
+            "0.2",
+            "--start",
+            "linear",
+        ],
+    )
+    assert code == 0
+    assert out["fixed"] == {"l1": 0.4}
+    assert "enter only as" not in err
+    assert out["parameters"]["m1"] == pytest.approx(50.0, rel=0.04)  # the paper filter's ~3 % bias
+
+
+def test_toml_model_file_matches_builtin(files, capsys):
+    common = [
+        "--kinetic",
+        "paper",
+        "--start",
+        "linear",
+        "--torque",
+        "pd",
+        "--kp",
+        "3800,40000,10000,500",
+        "--kd",
+        "159.5,120,50,2",
+    ]
+    code, from_file, _ = run_json(
+        capsys, ["identify", str(files[0]), "--model", str(TOML)] + common
+    )
+    assert code == 0
+    code, builtin, _ = run_json(
+        capsys, ["identify", str(files[0]), "--model", "manipulator"] + common
+    )
+    for name, value in builtin["parameters"].items():
+        assert from_file["parameters"][name] == pytest.approx(value, rel=1e-8), name
+
+
+def test_text_output(files, capsys):
+    assert (
+        main(
+            [
+                "identify",
+                str(files[0]),
+                "--model",
+                "manipulator",
+                "--kinetic",
+                "paper",
+                "--start",
+                "linear",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "InputErrorResult: success" in out and "m1*l1**2 = " in out
+
+
+def test_missing_torques_is_a_clear_error(files, capsys):
+    assert main(["identify", str(files[1]), "--model", "manipulator"]) == 2
+    err = capsys.readouterr().err
+    assert "physid: error:" in err and "lacks ['tau1', 'tau2', 'tau3', 'tau4']" in err
+
+
+def test_pd_without_gains_is_a_clear_error(files, capsys):
+    assert main(["identify", str(files[1]), "--model", "manipulator", "--torque", "pd"]) == 2
+    assert "needs the kp gains" in capsys.readouterr().err
+
+
+def test_bad_assignment_is_a_clear_error(files, capsys):
+    assert main(["identify", str(files[0]), "--model", "manipulator", "--fix", "l1"]) == 2
+    assert "--fix expects NAME=VALUE" in capsys.readouterr().err
+
+
+def test_default_consistent_filters_meet_the_target_and_shrink_J(files, capsys):
+    """Default filters: every identifiable quantity within 0.1 %, J far below the paper's."""
+    code, out, _ = run_json(
+        capsys,
+        ["identify", str(files[0]), "--model", "manipulator", "--kinetic", "paper",
+         "--torque", "pd", "--initial", PAPER_INITIAL],
+    )
+    assert code == 0 and out["derivatives"] == "consistent"
+    truth = {"m2": 25.0, "m3": 15.0, "m4": 5.0, "l2": 0.8, "l3": 0.6, "l4": 0.2}
+    for name, value in truth.items():
+        assert out["parameters"][name] == pytest.approx(value, rel=1e-3), name
+    assert out["combinations"]["m1*l1**2"] == pytest.approx(50 * 0.4**2, rel=1e-3)
+    assert out["cost"] < 0.01 * 0.0223076  # the paper's J is mostly filter inconsistency
