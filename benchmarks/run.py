@@ -69,18 +69,35 @@ def main(argv=None) -> int:
         for r in mod_rows:
             r.setdefault("benchmark", name)
         rows.extend(mod_rows)
-        print(f"[bench] {name} done in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
+        print(
+            f"[bench] {name} done in {time.perf_counter() - start:.1f} s",
+            file=sys.stderr,
+            flush=True,
+        )
     if args.json:
         json.dump(rows, sys.stdout, indent=2, default=str)
         print()
     else:
-        cols = ["benchmark", "case", "value", "unit", "baseline", "baseline_value", "ratio", "goal", "met"]
+        cols = [
+            "benchmark",
+            "case",
+            "value",
+            "unit",
+            "baseline",
+            "baseline_value",
+            "ratio",
+            "goal",
+            "met",
+        ]
         table = [[_fmt(r.get(c)) for c in cols] for r in rows]
-        widths = [max(len(c), *(len(row[i]) for row in table)) if table else len(c) for i, c in enumerate(cols)]
-        print("  ".join(c.ljust(w) for c, w in zip(cols, widths)))
+        widths = [
+            max(len(c), *(len(row[i]) for row in table)) if table else len(c)
+            for i, c in enumerate(cols)
+        ]
+        print("  ".join(c.ljust(w) for c, w in zip(cols, widths, strict=True)))
         print("  ".join("-" * w for w in widths))
         for row in table:
-            print("  ".join(v.ljust(w) for v, w in zip(row, widths)))
+            print("  ".join(v.ljust(w) for v, w in zip(row, widths, strict=True)))
     if failed:
         print("benchmarks that failed to run:\n  " + "\n  ".join(failed), file=sys.stderr)
         return 1

@@ -32,7 +32,9 @@ def as_1d(x, name: str, *, dtype=float) -> np.ndarray:
     try:
         arr = np.array(x, dtype=dtype, copy=True)
     except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be numeric; could not convert it to numbers ({exc}).") from None
+        raise InputError(
+            f"{name} must be numeric; could not convert it to numbers ({exc})."
+        ) from None
     if arr.ndim == 0:
         arr = arr.reshape(1)
     if arr.ndim != 1:
@@ -48,12 +50,15 @@ def as_2d(x, name: str, *, n_channels: int | None = None, dtype=float) -> np.nda
     try:
         arr = np.array(x, dtype=dtype, copy=True)
     except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be numeric; could not convert it to numbers ({exc}).") from None
+        raise InputError(
+            f"{name} must be numeric; could not convert it to numbers ({exc})."
+        ) from None
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2:
         raise ShapeError(
-            f"{name} must have shape (n_samples, n_channels) or (n_samples,); got shape {arr.shape}."
+            f"{name} must have shape (n_samples, n_channels) or (n_samples,); "
+            f"got shape {arr.shape}."
         )
     if n_channels is not None and arr.shape[1] != n_channels:
         raise ShapeError(
@@ -78,7 +83,7 @@ def check_finite(arr: np.ndarray, name: str, channel_names: Sequence[str] | None
 
 
 def check_time(t, name: str = "t", *, min_samples: int = 2) -> np.ndarray:
-    """Validate a time vector [s]: 1-D, finite, strictly increasing, at least ``min_samples`` long."""
+    """Validate a time vector [s]: 1-D, finite, strictly increasing, >= ``min_samples`` long."""
     t = as_1d(t, name)
     check_finite(t[:, None], name)
     if t.size < min_samples:
@@ -101,7 +106,9 @@ def sample_period(t: np.ndarray, name: str = "t", *, rtol: float = UNIFORM_RTOL)
     """
     t = np.asarray(t, dtype=float)
     if t.size < 2:
-        raise SamplingError(f"{name} needs at least 2 samples to define a sample period; got {t.size}.")
+        raise SamplingError(
+            f"{name} needs at least 2 samples to define a sample period; got {t.size}."
+        )
     n = t.size
     period = (t[-1] - t[0]) / (n - 1)
     deviation = np.abs(np.diff(t) - period)
@@ -109,8 +116,9 @@ def sample_period(t: np.ndarray, name: str = "t", *, rtol: float = UNIFORM_RTOL)
     if worst > rtol * period:
         i = int(deviation.argmax())
         raise SamplingError(
-            f"{name} is not uniformly sampled: the interval after sample {i} is {t[i + 1] - t[i]:.6g} s "
-            f"against a mean period of {period:.6g} s (worst relative deviation {worst / period:.3g}, "
+            f"{name} is not uniformly sampled: the interval after sample {i} is "
+            f"{t[i + 1] - t[i]:.6g} s against a mean period of {period:.6g} s "
+            f"(worst relative deviation {worst / period:.3g}, "
             f"tolerance {rtol:g}). Resample onto a uniform grid first (e.g. load_recording(..., "
             f"resample=True) or Recording.resample())."
         )
@@ -122,7 +130,9 @@ def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number; got {value!r} of type {type(value).__name__}.") from None
+        raise InputError(
+            f"{name} must be a number; got {value!r} of type {type(value).__name__}."
+        ) from None
     ok = np.isfinite(v) and (v >= 0 if allow_zero else v > 0)
     if not ok:
         rule = ">= 0" if allow_zero else "> 0"
@@ -130,12 +140,16 @@ def check_positive(value, name: str, *, allow_zero: bool = False) -> float:
     return v
 
 
-def check_in_range(value, name: str, low: float, high: float, *, low_open=False, high_open=False) -> float:
+def check_in_range(
+    value, name: str, low: float, high: float, *, low_open=False, high_open=False
+) -> float:
     """Return ``value`` as float if it lies in the interval, else raise `InputError`."""
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name} must be a number; got {value!r} of type {type(value).__name__}.") from None
+        raise InputError(
+            f"{name} must be a number; got {value!r} of type {type(value).__name__}."
+        ) from None
     lo_ok = v > low if low_open else v >= low
     hi_ok = v < high if high_open else v <= high
     if not (np.isfinite(v) and lo_ok and hi_ok):

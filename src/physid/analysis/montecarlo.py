@@ -67,7 +67,6 @@ from ..estimators.results import ResultMixin, jsonable
 from . import metrics
 
 __all__ = [
-    "MissingDependencyError",
     "TrialSpec",
     "SweepResult",
     "trial_specs",

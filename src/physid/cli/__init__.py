@@ -39,7 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
             "Identify physical parameters (masses, lengths, stiffness, damping, natural frequency) "
             "of mechanical systems from measured motion and force signals."
         ),
-        epilog="Run 'physid VERB --help' for the options of each verb. Docs: docs/ in the repository.",
+        epilog="Run 'physid VERB --help' for the options of each verb. Docs: docs/index.md.",
     )
     parser.add_argument("--version", action="version", version=f"physid {__version__}")
     sub = parser.add_subparsers(dest="verb", metavar="VERB")

@@ -17,7 +17,9 @@ def float_list(text: str, option: str) -> list[float]:
     try:
         return [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
-        raise InputError(f"{option} expects comma-separated numbers such as 1,2.5,3; got {text!r}.") from None
+        raise InputError(
+            f"{option} expects comma-separated numbers such as 1,2.5,3; got {text!r}."
+        ) from None
 
 
 def assignments(text: str | None, option: str) -> dict[str, float]:
@@ -30,11 +32,15 @@ def assignments(text: str | None, option: str) -> dict[str, float]:
             continue
         name, sep, value = item.partition("=")
         if not sep:
-            raise InputError(f"{option} expects NAME=VALUE pairs separated by commas; got {item!r}.")
+            raise InputError(
+                f"{option} expects NAME=VALUE pairs separated by commas; got {item!r}."
+            )
         try:
             out[name.strip()] = float(value)
         except ValueError:
-            raise InputError(f"{option}: the value of {name.strip()!r} must be a number; got {value!r}.") from None
+            raise InputError(
+                f"{option}: the value of {name.strip()!r} must be a number; got {value!r}."
+            ) from None
     return out
 
 

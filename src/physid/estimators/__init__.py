@@ -1,1 +1,38 @@
-"""physid.estimators (see docs/architecture.md)."""
+"""Estimators: input-error (inverse model), algebraic sliding window, recursive least squares.
+
+All follow scikit-learn's shape: settings in ``__init__``, ``fit(recording)`` returns the
+estimator, and the fitted result (a frozen dataclass with ``parameters``, ``success``,
+``message``, ``summary()``, ``to_dict()`` and ``plot()``) is in ``result_``.
+"""
+
+from .algebraic import (
+    AlgebraicEstimator,
+    AlgebraicResult,
+    StreamingAlgebraicEstimator,
+    algebraic_estimates,
+)
+from .input_error import FilterWarning, InputErrorEstimator, InputErrorResult
+from .recursive import (
+    RecursiveLeastSquares,
+    RecursiveResult,
+    StreamingRLS,
+    build_regression,
+    rls_update,
+)
+from .results import ResultMixin
+
+__all__ = [
+    "InputErrorEstimator",
+    "InputErrorResult",
+    "FilterWarning",
+    "AlgebraicEstimator",
+    "AlgebraicResult",
+    "StreamingAlgebraicEstimator",
+    "algebraic_estimates",
+    "RecursiveLeastSquares",
+    "RecursiveResult",
+    "StreamingRLS",
+    "rls_update",
+    "build_regression",
+    "ResultMixin",
+]

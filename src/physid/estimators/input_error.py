@@ -43,7 +43,9 @@ import numpy as np
 from scipy import optimize
 
 from .._validate import check_length, check_positive
-from ..analysis.identifiability import (
+from ..errors import DataFileError, IdentifiabilityError, InputError, ShapeError
+from ..filters import design_filter, filter_derivatives
+from ..models.identifiability import (
     NUMERIC_RTOL,
     NumericIdentifiability,
     StructuralIdentifiability,
@@ -53,8 +55,6 @@ from ..analysis.identifiability import (
     structural_identifiability,
     svd_tall,
 )
-from ..errors import DataFileError, IdentifiabilityError, InputError, ShapeError
-from ..filters import design_filter, filter_derivatives
 from .results import ResultMixin
 
 __all__ = [
@@ -434,7 +434,7 @@ class InputErrorEstimator:
     fixed : mapping name -> value, optional
         Parameters to hold at the given values. Each structurally unidentifiable combination that
         ``fixed`` does not touch gets one parameter held at its initial value, with an
-        `~physid.analysis.identifiability.IdentifiabilityWarning`.
+        `~physid.models.identifiability.IdentifiabilityWarning`.
     bounds : mapping name -> (low, high), optional
         Overrides of the default bounds; by default a parameter with a positive initial value is
         kept above ``1e-6`` times it (masses and lengths stay positive), others are free.

@@ -58,7 +58,11 @@ class Recording:
     metadata: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        t = check_time(self.t, "t", min_samples=1) if np.size(self.t) < 2 else check_time(self.t, "t")
+        t = (
+            check_time(self.t, "t", min_samples=1)
+            if np.size(self.t) < 2
+            else check_time(self.t, "t")
+        )
         names = tuple(str(n) for n in self.names)
         data = as_2d(self.data, "data")
         if data.shape[0] != t.size:
@@ -74,7 +78,9 @@ class Recording:
         seen: set[str] = set()
         for n in names:
             if not n or n.strip() != n:
-                raise InputError(f"channel name {n!r} is empty or has surrounding spaces; rename it.")
+                raise InputError(
+                    f"channel name {n!r} is empty or has surrounding spaces; rename it."
+                )
             if n == "t":
                 raise InputError("'t' is reserved for the time vector; rename the channel.")
             if n in seen:
@@ -85,14 +91,18 @@ class Recording:
         if isinstance(units, Mapping):
             unknown = set(units) - set(names)
             if unknown:
-                raise InputError(f"units given for unknown channel(s) {sorted(unknown)}; known: {names}.")
+                raise InputError(
+                    f"units given for unknown channel(s) {sorted(unknown)}; known: {names}."
+                )
             units = tuple(str(units.get(n, "")) for n in names)
         elif len(units) == 0:
             units = ("",) * len(names)
         else:
             units = tuple(str(u) for u in units)
             if len(units) != len(names):
-                raise ShapeError(f"got {len(units)} unit(s) for {len(names)} channel(s); give one per channel.")
+                raise ShapeError(
+                    f"got {len(units)} unit(s) for {len(names)} channel(s); give one per channel."
+                )
         object.__setattr__(self, "t", _frozen(t))
         object.__setattr__(self, "data", _frozen(data))
         object.__setattr__(self, "names", names)
@@ -108,7 +118,7 @@ class Recording:
         units: Mapping[str, str] | None = None,
         metadata: Mapping[str, Any] | None = None,
     ) -> Recording:
-        """Build a recording from ``{name: 1-D array}`` (or ``(n, k)`` arrays named ``name1..namek``).
+        """Build a recording from ``{name: 1-D array}`` (``(n, k)`` arrays become ``name1..namek``).
 
         A 2-D value of shape (n_samples, k) under key ``"q"`` becomes channels ``q1 .. qk``.
         """
@@ -125,7 +135,9 @@ class Recording:
                 cols.append(as_1d(arr, f"column {key!r}"))
         lengths = {c.size for c in cols}
         if len(lengths) > 1:
-            raise ShapeError(f"columns have different lengths {sorted(lengths)}; they must all match t.")
+            raise ShapeError(
+                f"columns have different lengths {sorted(lengths)}; they must all match t."
+            )
         data = np.column_stack(cols) if cols else np.empty((np.size(t), 0))
         unit_map = {}
         for name in names:
@@ -196,7 +208,9 @@ class Recording:
         return out
 
     # ---------------------------------------------------------------- derived recordings
-    def with_channels(self, columns: Mapping[str, Any], units: Mapping[str, str] | None = None) -> Recording:
+    def with_channels(
+        self, columns: Mapping[str, Any], units: Mapping[str, str] | None = None
+    ) -> Recording:
         """Return a new recording with channels added or replaced."""
         names = list(self.names)
         data = [self.data[:, i] for i in range(self.n_channels)]
@@ -204,7 +218,9 @@ class Recording:
         for key, value in columns.items():
             col = as_1d(value, f"column {key!r}")
             if col.size != self.n_samples:
-                raise ShapeError(f"column {key!r} has {col.size} samples; the recording has {self.n_samples}.")
+                raise ShapeError(
+                    f"column {key!r} has {col.size} samples; the recording has {self.n_samples}."
+                )
             unit = (units or {}).get(key, "")
             if key in names:
                 i = names.index(key)
@@ -214,7 +230,9 @@ class Recording:
                 names.append(key)
                 data.append(col)
                 unit_list.append(unit)
-        return Recording(self.t, np.column_stack(data), tuple(names), tuple(unit_list), dict(self.metadata))
+        return Recording(
+            self.t, np.column_stack(data), tuple(names), tuple(unit_list), dict(self.metadata)
+        )
 
     def slice_time(self, start: float | None = None, stop: float | None = None) -> Recording:
         """Return the samples with ``start <= t <= stop`` [s]."""
@@ -225,19 +243,22 @@ class Recording:
             keep &= self.t <= stop
         if not keep.any():
             raise SamplingError(
-                f"no sample lies in [{start}, {stop}] s; the record spans [{self.t[0]}, {self.t[-1]}] s."
+                f"no sample lies in [{start}, {stop}] s; "
+                f"the record spans [{self.t[0]}, {self.t[-1]}] s."
             )
         return Recording(self.t[keep], self.data[keep], self.names, self.units, dict(self.metadata))
 
     def resample(self, dt: float | None = None) -> Recording:
-        """Linearly interpolate onto a uniform grid of period ``dt`` [s] (default: the mean period)."""
+        """Linearly interpolate onto a uniform grid of period ``dt`` [s] (default: mean period)."""
         if dt is None:
             dt = self.duration / (self.n_samples - 1)
         if not (np.isfinite(dt) and dt > 0):
             raise InputError(f"dt must be finite and > 0; got {dt!r}.")
         n = int(np.floor(self.duration / dt + 1e-9)) + 1
         t_new = self.t[0] + dt * np.arange(n)
-        data = np.column_stack([np.interp(t_new, self.t, self.data[:, i]) for i in range(self.n_channels)])
+        data = np.column_stack(
+            [np.interp(t_new, self.t, self.data[:, i]) for i in range(self.n_channels)]
+        )
         meta = dict(self.metadata)
         meta["resampled_from"] = {"n_samples": self.n_samples, "dt": float(dt)}
         return Recording(t_new, data, self.names, self.units, meta)
@@ -248,12 +269,13 @@ class Recording:
         return {
             "t": self.t.tolist(),
             "channels": {n: self[n].tolist() for n in self.names},
-            "units": dict(zip(self.names, self.units)),
+            "units": dict(zip(self.names, self.units, strict=True)),
             "metadata": json.loads(json.dumps(dict(self.metadata), default=str)),
         }
 
     def __repr__(self) -> str:
-        chans = ", ".join(f"{n} [{u}]" if u else n for n, u in zip(self.names, self.units))
+        pairs = zip(self.names, self.units, strict=True)
+        chans = ", ".join(f"{n} [{u}]" if u else n for n, u in pairs)
         span = f"{self.t[0]:.6g}..{self.t[-1]:.6g} s" if self.n_samples else "empty"
         return f"Recording({self.n_samples} samples, {span}; {chans})"
 
