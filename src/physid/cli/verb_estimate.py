@@ -75,9 +75,10 @@ def register(subparsers) -> None:
     )
     alg.add_argument(
         "--final",
-        choices=["median", "lstsq"],
+        choices=["lstsq", "median"],
         default=None,
-        help="final estimate: median of the valid windows (default) or pooled least squares",
+        help="final estimate: pooled least squares over the valid windows (default), or their "
+        "median",
     )
     rls = parser.add_argument_group("rls method")
     rls.add_argument(

@@ -718,6 +718,15 @@ def _make_result(
         if final_rule == "median":
             final = np.median(theta[use], axis=0)
         else:
+            # Screen first: a window whose own estimate lies beyond 5 robust standard deviations
+            # (1.4826 MAD) of the median is an outlier (e.g. it straddles a jump of the input,
+            # where the local interpolant of the exact rule breaks); pooling would let it bias
+            # the result, the median would not.
+            med = np.median(theta[use], axis=0)
+            spread = 1.4826 * np.median(np.abs(theta[use] - med), axis=0)
+            bound = 5.0 * spread + 1e-12 * np.abs(med)
+            close = np.all(np.abs(theta - med) <= bound, axis=1, where=use[:, None])
+            use = use & close
             # pooled least squares over every equation of the used windows (dimensionless
             # unknowns α, then back to SI): Σ AᵀA α = Σ Aᵀ r
             A, rhs = equations
@@ -813,10 +822,12 @@ _SETTINGS_DOC = """
     final_fraction : float in (0, 1]
         The final estimate uses the valid full windows in the trailing ``final_fraction`` of the
         record (1: the whole record).
-    final : {"median", "lstsq"}
-        "median": the median of those windows' estimates (robust to outliers and to a parameter
-        change inside the record); "lstsq": least squares on all their equations pooled
-        (10-30x more accurate on a stationary noisy record, see docs/algebraic.md).
+    final : {"lstsq", "median"}
+        "lstsq" (default): least squares on all their equations pooled, after dropping windows
+        whose own estimate lies beyond 5 robust standard deviations of the median (10-30x more
+        accurate than the median on a stationary noisy record, and half PySINDy's ω0 error or
+        better at 25/50/80 dB, see docs/algebraic.md); "median": the median of those windows'
+        estimates (robust to a parameter change inside the record).
 """
 
 
@@ -857,7 +868,7 @@ def algebraic_estimates(
     expanding: bool = False,
     interpolation_degree: int = DEFAULT_INTERPOLATION_DEGREE,
     final_fraction: float = 1.0,
-    final: str = "median",
+    final: str = "lstsq",
 ) -> AlgebraicResult:
     (
         """Algebraic sliding-window estimates of a linear ODE's coefficients at every sample.
@@ -995,7 +1006,7 @@ class AlgebraicEstimator:
         expanding: bool = False,
         interpolation_degree: int = DEFAULT_INTERPOLATION_DEGREE,
         final_fraction: float = 1.0,
-        final: str = "median",
+        final: str = "lstsq",
     ):
         self.model = model
         self.window = window

@@ -1,0 +1,620 @@
+"""The self-contained HTML report: the objects experiments fill, and the writer.
+
+An experiment returns a list of `ReportSection` objects; `write_report` turns them into three
+outputs in one folder:
+
+``report.html``
+    One file, readable without a server or network: inline CSS, figures embedded as base64 PNG
+    data URIs, no JavaScript, a table of contents and the errata of all sections in one table.
+``results.json``
+    Every section's ``results`` keyed by section title, the errata, and metadata (physid version,
+    date, quick flag). Strict JSON (no NaN: non-finite numbers become ``null``).
+``NAME.png``
+    Each figure, also as a standalone file.
+
+Every number shown in a report table is a cell of a `Table`, and `write_report` also stores each
+table's rows in ``results.json`` (under ``"tables"``), so a test can check that the page and the
+JSON agree.
+
+Example
+-------
+>>> import tempfile, matplotlib.figure
+>>> fig = matplotlib.figure.Figure(figsize=(2, 2)); _ = fig.add_subplot().plot([0, 1], [0, 1])
+>>> sec = ReportSection("A test", paragraphs=("Hello & welcome.",),
+...                     tables=(Table("Values", ("name", "value"), (("k", 2.0),)),),
+...                     figures=(FigureSpec("line", fig, "A line."),), results={"k": 2.0})
+>>> paths = write_report([sec], tempfile.mkdtemp())
+>>> paths.html.name, paths.json.name, [p.name for p in paths.figures]
+('report.html', 'results.json', ['line.png'])
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html as _html
+import io
+import json
+import math
+import os
+import re
+import uuid
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..estimators.results import jsonable
+
+__all__ = [
+    "Html",
+    "ReportSection",
+    "Table",
+    "FigureSpec",
+    "Erratum",
+    "ReportPaths",
+    "format_cell",
+    "write_report",
+]
+
+FIGURE_DPI = 110
+_NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+class Html(str):
+    """A paragraph that is already HTML and is inserted as is (not escaped).
+
+    Use it only for markup you wrote yourself (``<code>``, ``<em>``, links inside the page, a
+    list); everything else in a report is escaped.
+    """
+
+    __slots__ = ()
+
+
+Cell = str | float | int | None
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table shown in a report section.
+
+    Parameters
+    ----------
+    caption : str
+        One line saying what the table shows.
+    columns : sequence of str
+        Column headers.
+    rows : sequence of sequences of cells
+        Each row has one cell per column; a cell is a ``str``, ``int``, ``float`` or ``None``
+        (shown as an em dash). Floats are shown with 6 significant digits (`format_cell`).
+    """
+
+    caption: str
+    columns: Sequence[str]
+    rows: Sequence[Sequence[Cell]]
+
+    def __post_init__(self) -> None:
+        columns = tuple(str(c) for c in self.columns)
+        rows = tuple(tuple(_check_cell(c, self.caption) for c in r) for r in self.rows)
+        for i, row in enumerate(rows):
+            if len(row) != len(columns):
+                raise InputError(
+                    f"Table {self.caption!r}: row {i} has {len(row)} cell(s) but there are "
+                    f"{len(columns)} column(s) {columns}; give one cell per column."
+                )
+        object.__setattr__(self, "columns", columns)
+        object.__setattr__(self, "rows", rows)
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """A matplotlib figure to embed.
+
+    Parameters
+    ----------
+    name : str
+        File stem: letters, digits, ``-`` and ``_`` only; saved as ``NAME.png``. Unique per report.
+    figure : matplotlib.figure.Figure
+        The figure (closed after it is saved).
+    caption : str
+        What the figure shows.
+    """
+
+    name: str
+    figure: Any
+    caption: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _NAME_RE.match(self.name):
+            raise InputError(
+                f"FigureSpec name must use only letters, digits, '-' and '_' (it becomes "
+                f"NAME.png); got {self.name!r}. Rename the figure, e.g. 'fig2_responses'."
+            )
+        if not hasattr(self.figure, "savefig"):
+            raise InputError(
+                f"FigureSpec {self.name!r}: figure must be a matplotlib Figure (something with "
+                f"savefig); got {type(self.figure).__name__}."
+            )
+
+
+@dataclass(frozen=True)
+class Erratum:
+    """A misprint or error found in a paper.
+
+    Parameters
+    ----------
+    paper : str
+        Short citation, e.g. ``"Cedro & Janecki"``.
+    location : str
+        Where in the paper (``"Eq. (12)"``, ``"Table 2, row m1"``).
+    printed : str
+        What the paper prints.
+    correct : str
+        What it should be.
+    evidence : str
+        How we know: a number, a derivation, or the name of a figure in the report.
+    """
+
+    paper: str
+    location: str
+    printed: str
+    correct: str
+    evidence: str
+
+
+@dataclass(frozen=True)
+class ReportSection:
+    """One section of the report, filled by an experiment.
+
+    Parameters
+    ----------
+    title : str
+        Section heading; also its key in ``results.json`` (must be unique in a report).
+    paragraphs : sequence of str or Html
+        Plain text (escaped) or `Html` (inserted as is).
+    tables : sequence of Table
+    figures : sequence of FigureSpec
+    results : mapping
+        The numbers of this section (JSON-ready after `physid.estimators.results.jsonable`).
+    errata : sequence of Erratum
+    """
+
+    title: str
+    paragraphs: Sequence[str] = ()
+    tables: Sequence[Table] = ()
+    figures: Sequence[FigureSpec] = ()
+    results: Mapping[str, Any] = field(default_factory=dict)
+    errata: Sequence[Erratum] = ()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.title, str) or not self.title.strip():
+            raise InputError(f"ReportSection title must be a non-empty string; got {self.title!r}.")
+        if isinstance(self.paragraphs, str):
+            raise InputError(
+                f"ReportSection {self.title!r}: paragraphs must be a sequence of strings, not one "
+                "string; wrap it: paragraphs=(text,)."
+            )
+        for name, kind in (("tables", Table), ("figures", FigureSpec), ("errata", Erratum)):
+            items = tuple(getattr(self, name))
+            for item in items:
+                if not isinstance(item, kind):
+                    raise InputError(
+                        f"ReportSection {self.title!r}: {name} must hold {kind.__name__} objects; "
+                        f"got {type(item).__name__}."
+                    )
+            object.__setattr__(self, name, items)
+        object.__setattr__(self, "paragraphs", tuple(self.paragraphs))
+        if not isinstance(self.results, Mapping):
+            raise InputError(
+                f"ReportSection {self.title!r}: results must be a mapping name -> value; got "
+                f"{type(self.results).__name__}."
+            )
+
+
+@dataclass(frozen=True)
+class ReportPaths:
+    """Where `write_report` put its outputs."""
+
+    html: Path
+    json: Path
+    figures: tuple[Path, ...]
+
+
+def _check_cell(cell: Any, caption: str) -> Cell:
+    if cell is None or isinstance(cell, str):
+        return cell
+    if isinstance(cell, (bool, np.bool_)):
+        return str(bool(cell))
+    if isinstance(cell, (int, np.integer)):
+        return int(cell)
+    if isinstance(cell, (float, np.floating)):
+        return float(cell)
+    raise InputError(
+        f"Table {caption!r}: a cell must be str, int, float or None; got {type(cell).__name__} "
+        f"({cell!r}). Convert it first, e.g. float(x) or str(x)."
+    )
+
+
+def format_cell(cell: Cell) -> str:
+    """The text shown for a table cell.
+
+    Floats get 6 significant digits (``1234.5678 -> '1234.57'``, ``1e-9 -> '1e-09'``), non-finite
+    floats are written ``nan``/``inf``, ``None`` is an em dash, strings and ints are unchanged.
+
+    >>> [format_cell(x) for x in (1234.5678, 3, None, "a", float("nan"))]
+    ['1234.57', '3', '—', 'a', 'nan']
+    """
+    if cell is None:
+        return "—"
+    if isinstance(cell, float):
+        if math.isnan(cell):
+            return "nan"
+        if math.isinf(cell):
+            return "inf" if cell > 0 else "-inf"
+        return f"{cell:.6g}"
+    return str(cell)
+
+
+# --------------------------------------------------------------------------------------------
+# Writing files
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write to a temporary file in the same folder, then rename over ``path`` (atomic).
+
+    The temporary file is created with ``open(..., "xb")`` (not `tempfile.mkstemp`, whose files
+    are private, mode 0600), so the result gets the usual permissions from the umask.
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp")
+    try:
+        with open(tmp, "xb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _figure_png(figure: Any) -> bytes:
+    buf = io.BytesIO()
+    figure.savefig(buf, format="png", dpi=FIGURE_DPI, bbox_inches="tight")
+    try:  # free the memory of pyplot-managed figures; plain Figure objects need nothing
+        import matplotlib.pyplot as plt
+
+        plt.close(figure)
+    except Exception:  # pragma: no cover - a figure pyplot does not know is fine
+        pass
+    return buf.getvalue()
+
+
+def _slug(title: str, used: set[str]) -> str:
+    base = re.sub(r"[^a-z0-9]+", "-", title.lower()).strip("-") or "section"
+    slug, i = base, 2
+    while slug in used:
+        slug, i = f"{base}-{i}", i + 1
+    used.add(slug)
+    return slug
+
+
+# --------------------------------------------------------------------------------------------
+# HTML
+
+_CSS = """
+:root { --fg:#1d2329; --muted:#5b6670; --line:#d5dbe0; --bg:#ffffff; --band:#f4f6f8;
+        --accent:#1f5f99; }
+* { box-sizing: border-box; }
+html { -webkit-text-size-adjust: 100%; }
+body { margin: 0; background: var(--bg); color: var(--fg);
+       font: 16px/1.55 system-ui, -apple-system, "Segoe UI", Roboto, "Helvetica Neue", Arial,
+             sans-serif; }
+main { max-width: 1040px; margin: 0 auto; padding: 1.5rem 1.25rem 4rem; }
+h1 { font-size: 1.9rem; margin: 0.5rem 0 0.25rem; line-height: 1.2; }
+h2 { font-size: 1.4rem; margin: 2.5rem 0 0.75rem; padding-top: 0.75rem;
+     border-top: 2px solid var(--line); line-height: 1.25; }
+h3 { font-size: 1.1rem; margin: 1.5rem 0 0.5rem; }
+p { margin: 0.6rem 0; max-width: 80ch; }
+a { color: var(--accent); }
+code { font-family: ui-monospace, "SFMono-Regular", Menlo, Consolas, monospace;
+       font-size: 0.92em; background: var(--band); padding: 0.05em 0.3em; border-radius: 3px; }
+.meta { color: var(--muted); font-size: 0.92rem; margin: 0 0 1rem; }
+nav.toc { background: var(--band); border: 1px solid var(--line); border-radius: 6px;
+          padding: 0.75rem 1.25rem; margin: 1rem 0 1.5rem; }
+nav.toc h2 { border: 0; margin: 0 0 0.25rem; padding: 0; font-size: 1.05rem; }
+nav.toc ol { margin: 0; padding-left: 1.4rem; }
+.table-wrap { overflow-x: auto; margin: 0.75rem 0 1.25rem; border: 1px solid var(--line);
+              border-radius: 6px; }
+table { border-collapse: collapse; width: 100%; font-size: 0.92rem; }
+caption { caption-side: top; text-align: left; font-weight: 600; padding: 0.5rem 0.75rem; }
+th, td { padding: 0.35rem 0.75rem; border-top: 1px solid var(--line); text-align: left;
+         vertical-align: top; }
+th { background: var(--band); white-space: nowrap; }
+th.num { text-align: right; }
+td:not(.num) { overflow-wrap: anywhere; min-width: 4em; }
+table.errata td:first-child { white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+figure { margin: 1rem 0 1.5rem; }
+figure img { display: block; max-width: 100%; height: auto; margin: 0 auto;
+             border: 1px solid var(--line); border-radius: 4px; }
+figcaption { color: var(--muted); font-size: 0.92rem; margin-top: 0.4rem; }
+footer { margin-top: 3rem; color: var(--muted); font-size: 0.85rem; }
+@media (max-width: 600px) { body { font-size: 15px; } main { padding: 1rem 0.75rem 3rem; } }
+@media print { nav.toc { display: none; } h2 { break-after: avoid; }
+               figure { break-inside: avoid; } }
+"""
+
+
+def _esc(text: Any) -> str:
+    return _html.escape(str(text), quote=True)
+
+
+def _paragraph(p: str) -> str:
+    if isinstance(p, Html):
+        body = str(p)
+        # Block-level HTML (a list, a pre) is inserted without a <p> around it.
+        if re.match(r"\s*<(ul|ol|pre|div|table|dl|blockquote)\b", body):
+            return body
+        return f"<p>{body}</p>"
+    return f"<p>{_esc(p)}</p>"
+
+
+def _table_html(table: Table, css_class: str = "") -> str:
+    opening = f'<table class="{css_class}">' if css_class else "<table>"
+    out = ['<div class="table-wrap">' + opening, f"<caption>{_esc(table.caption)}</caption>"]
+    numeric = [
+        any(isinstance(r[j], (int, float)) for r in table.rows)
+        and all(r[j] is None or isinstance(r[j], (int, float)) for r in table.rows)
+        for j in range(len(table.columns))
+    ]
+    out.append(
+        "<thead><tr>"
+        + "".join(
+            ('<th scope="col" class="num">' if is_num else '<th scope="col">') + f"{_esc(c)}</th>"
+            for c, is_num in zip(table.columns, numeric, strict=True)
+        )
+        + "</tr></thead><tbody>"
+    )
+    for row in table.rows:
+        cells = []
+        for cell in row:
+            cls = ' class="num"' if isinstance(cell, (int, float)) else ""
+            cells.append(f"<td{cls}>{_esc(format_cell(cell))}</td>")
+        out.append("<tr>" + "".join(cells) + "</tr>")
+    out.append("</tbody></table></div>")
+    return "\n".join(out)
+
+
+def _figure_html(name: str, png: bytes, caption: str) -> str:
+    data = base64.b64encode(png).decode("ascii")
+    alt = caption or name
+    return (
+        f'<figure id="fig-{_esc(name)}"><img src="data:image/png;base64,{data}" '
+        f'alt="{_esc(alt)}" data-name="{_esc(name)}" loading="eager">'
+        f"<figcaption><strong>{_esc(name)}.png</strong> — {_esc(caption)}</figcaption></figure>"
+    )
+
+
+def errata_table(errata: Iterable[Erratum]) -> Table | None:
+    """One table of errata grouped by paper (paper order of first appearance); None if empty."""
+    errata = list(errata)
+    if not errata:
+        return None
+    papers: list[str] = []
+    for e in errata:
+        if e.paper not in papers:
+            papers.append(e.paper)
+    rows = [
+        (e.paper, e.location, e.printed, e.correct, e.evidence)
+        for paper in papers
+        for e in errata
+        if e.paper == paper
+    ]
+    return Table(
+        "Errata found in the papers (grouped by paper)",
+        ("paper", "where", "printed", "correct", "evidence"),
+        rows,
+    )
+
+
+def _check_sections(sections: Sequence[ReportSection]) -> None:
+    titles: set[str] = set()
+    names: set[str] = set()
+    for s in sections:
+        if not isinstance(s, ReportSection):
+            raise InputError(
+                f"write_report expects ReportSection objects; got {type(s).__name__}. Build "
+                "sections with physid.report.html.ReportSection(title, ...)."
+            )
+        if s.title in titles:
+            raise InputError(
+                f"two report sections are titled {s.title!r}; titles key results.json, so make "
+                "them unique."
+            )
+        titles.add(s.title)
+        try:
+            json.dumps(jsonable(dict(s.results)), allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise InputError(
+                f"the results of section {s.title!r} cannot be written as JSON ({exc}); give "
+                "numbers, strings, booleans, None, lists, dicts or numpy arrays."
+            ) from None
+        for f in s.figures:
+            if f.name in names:
+                raise InputError(
+                    f"two figures are named {f.name!r} (section {s.title!r}); figure names become "
+                    "file names, so make them unique."
+                )
+            names.add(f.name)
+
+
+def write_report(
+    sections: Sequence[ReportSection],
+    out_dir: str | os.PathLike,
+    title: str = "physid report",
+    intro: str | Sequence[str] | None = None,
+    *,
+    errata_after: int = 0,
+    metadata: Mapping[str, Any] | None = None,
+    quick: bool | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> ReportPaths:
+    """Write ``report.html``, ``results.json`` and one PNG per figure into ``out_dir``.
+
+    Parameters
+    ----------
+    sections : sequence of ReportSection
+        In display order. Titles and figure names must be unique.
+    out_dir : path
+        Created if missing. Existing files of the same names are replaced atomically.
+    title : str
+        Page title and top heading.
+    intro : str, Html or sequence of them, optional
+        Paragraphs shown under the title, before the table of contents.
+    errata_after : int
+        How many sections come before the aggregated errata section (0: right after the table
+        of contents; 1: after an introductory section).
+    metadata : mapping, optional
+        Extra JSON-ready metadata merged into ``results.json["metadata"]``.
+    quick : bool, optional
+        Recorded in the metadata (whether the report came from a quick run).
+    progress : callable, optional
+        Called with a short message per figure written.
+
+    Returns
+    -------
+    ReportPaths
+        ``html``, ``json`` and ``figures`` (PNG paths, in report order).
+
+    Raises
+    ------
+    InputError
+        A section is not a `ReportSection`, or titles or figure names repeat.
+
+    Notes
+    -----
+    The errata of all sections are collected, grouped by paper, into one table in the section
+    "Errata found in the papers", placed after the first ``errata_after`` sections. Figures are
+    closed after saving.
+    """
+    from .. import __version__
+
+    sections = list(sections)
+    _check_sections(sections)
+    if isinstance(errata_after, bool) or not isinstance(errata_after, int) or not (
+        0 <= errata_after <= len(sections)
+    ):
+        raise InputError(
+            f"errata_after must be an int between 0 and the number of sections "
+            f"({len(sections)}); got {errata_after!r}."
+        )
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+
+    used: set[str] = {"errata", "toc"}
+    slugs = [_slug(s.title, used) for s in sections]
+    all_errata = [e for s in sections for e in s.errata]
+    errata_tab = errata_table(all_errata)
+    created = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
+
+    # Figures first: PNG files and their bytes for embedding.
+    figure_paths: list[Path] = []
+    pngs: dict[str, bytes] = {}
+    for s in sections:
+        for f in s.figures:
+            png = _figure_png(f.figure)
+            path = out / f"{f.name}.png"
+            _atomic_write_bytes(path, png)
+            figure_paths.append(path)
+            pngs[f.name] = png
+            if progress:
+                progress(f"report: wrote {path.name}")
+
+    # results.json
+    meta = {
+        "physid_version": __version__,
+        "created": created.isoformat(),
+        "quick": quick,
+        "title": title,
+        "figures": [p.name for p in figure_paths],
+    }
+    if metadata:
+        meta.update(dict(metadata))
+    payload = {
+        "metadata": meta,
+        "results": {s.title: dict(s.results) for s in sections},
+        "tables": {
+            s.title: [{"caption": t.caption, "columns": list(t.columns),
+                       "rows": [list(r) for r in t.rows]} for t in s.tables]
+            for s in sections
+        },
+        "errata": [e for e in all_errata],
+    }
+    text = json.dumps(jsonable(payload), indent=2, allow_nan=False, ensure_ascii=False)
+    json_path = out / "results.json"
+    _atomic_write_bytes(json_path, (text + "\n").encode("utf-8"))
+
+    # report.html
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f'<meta name="generator" content="physid {_esc(__version__)}">',
+        f"<title>{_esc(title)}</title>",
+        f"<style>{_CSS}</style>",
+        "</head>",
+        "<body>",
+        "<main>",
+        f"<header><h1>{_esc(title)}</h1>",
+        f'<p class="meta">physid {_esc(__version__)} · generated {_esc(created.isoformat())}'
+        + ("" if quick is None else f" · {'quick run' if quick else 'full run'}")
+        + " · numbers also in <code>results.json</code></p></header>",
+    ]
+    if intro is not None:
+        intros = [intro] if isinstance(intro, str) else list(intro)
+        parts.extend(_paragraph(p) for p in intros)
+    errata_entry = '<li><a href="#errata">Errata found in the papers</a></li>'
+    toc = ['<nav class="toc" id="toc"><h2>Contents</h2><ol>']
+    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i == errata_after and errata_tab is not None:
+            toc.append(errata_entry)
+        toc.append(f'<li><a href="#{slug}">{_esc(s.title)}</a></li>')
+    if errata_after == len(sections) and errata_tab is not None:
+        toc.append(errata_entry)
+    toc.append("</ol></nav>")
+    parts.extend(toc)
+
+    def errata_html() -> list[str]:
+        if errata_tab is None:
+            return []
+        return [
+            '<section id="errata"><h2>Errata found in the papers</h2>',
+            f"<p>{len(all_errata)} misprint(s) or error(s), each with the evidence; the "
+            "sections below show the details.</p>",
+            _table_html(errata_tab, "errata"),
+            "</section>",
+        ]
+
+    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i == errata_after:
+            parts.extend(errata_html())
+        parts.append(f'<section id="{slug}"><h2>{_esc(s.title)}</h2>')
+        parts.extend(_paragraph(p) for p in s.paragraphs)
+        parts.extend(_table_html(t) for t in s.tables)
+        parts.extend(_figure_html(f.name, pngs[f.name], f.caption) for f in s.figures)
+        parts.append("</section>")
+    if errata_after == len(sections):
+        parts.extend(errata_html())
+    parts.append(
+        f"<footer>Written by physid {_esc(__version__)}. Figures: "
+        f"{len(figure_paths)} PNG file(s) beside this page; all numbers: results.json.</footer>"
+    )
+    parts.extend(["</main>", "</body>", "</html>"])
+    html_path = out / "report.html"
+    _atomic_write_bytes(html_path, ("\n".join(parts) + "\n").encode("utf-8"))
+    return ReportPaths(html=html_path, json=json_path, figures=tuple(figure_paths))

@@ -1,0 +1,86 @@
+"""The manipulator paper reproduction (physid.experiments.manipulator_paper), quick mode."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from physid.experiments import manipulator_paper as exp
+from physid.report.html import ReportSection, write_report
+
+
+@pytest.fixture(scope="module")
+def run_quick():
+    messages: list[str] = []
+    sections = exp.run(quick=True, progress=messages.append)
+    return {s.title: s for s in sections}, messages
+
+
+def test_sections_and_progress(run_quick):
+    sections, messages = run_quick
+    assert list(sections) == list(exp.TITLES.values())
+    assert all(isinstance(s, ReportSection) for s in sections.values())
+    assert messages and all(m.startswith("manipulator: ") for m in messages)
+
+
+def test_identification_against_the_paper(run_quick):
+    res = run_quick[0][exp.TITLES["identification"]].results
+    assert 0.9 < res["J_ratio_to_paper"] < 1.1  # J within 10 % of the paper's 0.0223076
+    errors = res["ours"]["errors_percent"]
+    assert max(abs(errors[n]) for n in exp.SEPARATE) < 0.1
+    # m1·l1²: the same +2.9 % as the paper's own 49.5818·0.407419² = 8.2300
+    assert res["ours"][exp.COMBO] == pytest.approx(res["paper"][exp.COMBO], rel=5e-3)
+    assert max(abs(v) for v in res["ours_consistent_filters"]["errors_percent"].values()) < 0.1
+    # the two implementations of J (residual form and linear-in-β form) agree at the estimate
+    assert res["J_fast_form_at_estimate"] == pytest.approx(res["ours"]["J"], rel=1e-6)
+    assert res["ours"]["nfev"] < 50 < exp.PAPER_RESULT["evaluations"]
+    assert res["nelder_mead"]["nfev"] > 10 * res["ours"]["nfev"]
+
+
+def test_identifiability_valley(run_quick):
+    sec = run_quick[0][exp.TITLES["identifiability"]]
+    res = sec.results
+    assert res["texts"] == ["m1 and l1 enter only as m1*l1**2"]
+    assert res["models_theta_rank"] == 7
+    along = np.array(list(res["J_along_valley"].values()))
+    np.testing.assert_allclose(along, along[0], rtol=1e-9)  # J is flat along m1·l1² = const
+    assert [f.name for f in sec.figures] == ["manipulator_m1_l1_valley"]
+
+
+def test_filter_sweep_meets_exact_target_and_warns_low_cutoff(run_quick):
+    sweep = run_quick[0][exp.TITLES["filters"]].results["sweep"]
+    by = {(c["half_width"], c["cutoff"], c["derivatives"]): c for c in sweep}
+    best = by[(200, 0.6, "consistent")]
+    assert max(abs(v) for v in best["errors_percent"].values()) < 0.05  # issue 5: 0.05 %
+    assert by[(200, 0.2, "paper")]["warned"] and not best["warned"]
+
+
+def test_noise_bias_reported(run_quick):
+    res = run_quick[0][exp.TITLES["noise"]].results
+    assert res["noise_std_rad"] == 1e-4
+    paper_filter = res["M=100, Ω_g=0.2, paper"]
+    noisy = paper_filter["noisy_errors_percent"][0][exp.COMBO]
+    assert abs(noisy) > 5 * abs(
+        paper_filter["clean_errors_percent"][exp.COMBO]
+    )  # errors-in-variables
+    lower = res["M=200, Ω_g=0.1, consistent"]["noisy_errors_percent"][0][exp.COMBO]
+    assert abs(lower) < abs(noisy)  # a lower cut-off amplifies less noise
+
+
+def test_errata_have_evidence(run_quick):
+    errata = [e for s in run_quick[0].values() for e in s.errata]
+    assert len(errata) >= 10
+    assert all(e.paper == "Cedro & Janecki" and e.evidence and e.correct for e in errata)
+    locations = " ".join(e.location for e in errata)
+    for where in ("kinetic energy", "V[k]", "Filtr", "reference signal", "1450", "T1"):
+        assert where in locations or any(where in e.printed for e in errata), where
+
+
+def test_report_writes(run_quick, tmp_path):
+    paths = write_report(list(run_quick[0].values()), tmp_path, "manipulator")
+    assert paths.html.exists()
+    assert len(paths.figures) == 5
+    data = json.loads(paths.json.read_text())
+    assert exp.TITLES["identification"] in json.dumps(data)
