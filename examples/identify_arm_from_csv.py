@@ -28,8 +28,8 @@ import numpy as np
 import physid
 from physid.estimators.input_error import InputErrorEstimator
 from physid.signals import save_recording
-from physid.signals.excitation import filtered_steps
 from physid.simulate import PAPER_MANIPULATOR, simulate_closed_loop, uniform_time
+from physid.simulate.references import filtered_steps
 
 QUICK = os.environ.get("PHYSID_EXAMPLE_QUICK") == "1"
 DURATION = 3.0 if QUICK else 5.0  # [s] of recording

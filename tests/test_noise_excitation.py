@@ -8,7 +8,6 @@ from physid.signals.excitation import (
     Multisine,
     Sinusoid,
     delayed_steps,
-    filtered_steps,
     multisine,
     schroeder_phases,
     sinusoid,
@@ -21,6 +20,7 @@ from physid.signals.noise import (
     sinusoidal_disturbance,
     snr_db,
 )
+from physid.simulate.references import filtered_steps
 
 
 @pytest.mark.parametrize("target", [25.0, 50.0, 80.0])

@@ -20,6 +20,7 @@ from .closed_loop import (
 from .linear import linear_ode_state_space, simulate_linear_ode, uniform_time
 from .msd import PAPER_MSD, MSDParameters, msd_paper_scenario, msd_parameters, simulate_msd
 from .recordings import ClosedLoopRecording, LinearODERecording
+from .references import FilteredSteps, filtered_steps
 
 __all__ = [
     "simulate_linear_ode",
@@ -36,6 +37,8 @@ __all__ = [
     "closed_loop_rhs",
     "make_reference",
     "ReferenceTrajectory",
+    "FilteredSteps",
+    "filtered_steps",
     "PAPER_MANIPULATOR",
     "ClosedLoopRecording",
     "LinearODERecording",

@@ -28,10 +28,10 @@ from scipy.interpolate import CubicSpline
 
 from .._validate import as_1d, as_2d, check_finite, check_positive, sample_period
 from ..errors import InputError, ShapeError, SimulationError
-from ..signals.excitation import FilteredSteps, filtered_steps
 from ..signals.noise import make_rng
 from .linear import uniform_time
 from .recordings import ClosedLoopRecording
+from .references import FilteredSteps, filtered_steps
 
 __all__ = [
     "PAPER_MANIPULATOR",
