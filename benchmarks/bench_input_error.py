@@ -28,22 +28,11 @@ from scipy import optimize
 
 import physid
 from physid.estimators.input_error import InputErrorEstimator, quality_factor
+from physid.experiments.manipulator_paper import PAPER_INITIAL, PAPER_RESULT, SEPARATE, TRUTH
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
-PAPER_INITIAL = {
-    "m1": 50.1,
-    "m2": 25.1,
-    "m3": 15.1,
-    "m4": 5.1,
-    "l1": 0.41,
-    "l2": 0.79,
-    "l3": 0.59,
-    "l4": 0.19,
-}
-TRUTH = {"m1": 50.0, "m2": 25.0, "m3": 15.0, "m4": 5.0, "l1": 0.4, "l2": 0.8, "l3": 0.6, "l4": 0.2}
-SEPARATE = ("m2", "m3", "m4", "l2", "l3", "l4")
-PAPER_J = 0.0223076
-PAPER_EVALUATIONS = 1450
+PAPER_J = PAPER_RESULT["J"]
+PAPER_EVALUATIONS = PAPER_RESULT["evaluations"]
 
 
 def _fit(model, rec, repeats: int = 1, **settings):

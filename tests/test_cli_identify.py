@@ -7,13 +7,14 @@ from pathlib import Path
 
 import pytest
 
+from _golden import CEDRO
 from physid.cli import main
 from physid.signals import Recording, save_recording
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
 TOML = Path(__file__).resolve().parents[1] / "examples" / "models" / "manipulator.toml"
-PAPER_INITIAL = "m1=50.1,m2=25.1,m3=15.1,m4=5.1,l1=0.41,l2=0.79,l3=0.59,l4=0.19"
-TRUTH = {"m1": 50.0, "m2": 25.0, "m3": 15.0, "m4": 5.0, "l1": 0.4, "l2": 0.8, "l3": 0.6, "l4": 0.2}
+PAPER_INITIAL = ",".join(f"{k}={v}" for k, v in CEDRO["initial"].items())
+TRUTH = CEDRO["truth"]
 
 
 @pytest.fixture(scope="module")
@@ -70,7 +71,7 @@ def test_json_output_reproduces_the_paper(files, capsys):
     assert out["unidentifiable"] == ["m1*l1**2"]
     assert out["fixed"] == {"l1": 0.41}
     assert out["stderr"]["l1"] is None  # held: not estimated
-    assert out["cost"] == pytest.approx(0.0223076, rel=0.10)  # the paper's J
+    assert out["cost"] == pytest.approx(CEDRO["result"]["J"], rel=0.10)  # the paper's J
     for name in ("m2", "m3", "m4", "l2", "l3", "l4"):
         assert out["parameters"][name] == pytest.approx(TRUTH[name], rel=1e-3)
     assert "m1 and l1 enter only as m1*l1**2" in err  # the warning goes to stderr
@@ -170,8 +171,8 @@ def test_default_consistent_filters_meet_the_target_and_shrink_J(files, capsys):
          "--torque", "pd", "--initial", PAPER_INITIAL],
     )
     assert code == 0 and out["derivatives"] == "consistent"
-    truth = {"m2": 25.0, "m3": 15.0, "m4": 5.0, "l2": 0.8, "l3": 0.6, "l4": 0.2}
-    for name, value in truth.items():
-        assert out["parameters"][name] == pytest.approx(value, rel=1e-3), name
-    assert out["combinations"]["m1*l1**2"] == pytest.approx(50 * 0.4**2, rel=1e-3)
-    assert out["cost"] < 0.01 * 0.0223076  # the paper's J is mostly filter inconsistency
+    for name in ("m2", "m3", "m4", "l2", "l3", "l4"):
+        assert out["parameters"][name] == pytest.approx(TRUTH[name], rel=1e-3), name
+    true_combination = TRUTH["m1"] * TRUTH["l1"] ** 2
+    assert out["combinations"]["m1*l1**2"] == pytest.approx(true_combination, rel=1e-3)
+    assert out["cost"] < 0.01 * CEDRO["result"]["J"]  # the paper's J is mostly filter inconsistency

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+import physid
 from physid.experiments import manipulator_paper as exp
 from physid.report.html import ReportSection, write_report
 
@@ -84,3 +85,15 @@ def test_report_writes(run_quick, tmp_path):
     assert len(paths.figures) == 5
     data = json.loads(paths.json.read_text())
     assert exp.TITLES["identification"] in json.dumps(data)
+
+
+def test_the_library_copy_of_the_papers_numbers_matches_the_golden_file():
+    """The report prints physid's copy of the paper's numbers; check it against tests/golden."""
+    from _golden import CEDRO
+
+    assert exp.PAPER_INITIAL == CEDRO["initial"]
+    assert exp.TRUTH == CEDRO["truth"]
+    assert exp.PAPER_RESULT["J"] == CEDRO["result"]["J"]
+    assert exp.PAPER_RESULT["parameters"] == {k: v for k, v in CEDRO["result"].items() if k != "J"}
+    assert exp.PAPER_RESULT["evaluations"] == CEDRO["evaluations"]["value"]
+    assert physid.load_model("manipulator").parameters == CEDRO["truth"]

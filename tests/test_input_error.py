@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import physid
+from _golden import CEDRO
 from physid.analysis.identifiability import IdentifiabilityWarning
 from physid.errors import DataFileError, IdentifiabilityError, InputError, SamplingError, ShapeError
 from physid.estimators.input_error import (
@@ -26,19 +27,10 @@ from physid.filters import design_filter, design_filter_bank
 from physid.signals import Recording
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
-PAPER_INITIAL = {
-    "m1": 50.1,
-    "m2": 25.1,
-    "m3": 15.1,
-    "m4": 5.1,
-    "l1": 0.41,
-    "l2": 0.79,
-    "l3": 0.59,
-    "l4": 0.19,
-}
-TRUTH = {"m1": 50.0, "m2": 25.0, "m3": 15.0, "m4": 5.0, "l1": 0.4, "l2": 0.8, "l3": 0.6, "l4": 0.2}
-PAPER_J = 0.0223076
-PAPER_M1L1SQ = 49.5818 * 0.407419**2  # 8.2300 kg·m²
+PAPER_INITIAL = CEDRO["initial"]
+TRUTH = CEDRO["truth"]
+PAPER_J = CEDRO["result"]["J"]
+PAPER_M1L1SQ = CEDRO["result"]["m1"] * CEDRO["result"]["l1"] ** 2  # 8.2300 kg·m²
 SEPARATE = ("m2", "m3", "m4", "l2", "l3", "l4")  # identifiable one by one
 TOML = Path(__file__).resolve().parents[1] / "examples" / "models" / "manipulator.toml"
 

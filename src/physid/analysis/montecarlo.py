@@ -325,9 +325,12 @@ def _chunks(specs: list[TrialSpec], chunksize: int) -> list[list[TrialSpec]]:
     return [specs[i : i + chunksize] for i in range(0, len(specs), chunksize)]
 
 
-def _default_chunksize(n: int, workers: int) -> int:
-    # about 4 chunks per worker: balanced load, little scheduling overhead
-    return max(1, math.ceil(n / (4 * max(workers, 1))))
+def _default_chunksize(n: int, workers: int, chunks_per_worker: int = 4) -> int:
+    """Trials per task: ``chunks_per_worker`` tasks per worker balance the load, and fewer,
+    larger tasks pay less scheduling overhead. The local pool uses 4; Dask, whose tasks cost a
+    scheduler round trip and serialisation each, uses 2 (measured on 2 cores, 100 MSD records:
+    1.97x with 1 task per worker, 1.79x with 4, 1.5x with 10)."""
+    return max(1, math.ceil(n / (chunks_per_worker * max(workers, 1))))
 
 
 def parse_scheduler(scheduler) -> tuple[str, Any]:
@@ -815,7 +818,7 @@ def run_sweep(
                 client = distributed.Client(arg, timeout="30s")
                 backend = f"dask {arg}"
             n_workers = _dask_workers(client)
-            size = chunksize or _default_chunksize(len(specs), n_workers)
+            size = chunksize or _default_chunksize(len(specs), n_workers, chunks_per_worker=2)
             rows = _run_dask(client, trial, specs, size, int(retries), bar)
         finally:
             if client is not None and kind != "dask-client":

@@ -41,7 +41,7 @@ from ..report.html import Erratum, FigureSpec, ReportSection, Table
 from ..report.manipulator import plot_filter_sweep, plot_parameter_histories, plot_valley
 from ..simulate.closed_loop import PAPER_MANIPULATOR, paper_manipulator_experiment
 
-__all__ = ["run", "PAPER_RESULT", "PAPER_INITIAL", "TRUTH", "TITLES"]
+__all__ = ["run", "PAPER_RESULT", "PAPER_INITIAL", "TRUTH", "SEPARATE", "TITLES"]
 
 PAPER = "Cedro & Janecki"
 
