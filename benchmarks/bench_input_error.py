@@ -15,7 +15,8 @@ Rows
    base-parameter solution.
 4. Accuracy against the issue's goals: identifiable parameters within 0.1 % and J within 10 % of
    the paper's (paper model, paper data, paper filter); within 0.05 % for the exact model on exact
-   data with consistent filters (M = 200, Ω_g = 0.6).
+   data with consistent filters (M = 400, Ω_g = 0.6: 0.020 %, a 2.5x margin; M = 200 gives
+   0.0486 %, too close to the limit to be a meaningful check).
 """
 
 from __future__ import annotations
@@ -186,11 +187,11 @@ def run(quick: bool) -> list[dict]:
     exact_model = physid.load_model("manipulator", kinetic="exact")
     exact_rec = paper_manipulator_experiment(kinetic="exact", model=exact_model)
     exact, _ = _fit(
-        exact_model, exact_rec, half_width=200, cutoff=0.6, derivatives="consistent", start="linear"
+        exact_model, exact_rec, half_width=400, cutoff=0.6, derivatives="consistent", start="linear"
     )
     rows.append(
         {
-            "case": "max error incl. m1*l1**2, exact model, M=200, Ω_g=0.6, consistent",
+            "case": "max error incl. m1*l1**2, exact model, M=400, Ω_g=0.6, consistent",
             "value": _max_error(exact),
             "unit": "%",
             "goal": "< 0.05 % (issue 5)",

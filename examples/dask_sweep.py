@@ -23,10 +23,12 @@ def main(out_dir: str) -> None:
     print(result.message)
     for cell in result.summarize():
         t_hit = cell["t_first_hit"]["median_censored"]
+        omega0 = cell["accuracy"]["omega0"]  # bias and spread of the final ω0 over the trials
         print(
             f"{cell['method']:>9}  SNR {cell['snr_db']:>4g} dB  Z = {cell['ratio']:>4g}  "
             f"median time to 2 %: {t_hit if t_hit == t_hit else float('inf'):.3f} s  "
-            f"final ω0 error: {cell['final_error']['median']:.2e}"
+            f"final ω0 error: {cell['final_error']['median']:.2e}  "
+            f"bias {omega0['relative_bias']:+.1e}, spread {omega0['relative_spread']:.1e}"
         )
     paths = result.write(out_dir, figures={"convergence_first_hit": result.plot()})
     print("wrote", ", ".join(str(p) for p in paths.values()))

@@ -6,8 +6,9 @@ stiffness while the data arrive:
 
 * the algebraic estimator (`StreamingAlgebraicEstimator`): each estimate uses only the last
   `window` seconds, fed in 50 ms chunks as a data-acquisition loop would deliver them;
-* recursive least squares with forgetting factor λ < 1 (`RecursiveLeastSquares`), which
-  weighs old samples by λ^age and so forgets the old spring after about 1 / (1 − λ) samples.
+* recursive least squares with forgetting factor λ < 1 (`RecursiveLeastSquares(...).stream()`),
+  fed the same chunks of raw samples; it weighs old samples by λ^age and so forgets the old
+  spring after about 1 / (1 − λ) samples.
 
 The MSD's input is normalised, u = F/m [m/s²] (see docs/conventions.md), so the estimators
 return θ2 = k/m; the stiffness is θ2 · m.
@@ -42,17 +43,22 @@ def main() -> None:
     u, x, t = rec["u"], rec["x"], rec.t
     k_true = np.where(t < T_JUMP, K_BEFORE, K_AFTER)
 
-    # 1) Algebraic estimator, streamed chunk by chunk (constant memory).
-    stream = StreamingAlgebraicEstimator("msd", dt=DT, window=0.2, block=20)
+    # Both estimators run online: the same chunks of raw (u, x) samples go to each, and each
+    # keeps constant memory (the algebraic one its last window, RLS its pre-filter state and P).
+    # 1) Algebraic estimator over a sliding 0.2 s window.
+    algebraic = StreamingAlgebraicEstimator("msd", dt=DT, window=0.2, block=20)
+    # 2) Recursive least squares with forgetting (λ = 0.998: memory of about 0.5 s at 1 kHz);
+    #    stream() runs its state-variable pre-filter and the recursion chunk by chunk.
+    rls = RecursiveLeastSquares("msd", forgetting=0.998).stream(dt=DT)
     k_alg = np.full(t.size, np.nan)
+    k_rls = np.full(t.size, np.nan)
     for start in range(0, t.size, CHUNK):
-        upd = stream.update(u[start:start + CHUNK], x[start:start + CHUNK])
+        chunk = slice(start, start + CHUNK)
+        upd = algebraic.update(u[chunk], x[chunk])
         theta2 = upd.estimates[:, upd.names.index("theta2")]
-        k_alg[start:start + CHUNK] = np.where(upd.valid, theta2 * MASS, np.nan)
-
-    # 2) Recursive least squares with forgetting (λ = 0.998: memory of about 0.5 s at 1 kHz).
-    rls = RecursiveLeastSquares("msd", forgetting=0.998).fit(rec)
-    k_rls = rls.result_.estimates[:, rls.result_.names.index("theta2")] * MASS
+        k_alg[chunk] = np.where(upd.valid, theta2 * MASS, np.nan)
+        upd_rls = rls.update(u[chunk], x[chunk])
+        k_rls[chunk] = upd_rls.estimates[:, upd_rls.names.index("theta2")] * MASS
 
     print(f"stiffness jumps from {K_BEFORE:g} to {K_AFTER:g} N/m at t = {T_JUMP:g} s")
     print(f"{'t [s]':>6} {'true':>8} {'algebraic':>10} {'RLS':>8}   [N/m]")

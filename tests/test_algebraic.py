@@ -637,7 +637,9 @@ def test_error_paths():
     with pytest.raises(InputError, match="not coefficients of the model"):
         algebraic_estimates(u, y, DT, m, known={"k": 1.0})
     with pytest.raises(InputError, match="both unknown and known"):
-        algebraic_estimates(u, y, DT, m, known={"theta1": 1.0})
+        algebraic_estimates(u, y, DT, m, unknown=("theta1", "theta2"), known={"theta1": 1.0})
+    with pytest.raises(InputError, match="nothing is left to estimate"):
+        algebraic_estimates(u, y, DT, m, known={"theta1": 1.0, "theta2": 100.0})
     with pytest.raises(InputError, match="mu must be >= order \\+ 1 = 3"):
         algebraic_estimates(u, y, DT, m, mu=2)
     with pytest.raises(InputError, match="integration must be one of"):
@@ -654,3 +656,12 @@ def test_error_paths():
         t2 = t.copy()
         t2[5] += 3e-4
         AlgebraicEstimator(m).fit(Recording.from_columns(t2, {"u": u, "x": y}))
+
+
+def test_known_without_unknown_estimates_the_remaining_coefficients():
+    """known={"theta1": …} alone: the default unknowns drop theta1 (split_coefficients)."""
+    t, u, y, th1, th2 = msd_signals(duration=0.3)
+    res = algebraic_estimates(u, y, DT, msd_model(), known={"theta1": th1})
+    assert res.names == ("theta2",)
+    assert res.parameters["theta2"] == pytest.approx(th2, rel=1e-6)
+    assert res.parameters["damping_ratio"] == pytest.approx(0.3, rel=1e-6)

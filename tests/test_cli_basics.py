@@ -21,3 +21,18 @@ def test_python_m_physid_runs():
 
 def test_no_verb_exits_2(capsys):
     assert main([]) == 2
+
+
+def test_bad_option_reads_like_every_other_bad_input(capsys):
+    """argparse's own errors carry physid's prefix, name the verb, and exit with status 2."""
+    import pytest
+
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "manipulator", "--out", "x.csv", "--kinetic", "bogus"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "physid: error: simulate manipulator: argument --kinetic: invalid choice" in err
+    with pytest.raises(SystemExit) as exc:
+        main(["no-such-verb"])
+    assert exc.value.code == 2
+    assert "physid: error: argument VERB: invalid choice" in capsys.readouterr().err

@@ -161,3 +161,91 @@ def test_errors(msd_csv, tmp_path, capsys):
     )
     assert main(["estimate", str(zero)]) == 2
     assert "no excitation" in capsys.readouterr().err
+
+
+def _third_order_named_channels(tmp_path):
+    """y''' + 8 y'' + 37 y' + 50 y = 20 F with channels named F (input) and q (output)."""
+    from scipy import signal
+
+    toml = tmp_path / "third_fq.toml"
+    toml.write_text(
+        'name = "third_fq"\nkind = "linear_ode"\n[parameters]\n'
+        "a0 = { value = 40.0 }\na1 = { value = 30.0 }\na2 = { value = 6.0 }\n"
+        "b0 = { value = 20.0, identify = false }\n"
+        '[ode]\na = ["a0", "a1", "a2"]\nb = ["b0"]\ninput = "F"\noutput = "q"\n'
+    )
+    a = np.array([50.0, 37.0, 8.0, 1.0])
+    tf = np.arange(0.0, 2.0, 1e-4)  # lsim's hold is exact for piecewise-linear input: fine grid
+    uf = 30 * np.sin(5 * tf) + 20 * np.sin(13 * tf + 1)
+    y = signal.lsim(signal.StateSpace(*signal.tf2ss([20.0], a[::-1])), uf, tf, interp=True)[1]
+    rec = Recording.from_columns(tf[::10], {"F": uf[::10], "q": y[::10]})
+    return toml, save_recording(rec, tmp_path / "third_fq.csv"), a
+
+
+@pytest.mark.parametrize("method", ["rls", "algebraic"])
+def test_third_order_model_with_named_channels(tmp_path, capsys, method):
+    """The estimators read the model's input_name / output_name (F, q), not u and x."""
+    toml, path, a = _third_order_named_channels(tmp_path)
+    extra = ["--window", "0.5"] if method == "algebraic" else []
+    argv = ["estimate", str(path), "--model", str(toml), "--method", method, *extra, "--json"]
+    assert main(argv) == 0
+    p = _json(capsys)["parameters"]
+    assert set(p) == {"a0", "a1", "a2"}
+    for name, value in zip(("a0", "a1", "a2"), a[:3], strict=True):
+        assert p[name] == pytest.approx(value, rel=1e-5), name
+
+
+def test_missing_named_channel_is_reported(tmp_path, msd_csv, capsys):
+    toml, _, _ = _third_order_named_channels(tmp_path)
+    assert main(["estimate", str(msd_csv), "--model", str(toml), "--method", "rls"]) == 2
+    assert "input channel 'F' and an output channel 'q'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("method", ["algebraic", "rls"])
+def test_known_without_unknown_estimates_the_rest(msd_csv, capsys, method):
+    theta1 = 2 * ZETA * OMEGA0
+    argv = ["estimate", str(msd_csv), "--method", method, "--known", f"theta1={theta1!r}"]
+    assert main([*argv, "--json"]) == 0
+    p = _json(capsys)["parameters"]
+    assert set(p) == {"theta2", "natural_frequency", "damping_ratio"}
+    assert p["theta2"] == pytest.approx(OMEGA0**2, rel=1e-3 if method == "rls" else 1e-6)
+    assert p["damping_ratio"] == pytest.approx(ZETA, rel=1e-3)
+
+
+def test_rls_init_samples_option(msd_csv, capsys):
+    argv = ["estimate", str(msd_csv), "--method", "rls", "--init-samples", "5", "--json"]
+    assert main(argv) == 0
+    assert _json(capsys)["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
+    assert main(["estimate", str(msd_csv), "--init-samples", "5"]) == 2
+    assert "--init-samples do(es) not apply to --method algebraic" in capsys.readouterr().err
+
+
+def test_rls_errors(msd_csv, tmp_path, capsys):
+    rls = ["estimate", str(msd_csv), "--method", "rls"]
+    for bad in ("0", "1.5", "-0.2"):
+        assert main([*rls, "--forgetting", bad]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("physid: error:") or "\nphysid: error:" in err
+        assert "forgetting" in err and "must lie in (0, 1]" in err and "1 keeps all data" in err
+    # 1 s at 1 kHz, the default cut-off's 240-sample transient: 760 rows < 1000 init samples
+    assert main([*rls, "--init-samples", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert "physid: error:" in err and "rows after the" in err and "--init-samples N" in err
+    assert main([*rls, "--init-samples", "1"]) == 2
+    assert "init_samples must be an integer >= the number of unknowns (2)" in (
+        capsys.readouterr().err
+    )
+    # a settled record (u ≡ 1, x ≡ 0.01 = u / θ2): the ẋ column is only filter residue
+    t = np.arange(0.0, 2.0, 1e-3)
+    const = save_recording(
+        Recording.from_columns(t, {"u": np.ones_like(t), "x": np.full_like(t, 0.01)}),
+        tmp_path / "const.csv",
+    )
+    assert main(["estimate", str(const), "--method", "rls"]) == 2
+    err = capsys.readouterr().err
+    assert "physid: error:" in err and "no excitation of theta1" in err and "--known" in err
+    zero = save_recording(
+        Recording.from_columns(t, {"u": 0 * t, "x": 0 * t}), tmp_path / "zero_rls.csv"
+    )
+    assert main(["estimate", str(zero), "--method", "rls"]) == 2
+    assert "is zero over the whole record (no excitation)" in capsys.readouterr().err

@@ -90,7 +90,7 @@ def test_first_derivative_units(tmp_path, csv_file):
 @pytest.mark.parametrize(
     ("extra", "pattern"),
     [
-        (["--half-width", "300"], r"needs at least 601 samples but the record has 400"),
+        (["--half-width", "300"], r"in\.csv: .*needs at least 601 samples but the record has 400"),
         (["--half-width", "0"], r"half_width \(M\) must be an integer >= 1"),
         (["--cutoff", "4"], r"cutoff \(Ω_g, rad/sample\) must lie in \(0, π\]"),
         (["--channels", "q9"], r"lacks channel\(s\) \['q9'\]"),
@@ -112,6 +112,23 @@ def test_bad_file_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("physid: error:")
     assert "non-numeric cell 'oops' in column 'x' at line 3" in err
+
+
+def test_resample_option_interpolates_non_uniform_file(tmp_path, capsys):
+    t = DT * np.arange(200.0)
+    t[100:] += 0.5 * DT  # one interval of 1.5 DT: not uniform
+    src = tmp_path / "jitter.csv"
+    src.write_text("t,x\n" + "".join(f"{ti:.17g},{3 * ti:.17g}\n" for ti in t), encoding="utf-8")
+    out = tmp_path / "o.csv"
+    argv = ["filter", str(src), "--kind", "first", "--half-width", "20", "--out", str(out)]
+    assert main(argv) == 2
+    assert "Pass resample=True (CLI: --resample)" in capsys.readouterr().err
+    assert main([*argv, "--resample"]) == 0
+    res = load_recording(out)
+    # linear data: interpolation onto the uniform grid is exact, and the slope is 3
+    np.testing.assert_allclose(res["x_dot"], 3.0, rtol=1e-9)
+    period = (t[-1] - t[0]) / (t.size - 1)
+    np.testing.assert_allclose(np.diff(res.t), period, rtol=1e-9)
 
 
 @pytest.mark.parametrize(

@@ -176,3 +176,25 @@ def test_default_consistent_filters_meet_the_target_and_shrink_J(files, capsys):
     true_combination = TRUTH["m1"] * TRUTH["l1"] ** 2
     assert out["combinations"]["m1*l1**2"] == pytest.approx(true_combination, rel=1e-3)
     assert out["cost"] < 0.01 * CEDRO["result"]["J"]  # the paper's J is mostly filter inconsistency
+
+
+def test_gains_without_pd_torque_exit_2(files, capsys):
+    code = main(["identify", str(files[0]), "--model", "manipulator", "--kp", "1,2,3,4"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "physid: error: --kp/--kd are used only with --torque pd" in err
+
+
+def test_fit_on_a_bound_is_reported_and_fails(tmp_path, capsys):
+    """Paper kinetic energy fitted to exact-arm data drives m1 (and m3) to the lower bound."""
+    exact = tmp_path / "exact.csv"
+    save_recording(paper_manipulator_experiment(kinetic="exact"), exact)
+    code, out, err = run_json(
+        capsys, ["identify", str(exact), "--model", "manipulator", "--kinetic", "paper"]
+    )
+    assert code == 1 and out["success"] is False
+    assert out["at_bound"] == ["m1", "m3"]
+    assert out["parameters"]["m1"] == pytest.approx(5e-5, rel=1e-3)  # 1e-6 x the initial 50
+    assert out["stderr"]["m1"] is None and out["stderr"]["m3"] is None  # NaN -> null
+    assert "ended on a bound: m1 = 5e-05" in out["message"]
+    assert "warning: the fit ended on a bound" in err

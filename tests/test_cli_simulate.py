@@ -83,6 +83,9 @@ def test_simulate_msd_disturbance_reports_the_alias(tmp_path, capsys):
         (["--duration", "1", "--dt", "0.3"], "whole number of sample periods"),
         (["--ratio", "-2"], "--ratio must be >= 0"),
         (["--initial", "1,2,3"], "--initial expects X0,V0"),
+        # STYLE: never a silently ignored option — a seed without noise seeds nothing
+        (["--seed", "4"], "--seed only seeds the measurement noise; give --snr"),
+        (["--seed", "4", "--disturbance", "paper"], "--seed only seeds the measurement noise"),
     ],
 )
 def test_simulate_msd_bad_options_exit_2(tmp_path, capsys, extra, match):
@@ -115,3 +118,12 @@ def test_simulate_manipulator_with_noise(tmp_path, capsys):
     assert np.std(residual[:, 1] / kp[1]) == pytest.approx(1e-4, rel=0.05)
     assert main(["simulate", "manipulator", "--out", str(out), "--seed", "2"]) == 2
     assert "give --noise-std" in capsys.readouterr().err
+
+
+def test_simulate_msd_help_states_each_default_once(capsys):
+    with pytest.raises(SystemExit):
+        main(["simulate", "msd", "--help"])
+    text = capsys.readouterr().out
+    assert "(default: None)" not in text
+    assert "(default: 3)" in text and "(default 3)" not in text
+    assert text.count("default:") == len(re.findall(r"\(default: [^)]*\)", text))

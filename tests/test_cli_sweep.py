@@ -57,6 +57,34 @@ def test_sweep_writes_table_summary_and_maps(sweep_dir, capsys):
     assert summary["grid"]["snr_db"] == [50.0] and summary["trials"] == 2
     for name in ("convergence_first_hit.png", "convergence_settle.png"):
         assert (sweep_dir / name).stat().st_size > 1000
+    # bias and spread of the final estimates against the truth, per cell
+    for cell in summary["cells"]:
+        rows_of = [r for r in rows if r["ratio"] == cell["ratio"] and r["method"] == cell["method"]]
+        for name, truth in (
+            ("omega0", math.sqrt(400 / 3)),
+            ("theta2", 400 / 3),
+            ("theta1", 0.05 / 3),
+        ):
+            acc = cell["accuracy"][name]
+            finals = [r[f"{name}_final"] for r in rows_of]
+            assert acc["truth"] == pytest.approx(truth, rel=1e-12)
+            assert acc["bias"] == pytest.approx(sum(finals) / 2 - truth, abs=1e-9 * truth)
+            assert acc["std"] == pytest.approx(abs(finals[0] - finals[1]) / math.sqrt(2), rel=1e-9)
+
+
+def test_sweep_writes_parquet_with_exact_seeds_and_readable_files(sweep_dir):
+    import pyarrow.parquet as pq  # the 'parquet' extra; `make test` installs it
+
+    rows = read_table(sweep_dir / "trials.csv")
+    table = pq.read_table(sweep_dir / "trials.parquet")
+    assert table.column("seed").to_pylist() == [r["seed"] for r in rows]
+    assert table.column("omega0_final").to_pylist() == [r["omega0_final"] for r in rows]
+    summary = json.loads((sweep_dir / "summary.json").read_text())
+    assert summary["outputs"]["parquet"] == "written"
+    # written atomically (mkstemp + rename), yet with the mode a plain open() gives
+    expected = 0o666 & ~mc._current_umask()
+    for path in sweep_dir.iterdir():
+        assert path.stat().st_mode & 0o777 == expected, path.name
 
 
 def test_same_seed_same_table_and_stdout_table(sweep_dir, tmp_path, capsys):

@@ -90,3 +90,103 @@ def test_cli_reference_documents_every_verb_and_option():
         if not re.search(re.escape(option) + r"\b", text):
             missing.append(f"{' '.join(path)} {option}")
     assert not missing, f"docs/cli.md lacks: {sorted(set(missing))}"
+
+
+def _documented_defaults(text):
+    """{(verb, option): default cell} from the option tables of each ``## physid VERB`` section."""
+    out = {}
+    for section in re.finditer(r"^## physid (\S+)\n(.*?)(?=^## |\Z)", text, re.S | re.M):
+        verb = section.group(1)
+        for line in section.group(2).splitlines():
+            cells = [c.strip() for c in re.split(r"(?<!\\)\|", line)[1:-1]]
+            if len(cells) < 3 or not cells[0].startswith("`"):
+                continue
+            for option in re.findall(r"`([^`]+)`", cells[0]):
+                out[(verb, option.split()[0])] = cells[1]
+    return out
+
+
+def _tokens(value) -> list[str]:
+    if isinstance(value, (list, tuple)):
+        return [str(v) for v in value]
+    return [t for t in re.split(r"[,\s]+", str(value).strip()) if t]
+
+
+def _same_default(documented: str, actual) -> bool:
+    """Token by token: numbers compare as floats, anything else as text."""
+    doc, act = _tokens(documented), _tokens(actual)
+    if len(doc) != len(act):
+        return False
+    for d, a in zip(doc, act, strict=True):
+        try:
+            if float(d) != float(a):
+                return False
+        except ValueError:
+            if d != a:
+                return False
+    return True
+
+
+def _is_number_list(cell: str) -> bool:
+    try:
+        return all(float(t) == float(t) for t in _tokens(cell)) and bool(_tokens(cell))
+    except ValueError:
+        return False
+
+
+def test_cli_reference_defaults_match_the_parsers():
+    """Every default that docs/cli.md states is the parser's default.
+
+    A number (or list of numbers) or a `literal` in the table's default column is compared with
+    the argparse default; where that is None (the estimator resolves it), with the "(default X)"
+    the option's --help states. "required" must be a required option, "off" a flag that is off,
+    "none"/"—" an option without a default. Descriptive cells (e.g. "order + 1") are not checked.
+    """
+    import argparse
+
+    from physid.cli import build_parser
+
+    text = (EXAMPLES_DIR.parent / "docs" / "cli.md").read_text(encoding="utf-8")
+    documented = _documented_defaults(text)
+    actions = {}
+
+    def walk(parser, prefix=()):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(sub, (*prefix, name))
+            elif prefix:
+                for name in action.option_strings or [action.dest]:
+                    actions.setdefault((prefix[0], name), []).append(action)
+
+    walk(build_parser())
+    checked, wrong = 0, []
+    for key, cell in documented.items():
+        for action in actions.get(key, []):
+            literal = cell.startswith("`") and cell.endswith("`") and cell.count("`") == 2
+            value = cell.strip("`")
+            if cell == "required":
+                ok = action.required
+            elif cell == "off":
+                ok = action.nargs == 0 and action.default in (False, None)
+            elif cell in ("none", "—"):
+                ok = action.default is None
+            elif literal or _is_number_list(cell):
+                actual = action.default
+                if actual is None:
+                    found = re.search(r"\(default:?\s+([^()]+?)\)", action.help or "")
+                    actual = found.group(1) if found else None
+                if actual is None:
+                    wrong.append(f"{' '.join(key)}: documented {cell}, parser states none")
+                    continue
+                ok = _same_default(value, actual)
+            else:
+                continue
+            checked += 1
+            if not ok:
+                wrong.append(
+                    f"{' '.join(key)}: documented {cell!r}, parser default {action.default!r}, "
+                    f"help {action.help!r}"
+                )
+    assert checked >= 40, f"only {checked} documented defaults were checked"
+    assert not wrong, "docs/cli.md defaults differ from the parsers:\n" + "\n".join(wrong)

@@ -83,8 +83,69 @@ def test_errata_evidence_numbers(sections):
         ev["eq2"]["printed_omega0"]
     )
     locations = [e.location for e in claims.errata]
-    for eq in ("Eq. (2)", "Eq. (5)", "Eq. (8)", "Eq. (12)", "Eq. (3)"):
+    for eq in ("Eq. (2)", "Eq. (5)", "Eq. (8)", "Eq. (3)", "Eqs. (17)"):
         assert any(loc.startswith(eq) for loc in locations), eq
+    # eq. 12's evidence is the variance section's: the erratum is attached there and says so
+    variance = _section(sections, "variance")
+    (eq12,) = [e for e in variance.errata if e.location.startswith("Eq. (12)")]
+    assert msd_paper.TITLES["variance"] in eq12.evidence
+    assert not any(e.location.startswith("Eq. (12)") for e in claims.errata)
+
+
+def test_printed_algebraic_estimator_evidence(sections):
+    """Eqs. 17-20 on a noise-free ζ = 0.3 MSD: ours is exact, the backward kernel flips θ1."""
+    ev = _section(sections, "claims").results["errata_evidence"]["eq17_20"]
+    th1, th2 = 2 * 0.3 * W0, W0**2
+    assert ev["true_theta1"] == pytest.approx(th1, rel=1e-12)
+    assert ev["forward_theta1"] == pytest.approx(th1, rel=1e-6)
+    assert ev["forward_theta2"] == pytest.approx(th2, rel=1e-6)
+    assert ev["backward_theta1"] == pytest.approx(-th1, rel=1e-6)  # the reversed ODE
+    assert ev["backward_theta2"] == pytest.approx(th2, rel=1e-6)
+    assert abs(ev["printed_theta1"] - th1) > 0.9 * th1  # the literal eq. 20
+    assert abs(ev["printed_theta2"] / th2 - 1) > 0.01
+    (erratum,) = [e for e in _section(sections, "claims").errata if e.location.startswith("Eqs.")]
+    assert f"{ev['printed_theta1']:.3g}" in erratum.evidence
+
+
+def test_hundredfold_claim_numbers(sections):
+    traces = _section(sections, "traces").results
+    h = traces["hundredfold"]
+    rls = [c["first_hit"] for c in traces["cases"] if c["method"] == "rls"]
+    assert h["rls_fastest_first_hit_s"] == min(rls)
+    assert h["window_for_100x_s"] == pytest.approx(min(rls) / 100, rel=1e-12)
+    # the estimator refuses windows under its kernels' minimum (7 intervals with the exact rule)
+    assert h["min_window_intervals"] == 7
+    assert h["window_for_100x_s"] < h["min_window_s"] and not h["holds_anywhere"]
+    text = " ".join(map(str, _section(sections, "traces").paragraphs))
+    assert "holds under no condition tested here" in text
+    assert f"{1e3 * h['window_for_100x_s']:.2g} ms" in text
+
+
+def test_maps_table_shows_bias_and_spread(sections):
+    maps = _section(sections, "maps")
+    table = maps.tables[1]
+    assert table.columns[-3:] == ("ω0 rel. bias", "ω0 rel. spread (std)", "ω0 rel. RMSE")
+    for row, cell in zip(table.rows, maps.results["cells"], strict=True):
+        acc = cell["accuracy"]["omega0"]
+        assert row[-3:] == (acc["relative_bias"], acc["relative_spread"], acc["relative_rmse"])
+        assert acc["relative_rmse"] ** 2 == pytest.approx(
+            acc["relative_bias"] ** 2 + acc["relative_spread"] ** 2 / 2  # 2 trials: (n-1)/n
+        )
+
+
+def test_jump_rows_before_the_first_estimate_are_marked_start_up(sections):
+    jumps = _section(sections, "jumps")
+    summary = jumps.results["summary"]
+    for label, info in summary.items():
+        first_jump = jumps.results["jumps"][0]["time_s"]
+        assert info["startup"][0] == (info["first_estimate_s"] >= first_jump), label
+        assert not any(info["startup"][1:]), label
+    assert summary["RLS λ=1"]["startup"][0] and not summary["algebraic T=0.05 s"]["startup"][0]
+    notes = [row[-1] for row in jumps.tables[0].rows if row[0] == "RLS λ=1"]
+    assert notes[0].startswith("start-up") and notes[1:] == ["", ""]
+    text = " ".join(map(str, jumps.paragraphs))  # generated from the numbers
+    settles = summary["algebraic T=0.05 s"]["settle"]
+    assert ", ".join("never" if x is None else f"{x:.3g} s" for x in settles) in text
 
 
 def test_jump_recovery_of_the_algebraic_window(sections):

@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import physid
-from physid.errors import DataFileError, PhysidError
+from physid.errors import DataFileError, InputError, MissingDependencyError, PhysidError
 from physid.signals import Recording, load_recording, save_recording
 
 
@@ -124,8 +124,18 @@ def test_missing_h5py_gives_clear_error(tmp_path, monkeypatch):
     with h5py.File(path, "w") as f:
         f["t"] = np.arange(3.0)
     monkeypatch.setitem(sys.modules, "h5py", None)  # import h5py now raises ImportError
-    with pytest.raises(DataFileError, match=r"needs h5py, which is not installed.*pip install"):
+    with pytest.raises(
+        MissingDependencyError,
+        match=r"r\.h5: reading HDF5 files needs h5py, which is not installed; run "
+        r'pip install "physid\[io\]"',
+    ) as info:
         load_recording(path)
+    assert isinstance(info.value, ImportError) and not isinstance(info.value, DataFileError)
+    mat = tmp_path / "r.mat"  # the v7.3 header scipy refuses with NotImplementedError
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: test HDF5 schema 1.00 ."
+    mat.write_bytes(header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02IM" + b"\x00" * 384)
+    with pytest.raises(MissingDependencyError, match=r"reading MATLAB v7\.3 files needs h5py"):
+        load_recording(mat)
 
 
 def test_csv_variants_semicolon_comments_blank_lines_quotes_and_ms(tmp_path):
@@ -195,9 +205,37 @@ def test_non_uniform_sampling_reports_worst_deviation(tmp_path):
         match=r"not uniformly sampled: the interval from data row 3 \(line 4\) to data row 4 "
         r"\(line 5\) is 0\.15 s against a mean period of 0\.1 s \(worst relative deviation 0\.5, "
         r"tolerance 0\.001\)\. "
-        r"Pass resample=True",
+        r"Pass resample=True \(CLI: --resample\) to interpolate onto a uniform grid",
     ):
         load_recording(_write(tmp_path, text))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "pattern"),
+    [
+        ({"uniform_rtol": "abc"}, r"uniform_rtol must be None or a finite number >= 0, got 'abc'"),
+        ({"uniform_rtol": float("nan")}, r"uniform_rtol must be .* got nan; pass e\.g\."),
+        ({"uniform_rtol": float("inf")}, r"uniform_rtol must be .* got inf"),
+        ({"uniform_rtol": -1e-3}, r"uniform_rtol must be .* got -0\.001"),
+        ({"uniform_rtol": True}, r"uniform_rtol must be .* got True of type bool"),
+        ({"resample": "no"}, r"resample must be True or False, got 'no' of type str"),
+        ({"resample": 1}, r"resample must be True or False, got 1 of type int"),
+    ],
+)
+def test_load_options_are_validated(tmp_path, kwargs, pattern):
+    # non-uniform times: a NaN tolerance used to snap them onto a grid without moving the data
+    path = _write(tmp_path, "t,x\n0,0\n0.1,1\n0.3,3\n0.4,4\n")
+    with pytest.raises(InputError, match=pattern):
+        load_recording(path, **kwargs)
+
+
+def test_zero_tolerance_requires_exact_grid(tmp_path):
+    exact = load_recording(_write(tmp_path, "t,x\n0,0\n0.5,1\n1,2\n"), uniform_rtol=0)
+    np.testing.assert_array_equal(exact.t, [0.0, 0.5, 1.0])
+    path = tmp_path / "jitter.csv"
+    path.write_text("t,x\n0,0\n0.5,1\n1.001,2\n")
+    with pytest.raises(DataFileError, match=r"tolerance 0\)"):
+        load_recording(path, uniform_rtol=0)
 
 
 def test_unknown_suffix_missing_file_and_bad_bytes(tmp_path):

@@ -187,7 +187,61 @@ l1 = { value = 0.5, unit = "m" }
         (
             GOOD_HEAD + '[[joints]]\ntransform = [["cos(q2)", "-sin(q2)", 0, 0], '
             '["sin(q2)", "cos(q2)", 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\nmass = "m1"\n',
-            r"unknown symbol\(s\) \['q2'\].*may use the joint variable q1",
+            r"line 7 \(joints\[1\]\) transform\[0\]\[0\]: symbol\(s\) \['q2'\] may not appear in "
+            r"'cos\(q2\)': only q1 of this joint may appear in its transform",
+        ),
+        # errors in mass / rotor_inertia / viscous / coulomb name their own line, not dh's
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1" }\nmass = "m1"\nviscous = "bb"\n',
+            r"line 9 \(joints\[1\]\.viscous\): unknown symbol\(s\) \['bb'\] in 'bb'; declare each "
+            r'under \[parameters\] \(e\.g\. bb = \{ value = 1\.0, unit = "N\*m\*s/rad" \}\)',
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1" }\n\nmass = "m1*zz"\n',
+            # a factor of an expression: no unit suggested (zz's unit is not the mass's)
+            r"line 9 \(joints\[1\]\.mass\): unknown symbol\(s\) \['zz'\] in 'm1\*zz'; .*"
+            r"\(e\.g\. zz = \{ value = 1\.0 \}\)",
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1" }\nmass = "m1"\ncoulomb = "fc"\n',
+            r'line 9 \(joints\[1\]\.coulomb\): .*\[\'fc\'\].*unit = "N\*m"',
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1" }\nmass = "m1"\nrotor_inertia = "J1"\n',
+            r'line 9 \(joints\[1\]\.rotor_inertia\): .*\[\'J1\'\].*unit = "kg\*m\^2"',
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1" }\nmass = "m1*q1"\n',
+            r"line 8 \(joints\[1\]\.mass\): symbol\(s\) \['q1'\] may not appear in 'm1\*q1': the "
+            r"mass of a joint is a constant",
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1", alpha = "qd2" }\nmass = "m1"\n',
+            r"line 7 .*dh\.alpha: symbol\(s\) \['qd2'\] may not appear .*joint variables may not",
+        ),
+        (
+            GOOD_HEAD + '[[joints]]\ndh = { a = "l1", alpha = "al" }\nmass = "m1"\n',
+            r'\[\'al\'\] in \'al\'; declare .*unit = "rad"',
+        ),
+        # [parameters.X] sub-tables: the error names the sub-table (or its value line)
+        (
+            'name = "arm"\n[parameters.m1]\nvalue = 1.0\n[parameters.l1]\nunit = "m"\n'
+            '[[joints]]\ndh = { a = 1 }\nmass = "m1"\n',
+            r"line 4 \(parameter 'l1'\): parameter 'l1' has no value",
+        ),
+        (
+            'name = "arm"\n[parameters.m1]\nvalue = 1.0\n[parameters.l1]\nunit = "m"\n'
+            'value = inf\n[[joints]]\ndh = { a = 1 }\nmass = "m1"\n',
+            r"line 6 \(parameter 'l1'\): the value of 'l1' must be a finite number .*got inf",
+        ),
+        # infinite values are rejected like NaN
+        (
+            GOOD_HEAD.replace("0.5", "inf") + '[[joints]]\ndh = { a = "l1" }\nmass = "m1"\n',
+            r"line 5 \(parameter 'l1'\): the value of 'l1' must be a finite number .*got inf",
+        ),
+        (
+            GOOD_HEAD.replace("0.5", "-inf") + '[[joints]]\ndh = { a = "l1" }\nmass = "m1"\n',
+            r"must be a finite number .*got -inf",
         ),
         # bottom row wrong
         (
@@ -251,7 +305,7 @@ l1 = { value = 0.5, unit = "m" }
 def test_model_file_errors_name_line_and_fix(tmp_path, text, pattern):
     path = write(tmp_path, text)
     with pytest.raises(ModelFileError, match=pattern):
-        load_model(path)
+        load_model(path, cache=False)
 
 
 def test_missing_file_and_unknown_name():

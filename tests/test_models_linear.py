@@ -106,3 +106,15 @@ def test_natural_frequency_damping_is_vectorised_with_nan_for_unstable():
     t1, t2 = theta_from_natural(np.array([1.0, 2.0]), np.array([0.5, 0.1]))
     np.testing.assert_allclose(t1, [1.0, 0.4])
     np.testing.assert_allclose(t2, [1.0, 4.0])
+
+
+def test_split_coefficients_default_unknowns_exclude_known_names():
+    model = msd_model()
+    unknown, values = model.split_coefficients(None, {"theta1": 0.0166})
+    assert unknown == ("theta2",)
+    assert values["theta1"] == 0.0166 and values["b0"] == 1.0
+    # explicit unknown + known on the same name is still an error
+    with pytest.raises(InputError, match="cannot be both unknown and known"):
+        model.split_coefficients(("theta1", "theta2"), {"theta1": 0.0166})
+    with pytest.raises(InputError, match="nothing is left to estimate"):
+        model.split_coefficients(None, {"theta1": 0.1, "theta2": 100.0})

@@ -225,6 +225,85 @@ def test_write_sweep_outputs_round_trip(tmp_path):
     assert leftovers == []
 
 
+def estimate_trial(settings, seed):
+    """A biased, noisy estimator of a known truth: final = truth·(1 + bias) + N(0, spread)."""
+    rng = np.random.default_rng(seed)
+    truth = settings["truth"]
+    return {
+        "x_true": truth,
+        "x_final": truth * (1 + settings["bias"]) + rng.normal(0.0, settings["spread"]),
+    }
+
+
+def test_summary_reports_bias_spread_and_rmse_of_final_estimates():
+    grid = {"truth": [10.0], "bias": [0.0, 0.05], "spread": [0.2]}
+    res = mc.run_sweep(estimate_trial, grid, trials=400, seed=4, scheduler="serial", progress=False)
+    for cell in res.summarize():
+        acc = cell["accuracy"]["x"]
+        finals = np.array([r["x_final"] for r in res.select(bias=cell["bias"])])
+        # against numpy on the same numbers
+        assert acc["truth"] == 10.0 and acc["n"] == 400 and acc["n_missing"] == 0
+        assert acc["bias"] == pytest.approx(finals.mean() - 10.0, abs=1e-12)
+        assert acc["std"] == pytest.approx(finals.std(ddof=1), rel=1e-12)
+        assert acc["rmse"] == pytest.approx(np.sqrt(np.mean((finals - 10.0) ** 2)), rel=1e-12)
+        assert acc["relative_bias"] == pytest.approx(acc["bias"] / 10.0, rel=1e-12)
+        # and against the distribution: bias = 10·b ± 4σ/√n, spread = σ within 4 standard errors
+        assert abs(acc["bias"] - 10.0 * cell["bias"]) < 4 * 0.2 / math.sqrt(400)
+        assert abs(acc["std"] - 0.2) < 4 * 0.2 / math.sqrt(2 * 399)
+        assert acc["rmse"] ** 2 == pytest.approx(acc["bias"] ** 2 + acc["std"] ** 2 * 399 / 400)
+
+
+def test_accuracy_needs_one_nonzero_truth_per_cell():
+    grid = {"truth": [0.0], "bias": [0.0], "spread": [1.0]}
+    res = mc.run_sweep(estimate_trial, grid, trials=3, seed=0, scheduler="serial", progress=False)
+    assert "accuracy" not in res.summarize()[0]  # relative error undefined at truth 0
+
+
+def test_parquet_table_round_trips_uint64_seeds(tmp_path):
+    import pyarrow.parquet as pq  # the 'parquet' extra; `make test` installs it
+
+    res = mc.run_sweep(failing_trial, GRID, trials=3, seed=2, scheduler="serial", progress=False)
+    seeds = [r["seed"] for r in res.rows]
+    assert max(seeds) >= 2**63  # the case that overflowed pyarrow's int64 inference
+    paths = res.write(tmp_path / "out")
+    table = pq.read_table(paths["parquet"])
+    assert str(table.schema.field("seed").type) == "uint64"
+    assert table.column("seed").to_pylist() == seeds  # exactly, every bit
+    assert table.column_names == list(res.columns)
+    assert table.column("mean").to_pylist() == [r["mean"] for r in res.rows]  # None where failed
+    assert table.column("status").to_pylist() == [r["status"] for r in res.rows]
+    doc = json.loads(paths["summary"].read_text())
+    assert doc["outputs"] == {"csv": "written", "parquet": "written"}
+
+
+def test_a_parquet_failure_is_recorded_and_the_rest_is_written(tmp_path, monkeypatch):
+    import pyarrow.parquet  # noqa: F401 - the 'parquet' extra; `make test` installs it
+
+    def broken(result):
+        raise OverflowError("made to fail")
+
+    monkeypatch.setattr(mc, "_arrow_table", broken)
+    res = mc.run_sweep(toy_trial, GRID, trials=1, seed=0, scheduler="serial", progress=False)
+    from matplotlib.figure import Figure
+
+    paths = res.write(tmp_path / "out", figures={"map": Figure()})
+    assert "parquet" not in paths and paths["summary"].exists() and paths["figure:map"].exists()
+    doc = json.loads(paths["summary"].read_text())
+    assert doc["outputs"]["parquet"] == "not written: OverflowError: made to fail"
+    assert not list((tmp_path / "out").glob("*.tmp")) and not list((tmp_path / "out").glob(".*"))
+
+
+def test_atomic_write_gives_the_permissions_of_a_plain_open(tmp_path):
+    old = os.umask(0o027)
+    try:
+        mc.atomic_write(tmp_path / "a.csv", lambda fh: fh.write("x\n"))
+        (tmp_path / "b.csv").write_text("x\n")  # what open() gives under the same umask
+    finally:
+        os.umask(old)
+    mode_a = (tmp_path / "a.csv").stat().st_mode & 0o777
+    assert mode_a == 0o640 == (tmp_path / "b.csv").stat().st_mode & 0o777  # not mkstemp's 0o600
+
+
 def test_atomic_write_leaves_no_partial_file_when_interrupted(tmp_path):
     target = tmp_path / "trials.csv"
 

@@ -54,3 +54,29 @@ def test_missing_channel_names_what_exists():
     rec = Recording([0, 1], [1, 2], ["x"])
     with pytest.raises(InputError, match=r"no channel 'y'.*\['x'\]"):
         rec["y"]
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, float("nan"), float("inf"), "0.1", True])
+def test_resample_rejects_bad_period(bad):
+    rec = Recording([0.0, 0.1, 0.3], [0.0, 1.0, 3.0], ["x"])
+    with pytest.raises(InputError, match=r"dt must be a finite number > 0 \[s\] or None"):
+        rec.resample(bad)
+
+
+def test_resample_needs_two_samples():
+    with pytest.raises(SamplingError, match=r"at least 2 samples; the recording has 1"):
+        Recording([0.0], [1.0], ["x"]).resample()
+
+
+def test_with_channels_and_slice_time():
+    t = np.arange(5) * 0.5
+    rec = Recording(t, t, ["x"], units=["m"])
+    out = rec.with_channels({"x": 2 * t, "v": np.ones(5)}, units={"v": "m/s"})
+    assert out.names == ("x", "v") and out.units == ("m", "m/s")  # replaced x keeps its unit
+    np.testing.assert_array_equal(out["x"], 2 * t)
+    np.testing.assert_array_equal(rec["x"], t)  # the original is unchanged
+    with pytest.raises(ShapeError, match=r"column 'v' has 4 samples; the recording has 5"):
+        rec.with_channels({"v": np.ones(4)})
+    np.testing.assert_array_equal(rec.slice_time(0.5, 1.5).t, [0.5, 1.0, 1.5])
+    with pytest.raises(SamplingError, match=r"no sample lies in \[3\.0, 4\.0\] s"):
+        rec.slice_time(3.0, 4.0)

@@ -27,6 +27,7 @@ import pytest  # noqa: E402
 import physid  # noqa: E402
 from physid.errors import InputError  # noqa: E402
 from physid.report.html import (  # noqa: E402
+    WIDE_TABLE_COLUMNS,
     Erratum,
     FigureSpec,
     Html,
@@ -467,6 +468,22 @@ def test_numeric_columns_are_right_aligned(report):
     head = re.search(re.escape(caption) + r"\s*<thead>(.*?)</thead>", text).group(1)
     assert re.findall(r'<th scope="col"( class="num")?>', head) == ["", ' class="num"',
                                                                     ' class="num"', ' class="num"']
+
+
+def test_wide_tables_use_the_page_width_and_words_are_not_split(report, tmp_path):
+    """Many-column tables and the errata get the 'wide' wrapper; text breaks between words."""
+    text = report.html.read_text(encoding="utf-8")
+    # the 4-column table stays in the text column, the errata table is wide
+    assert re.search(r'<div class="table-wrap"><table>\s*<caption>Estimates', text)
+    assert '<div class="table-wrap wide"><table class="errata">' in text
+    css = re.search(r"<style>(.*?)</style>", text, re.S).group(1)
+    assert "overflow-wrap: anywhere" not in css and "break-all" not in css
+    assert "overflow-wrap: break-word" in css and "word-break: normal" in css
+    assert re.search(r"table\.errata td:nth-child\(2\) \{ min-width: 8\.5em", css)
+    columns = tuple(f"c{i}" for i in range(WIDE_TABLE_COLUMNS))
+    wide = ReportSection("Wide", tables=(Table("Ten", columns, ((1.0,) * len(columns),)),))
+    page = write_report([wide], tmp_path).html.read_text(encoding="utf-8")
+    assert '<div class="table-wrap wide"><table>' in page
 
 
 def test_figures_are_closed_after_saving(tmp_path):

@@ -252,3 +252,13 @@ def test_pinocchio_backend_refuses_the_paper_kinetic_energy():
             dt=0.01,
             backend="pinocchio",
         )
+
+
+def test_paper_experiment_rejects_conflicting_or_unused_keywords():
+    paper_model = load_model("manipulator", kinetic="paper")
+    # kinetic="exact" with a paper-kinetic model would silently run the paper model
+    with pytest.raises(InputError, match="kinetic='exact' conflicts with the model given"):
+        paper_manipulator_experiment(kinetic="exact", model=paper_model)
+    # a seed with no noise seeds nothing (the CLI verb rejects the same)
+    with pytest.raises(InputError, match="seed=3 is used only to draw measurement noise"):
+        paper_manipulator_experiment(seed=3, model=paper_model)

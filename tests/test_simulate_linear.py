@@ -428,3 +428,11 @@ def test_badly_scaled_fourth_order_model_is_accepted_and_matches_lsim():
     rec = simulate_linear_ode((a, b), t, input=u)
     _, y_ref, _ = lsim((b[::-1], a[::-1]), u, t)
     np.testing.assert_allclose(rec["x"], y_ref, rtol=0, atol=1e-9 * np.abs(y_ref).max())
+
+
+def test_simulate_msd_rejects_phase_with_an_explicit_input():
+    with pytest.raises(InputError, match="phase=0.3 applies only to the built-in sinusoid"):
+        simulate_msd(
+            natural_frequency=2.0, damping_ratio=0.1, input=np.zeros(11), phase=0.3,
+            duration=1.0, dt=0.1,
+        )

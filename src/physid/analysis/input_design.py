@@ -196,7 +196,39 @@ def variance_factor(
 def variance_factor_printed(ratio, *, natural_frequency: float = PAPER_NATURAL_FREQUENCY,
                             sample_period: float = 1e-3, init_samples: int = 3,
                             samples: int = 100) -> np.ndarray:
-    """Eq. 12 *as printed* at λ = 1 (spurious ω0: ``Z sin ω0t − ω0 sin Zω0t``), for comparison."""
+    """Eq. 12 *as printed* at λ = 1 (spurious ω0: ``Z sin ω0t − ω0 sin Zω0t``), for comparison.
+
+    ``K_printed = (ω0² (Z² − 1))² / Σ_{i=m+1}^{k} h_i²`` with
+    ``h_i = Z sin ω0 t_i − ω0 sin Z ω0 t_i``, ``t_i = i T_s``. The derivation gives
+    ``Z sin ω0t − sin Zω0t`` (see `variance_factor`): the printed ω0 makes the formula
+    dimensionally inconsistent, and it agrees with the re-derived K only when ω0 = 1 rad/s.
+
+    Parameters
+    ----------
+    ratio : array_like, shape (nz,) or scalar
+        Z = ω1 / ω0 (dimensionless), Z ≠ 1 (the printed formula is 0/0 there).
+    natural_frequency : float [rad/s]
+        ω0 (default the paper's √(400/3)).
+    sample_period : float [s]
+        T_s.
+    init_samples : int
+        m: rows start at i = m + 1.
+    samples : int
+        k: the estimate after k samples.
+
+    Returns
+    -------
+    ndarray, shape ratio.shape
+        K as printed; in s⁻⁴ only where ω0 = 1 rad/s (elsewhere it has no consistent unit).
+
+    Examples
+    --------
+    With ω0 = 1 rad/s the spurious factor is 1 and the printed formula equals the derived one:
+
+    >>> bool(np.isclose(variance_factor_printed(1.5, natural_frequency=1.0),
+    ...                 variance_factor(1.5, natural_frequency=1.0), rtol=1e-12))
+    True
+    """
     w0, ts, m, k = _check_design_args(natural_frequency, sample_period, init_samples, samples)
     Z = np.asarray(ratio, dtype=float)[..., None]
     t = np.arange(m + 1, k + 1) * ts
@@ -216,6 +248,23 @@ def optimal_ratio(
 ):
     """The ratio Z in ``ratio_range`` that minimises K, for each λ.
 
+    Parameters
+    ----------
+    forgetting : array_like or float
+        λ in (0, 1] (scalar or any shape).
+    ratio_range : (float, float)
+        (LO, HI), 0 ≤ LO < HI: the range of Z = ω1 / ω0 (dimensionless) searched.
+    natural_frequency : float [rad/s]
+        ω0 (default the paper's √(400/3)).
+    sample_period : float [s]
+        T_s.
+    init_samples : int
+        m: rows start at i = m + 1.
+    samples : int
+        k: the horizon of the estimate, in samples.
+    n_grid : int, optional
+        Points of the search grid (default below).
+
     A dense grid locates the global minimum; a bounded scalar search
     (``scipy.optimize.minimize_scalar``, method "bounded", xatol 1e-10) between its grid neighbours
     refines it. K(Z) wiggles on the scale ``ΔZ ≈ 2π / (ω0 k T_s)`` (the beat between ω1 and ω0
@@ -224,9 +273,13 @@ def optimal_ratio(
 
     Returns
     -------
-    (ratio, K, at_boundary) : ndarrays of shape forgetting.shape
-        The optimal Z, K there, and whether the optimum sits on an end of the range (then the true
-        minimum may lie outside it).
+    ratio : ndarray, shape forgetting.shape
+        The optimal Z (dimensionless).
+    K : ndarray, shape forgetting.shape [s⁻⁴]
+        The variance factor there (`variance_factor`).
+    at_boundary : ndarray of bool, shape forgetting.shape
+        Whether the optimum sits on an end of the range (then the true minimum may lie outside
+        it: widen ``ratio_range``).
 
     Examples
     --------

@@ -33,7 +33,8 @@ Failures
 
 Outputs (`write_sweep`)
     ``trials.csv`` (and ``trials.parquet`` when pyarrow is installed), ``summary.json`` (grouped
-    count, mean, median, spread per grid cell, plus run information). Every file is written to a
+    count, mean, median, spread per grid cell; bias, spread and RMSE of each final estimate
+    against its truth; run information; which files were written). Every file is written to a
     temporary file in the target folder and renamed into place, so an interrupted sweep never leaves
     a half-written file.
 
@@ -601,6 +602,12 @@ class SweepResult(ResultMixin):
             ``median``, ``std`` (ddof = 1), ``min``, ``max`` over the finite values of the ``ok``
             trials; convergence-time columns also get ``median_censored`` (NaN counted as
             "never", `physid.analysis.metrics.censored_median`) and ``converged_fraction``.
+            Every pair of output columns ``NAME_final`` / ``NAME_true`` (a final estimate and its
+            truth, e.g. ``omega0_final`` / ``omega0_true``) adds ``accuracy[NAME]``: the truth
+            and `physid.analysis.metrics.trial_statistics` of the final estimates over the ``ok``
+            trials (``bias``, ``relative_bias``, ``std`` (the spread), ``relative_spread``,
+            ``rmse``, ``relative_rmse``, ``median_relative_error``, ``n``, ``n_missing``). It is
+            left out where the truth differs between the trials of a cell or is zero.
         """
         skip = {"index", "trial", "seed", "spawn_key", "status", "message", *self.setting_columns}
         outputs = [c for c in self.columns if c not in skip]
@@ -619,6 +626,9 @@ class SweepResult(ResultMixin):
                     continue
                 arr = np.array([math.nan if v is None else v for v in vals], dtype=float)
                 entry[col] = _column_stats(arr, censored=col in self.censored_columns)
+            accuracy = _accuracy(ok_rows, outputs)
+            if accuracy:
+                entry["accuracy"] = accuracy
             summary.append(entry)
         return summary
 
@@ -640,6 +650,27 @@ class SweepResult(ResultMixin):
         from ..report.msd import plot_convergence_maps
 
         return plot_convergence_maps(self, **kwargs)
+
+
+def _accuracy(ok_rows: Sequence[dict], outputs: Sequence[str]) -> dict[str, dict]:
+    """Bias, spread and RMSE of each ``NAME_final`` column against ``NAME_true`` over a cell."""
+    out = {}
+    for col in outputs:
+        name = col.removesuffix("_final")
+        if name == col or f"{name}_true" not in outputs or not ok_rows:
+            continue
+        truths = {r.get(f"{name}_true") for r in ok_rows}
+        if len(truths) != 1:
+            continue
+        truth = truths.pop()
+        if not _is_number(truth) or not math.isfinite(truth) or truth == 0:
+            continue
+        finals = [r.get(col) for r in ok_rows]
+        if not all(v is None or _is_number(v) for v in finals):
+            continue
+        estimates = np.array([math.nan if v is None else v for v in finals], dtype=float)
+        out[name] = {"truth": float(truth), **metrics.trial_statistics(estimates, truth)}
+    return out
 
 
 def _column_stats(arr: np.ndarray, censored: bool) -> dict[str, Any]:
@@ -852,12 +883,21 @@ def run_sweep(
 
 
 # =========================================================================== writing
+def _current_umask() -> int:
+    """The process umask (os.umask can only be read by setting it; set it straight back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) -> Path:
     """Write a file atomically: ``write(handle)`` fills a temporary file that replaces ``path``.
 
     The temporary file lives in the same folder (so the final `os.replace` is an atomic rename on
-    POSIX and Windows); it is flushed and fsync'ed first. If ``write`` raises, the temporary file is
-    removed, an existing ``path`` is left untouched, and the exception propagates.
+    POSIX and Windows); it is flushed and fsync'ed first and given the permissions a plain
+    ``open()`` would give (``0o666`` less the umask; `tempfile.mkstemp` alone makes it private). If
+    ``write`` raises, the temporary file is removed, an existing ``path`` is left untouched, and the
+    exception propagates.
 
     Parameters
     ----------
@@ -881,6 +921,9 @@ def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) ->
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
+        # mkstemp creates the file -rw------- ; give it the permissions open() would (0o666 less
+        # the umask), so the outputs are as readable as any other file the user writes
+        os.chmod(tmp, 0o666 & ~_current_umask())
         os.replace(tmp, path)
     except BaseException:
         try:
@@ -911,6 +954,44 @@ def _summary_document(result: SweepResult) -> dict:
     )
 
 
+def _arrow_column_type(pa, name: str, values: Sequence):
+    """Arrow type of one table column: the seed is uint64 (SeedSequence draws all 64 bits, which
+    overflow pyarrow's default int64 inference), other integer columns int64, numbers float64,
+    flags bool, anything else text. An all-empty column is float64 (all null)."""
+    if name == "seed":
+        return pa.uint64()
+    present = [v for v in values if v is not None]
+    if present and all(isinstance(v, (bool, np.bool_)) for v in present):
+        return pa.bool_()
+    if present and all(_is_number(v) and isinstance(v, int) for v in present):
+        lo, hi = min(present), max(present)
+        if lo >= -(2**63) and hi < 2**63:
+            return pa.int64()
+        if lo >= 0 and hi < 2**64:
+            return pa.uint64()
+        return pa.float64()
+    if all(_is_number(v) for v in present):
+        return pa.float64()
+    return pa.string()
+
+
+def _arrow_table(result: SweepResult):
+    """The sweep table as a `pyarrow.Table` with an explicit schema (see `_arrow_column_type`)."""
+    import pyarrow as pa
+
+    fields, arrays = [], []
+    for name in result.columns:
+        values = [r.get(name) for r in result.rows]
+        kind = _arrow_column_type(pa, name, values)
+        if kind == pa.float64():
+            values = [None if v is None else float(v) for v in values]
+        elif kind == pa.string():
+            values = [None if v is None else str(v) for v in values]
+        fields.append(pa.field(name, kind))
+        arrays.append(pa.array(values, type=kind))
+    return pa.Table.from_arrays(arrays, schema=pa.schema(fields))
+
+
 def write_sweep(
     result: SweepResult,
     out_dir,
@@ -921,7 +1002,11 @@ def write_sweep(
     """Write a sweep's table and summary (and optional figures) atomically into ``out_dir``.
 
     Writes ``STEM.csv``, ``STEM.parquet`` (only when pyarrow is importable), ``summary.json`` and
-    ``NAME.png`` for each ``figures`` entry (name -> matplotlib Figure).
+    ``NAME.png`` for each ``figures`` entry (name -> matplotlib Figure). The Parquet table has an
+    explicit schema: ``seed`` is ``uint64`` (seeds use all 64 bits), ``index`` and ``trial``
+    ``int64``, numeric outputs ``float64`` (NaN kept, missing values null), text ``string``. If
+    the Parquet file cannot be written, the sweep's other files are still written and
+    ``summary.json`` says why under ``outputs.parquet``.
 
     Returns
     -------
@@ -935,17 +1020,24 @@ def write_sweep(
     paths: dict[str, Path] = {}
     text = result.to_csv_text()
     paths["csv"] = atomic_write(out / f"{stem}.csv", lambda fh: fh.write(text))
+    outputs = {"csv": "written"}
     try:
-        import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
-        pass
+        outputs["parquet"] = "not written: pyarrow is not installed (pip install physid[parquet])"
+    except Exception as exc:  # a broken pyarrow install must not cost the other outputs
+        outputs["parquet"] = f"not written: importing pyarrow failed: {type(exc).__name__}: {exc}"
     else:
-        table = pa.table({c: [r.get(c) for r in result.rows] for c in result.columns})
-        paths["parquet"] = atomic_write(
-            out / f"{stem}.parquet", lambda fh: pq.write_table(table, fh), binary=True
-        )
+        try:  # the CSV is the primary output: a Parquet failure is recorded, never fatal
+            table = _arrow_table(result)
+            paths["parquet"] = atomic_write(
+                out / f"{stem}.parquet", lambda fh: pq.write_table(table, fh), binary=True
+            )
+            outputs["parquet"] = "written"
+        except Exception as exc:
+            outputs["parquet"] = f"not written: {type(exc).__name__}: {exc}"
     doc = _summary_document(result)
+    doc["outputs"] = outputs
     paths["summary"] = atomic_write(
         out / "summary.json", lambda fh: json.dump(doc, fh, indent=2, allow_nan=False)
     )
@@ -1061,7 +1153,9 @@ def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
     Returns
     -------
     dict
-        ``omega0_true``, ``omega0_final``, ``zeta_final`` (the estimator's final estimates),
+        ``omega0_true``, ``omega0_final``, ``zeta_final``, ``theta1_true``, ``theta1_final``,
+        ``theta2_true``, ``theta2_final`` (the truths and the estimator's final estimates; the
+        ``*_final`` / ``*_true`` pairs give the bias and spread in `SweepResult.summarize`),
         ``final_error`` (relative ω0 error of the final estimate), ``t_first_hit`` and ``t_settle``
         [s] (`physid.analysis.metrics`; NaN = not within 2 % by the end), ``valid_fraction``, and a
         ``status`` ``"estimator-failed"`` with the estimator's message when it did not succeed.
@@ -1076,6 +1170,8 @@ def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
         seed=int(seed),
     )
     truth = _msd_truth(rec, MSD_NATURAL_FREQUENCY)
+    meta = getattr(rec, "metadata", {}) or {}
+    theta_true = {n: float(meta.get(n, math.nan)) for n in ("theta1", "theta2")}
     result = _msd_estimator(settings).fit(rec).result_
     tol = float(settings.get("tolerance", metrics.DEFAULT_TOLERANCE))
     t, omega, valid = metrics.estimate_trace(result, "natural_frequency")
@@ -1086,6 +1182,10 @@ def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
         "omega0_true": truth,
         "omega0_final": omega_final,
         "zeta_final": float(params.get("damping_ratio", math.nan)),
+        "theta1_true": theta_true["theta1"],
+        "theta1_final": float(params.get("theta1", math.nan)),
+        "theta2_true": theta_true["theta2"],
+        "theta2_final": float(params.get("theta2", math.nan)),
         "final_error": abs(omega_final - truth) / truth if math.isfinite(omega_final) else math.nan,
         "t_first_hit": conv["first_hit"],
         "t_settle": conv["settle"],

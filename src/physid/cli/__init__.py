@@ -31,9 +31,23 @@ def _verb_modules():
     return sorted(mods, key=lambda m: (getattr(m, "ORDER", 100), m.__name__))
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with physid's error format: ``physid: error: <message>`` and exit status 2.
+
+    Sub-parsers inherit the class, so a bad option of any verb reads like every other bad input;
+    the usage line of the verb that was misused still comes first.
+    """
+
+    def error(self, message: str):
+        self.print_usage(sys.stderr)
+        verb = self.prog.removeprefix("physid").strip()
+        where = f" {verb}:" if verb else ""
+        self.exit(2, f"physid: error:{where} {message}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser (all verbs registered)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="physid",
         description=(
             "Identify physical parameters (masses, lengths, stiffness, damping, natural frequency) "

@@ -14,7 +14,7 @@ from ._common import assignments, print_json, progress
 ORDER = 40
 
 _ALGEBRAIC_ONLY = ("window", "mu", "integration", "block", "expanding", "final")
-_RLS_ONLY = ("forgetting", "prefilter_cutoff")
+_RLS_ONLY = ("forgetting", "prefilter_cutoff", "init_samples")
 
 
 def register(subparsers) -> None:
@@ -23,14 +23,19 @@ def register(subparsers) -> None:
         help="estimate a linear ODE model's coefficients (algebraic or recursive least squares)",
         description=(
             "Estimate the coefficients of a linear ODE model (the built-in mass-spring-damper "
-            "'msd' or a TOML model file) from a recording with an input channel u and an output "
-            "channel x (or y). --method algebraic: the Fliess / Sira-Ramirez sliding-window "
-            "estimator (Oueslati et al. 2011, section 4, corrected; docs/algebraic.md); "
+            "'msd' or a TOML model file) from a recording with the model's input and output "
+            "channels (the MSD: u and x, or y). --method algebraic: the Fliess / Sira-Ramirez "
+            "sliding-window estimator (Oueslati et al. 2011, section 4, corrected; "
+            "docs/algebraic.md); "
             "--method rls: recursive least squares with forgetting (section 3). Progress goes to "
             "stderr; the result (a summary, or one JSON object with --json) to stdout."
         ),
     )
-    parser.add_argument("file", metavar="F", help="recording (.csv, .npz, .mat, .h5) with u and x")
+    parser.add_argument(
+        "file",
+        metavar="F",
+        help="recording (.csv, .npz, .mat, .h5) with the model's input and output channels",
+    )
     parser.add_argument(
         "--model",
         default="msd",
@@ -77,8 +82,8 @@ def register(subparsers) -> None:
         "--final",
         choices=["lstsq", "median"],
         default=None,
-        help="final estimate: pooled least squares over the valid windows (default), or their "
-        "median",
+        help="final estimate: pooled least squares over the valid windows (lstsq), or their "
+        "median (default lstsq)",
     )
     rls = parser.add_argument_group("rls method")
     rls.add_argument(
@@ -95,11 +100,20 @@ def register(subparsers) -> None:
         metavar="HZ",
         help="cut-off of the derivative pre-filter [Hz] (default: automatic)",
     )
+    rls.add_argument(
+        "--init-samples",
+        type=int,
+        default=None,
+        metavar="N",
+        help="rows of the least-squares start (eq. 4), at least the number of unknowns "
+        "(default 10 per unknown)",
+    )
     parser.add_argument(
         "--unknown",
         default=None,
         metavar="LIST",
-        help="coefficients to estimate, comma-separated (default: the model's)",
+        help="coefficients to estimate, comma-separated (default: the model's, less those "
+        "given with --known)",
     )
     parser.add_argument(
         "--known",

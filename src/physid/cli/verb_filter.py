@@ -10,7 +10,7 @@ import argparse
 import math
 import re
 
-from ..errors import InputError
+from ..errors import InputError, PhysidError
 from ._common import progress
 
 ORDER = 60
@@ -19,6 +19,7 @@ _SUFFIX = {0: "", 1: "_dot", 2: "_ddot"}
 
 
 def register(subparsers) -> None:
+    """Add the ``filter`` verb and its options to the CLI's ``subparsers``."""
     parser = subparsers.add_parser(
         "filter",
         help="low-pass or differentiate channels with the paper's FIR filters",
@@ -63,15 +64,26 @@ def register(subparsers) -> None:
         action="store_true",
         help="drop one more sample at the end, like the paper's loop i = M+1..NN-M-1",
     )
+    parser.add_argument(
+        "--resample",
+        action="store_true",
+        help="interpolate a non-uniformly sampled recording linearly onto a uniform grid "
+        "with its mean period (default: refuse it with an error)",
+    )
     parser.add_argument("--out", metavar="G", required=True, help="output file (.csv or .npz)")
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
+    """Filter the recording ``args.file`` and write ``args.out``; return the exit status 0.
+
+    Bad input raises a `PhysidError` (the CLI prints ``physid: error: ...`` and exits 2); errors
+    from applying the filter (e.g. a record shorter than 2M + 1 samples) name the input file.
+    """
     from ..filters import design_filter
     from ..signals import Recording, load_recording, save_recording
 
-    rec = load_recording(args.file)
+    rec = load_recording(args.file, resample=bool(args.resample))
     if args.channels:
         names = [n.strip() for n in args.channels.split(",") if n.strip()]
         if not names:
@@ -80,7 +92,10 @@ def run(args) -> int:
         names = list(rec.names)
     data = rec.select(names)
     filt = design_filter(args.kind, args.half_width, args.cutoff, rec.dt)
-    out = filt.apply(data, paper=args.paper)
+    try:
+        out = filt.apply(data, paper=args.paper)
+    except PhysidError as exc:  # e.g. a record shorter than 2M+1 samples: name the file
+        raise type(exc)(f"{args.file}: {exc}") from None
     t_out = filt.output_time(rec.t, paper=args.paper)
     suffix = _SUFFIX[filt.order]
     out_names = tuple(f"{n}{suffix}" for n in names)

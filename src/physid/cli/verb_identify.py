@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import warnings
 
 from ._common import assignments, float_list, print_json, progress
@@ -21,7 +20,6 @@ def register(subparsers) -> None:
             "Janecki, section 5). Prints the estimates, their standard errors, the paper's "
             "quality factor J and the combinations the data cannot separate."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     p.add_argument(
         "recording",
@@ -32,13 +30,22 @@ def register(subparsers) -> None:
         "--kinetic",
         choices=("exact", "paper"),
         default=None,
-        help="kinetic energy of the built-in manipulator: exact, or the paper's (no cross terms)",
+        help="kinetic energy of the built-in manipulator: exact, or the paper's (no cross terms) "
+        "(default: the model's own, exact for 'manipulator')",
     )
     p.add_argument(
-        "--half-width", type=int, default=100, metavar="M", help="filter half-width M (2M+1 taps)"
+        "--half-width",
+        type=int,
+        default=100,
+        metavar="M",
+        help="filter half-width M (2M+1 taps; default: 100)",
     )
     p.add_argument(
-        "--cutoff", type=float, default=0.2, metavar="W", help="filter cut-off Ω_g [rad/sample]"
+        "--cutoff",
+        type=float,
+        default=0.2,
+        metavar="W",
+        help="filter cut-off Ω_g [rad/sample] (default: 0.2)",
     )
     p.add_argument(
         "--initial",
@@ -53,25 +60,27 @@ def register(subparsers) -> None:
         "--torque",
         choices=("measured", "pd"),
         default="measured",
-        help="measured tau1..taun, or rebuilt from the PD law with r1..rn and the gains",
+        help="measured tau1..taun, or rebuilt from the PD law with r1..rn and the gains "
+        "(default: measured)",
     )
     p.add_argument(
         "--kp",
         default=None,
         metavar="LIST",
-        help="PD proportional gains [N·m/rad] (default: file metadata)",
+        help="PD proportional gains [N·m/rad], only with --torque pd (default: file metadata)",
     )
     p.add_argument(
         "--kd",
         default=None,
         metavar="LIST",
-        help="PD derivative gains [N·m·s/rad] (default: file metadata)",
+        help="PD derivative gains [N·m·s/rad], only with --torque pd (default: file metadata)",
     )
     p.add_argument(
         "--start",
         choices=("initial", "linear"),
         default="initial",
-        help="start from the initial values, or from the linear base-parameter solution",
+        help="start from the initial values, or from the linear base-parameter solution "
+        "(default: initial)",
     )
     p.add_argument(
         "--derivatives",
@@ -80,7 +89,9 @@ def register(subparsers) -> None:
         help="derivative filters built from the low-pass (default; no filter bias), or the "
         "paper's Filtr1/Filtr2 (to reproduce its numbers, m1*l1**2 biased by ~3 %%)",
     )
-    p.add_argument("--max-nfev", type=int, default=200, help="budget of residual evaluations")
+    p.add_argument(
+        "--max-nfev", type=int, default=200, help="budget of residual evaluations (default: 200)"
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
 
@@ -134,6 +145,7 @@ def run(args) -> int:
                 "derivatives": args.derivatives,
                 "cutoff": result.cutoff,
                 "torque": result.torque,
+                "at_bound": list(result.at_bound),
             }
         )
     else:

@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import argparse
 import math
 
 from ..errors import InputError
@@ -39,24 +38,33 @@ def register(subparsers) -> None:
             "(Kp = 3800, 40000, 10000, 500; Kd = 159.5, 120, 50, 2), Δ = 1 ms, 0 .. 9.7 s. "
             "Writes t, q1..q4 [rad], qd1..qd4 [rad/s], tau1..tau4 [N·m], r1..r4 [rad]."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     arm.add_argument("--out", metavar="F", required=True, help="output file (.csv or .npz)")
     arm.add_argument(
         "--kinetic",
         choices=["exact", "paper"],
         default="exact",
-        help="kinetic energy of the model: exact, or the paper's simplified sum",
+        help="kinetic energy of the model: exact, or the paper's simplified sum (default: exact)",
     )
     arm.add_argument(
         "--alignment",
         choices=["paper", "centred"],
         default="paper",
         help="time stamps of the filtered reference: 'paper' starts it at t = 0 (it leads the "
-        "raw steps by 0.1 s, as in the paper's code); 'centred' is zero-phase",
+        "raw steps by 0.1 s, as in the paper's code); 'centred' is zero-phase (default: paper)",
     )
-    arm.add_argument("--noise-std", metavar="RAD", default=None, help="white noise std on q [rad]")
-    arm.add_argument("--seed", metavar="N", default=None, help="noise seed (non-negative integer)")
+    arm.add_argument(
+        "--noise-std",
+        metavar="RAD",
+        default=None,
+        help="white noise std on q [rad] (default: none)",
+    )
+    arm.add_argument(
+        "--seed",
+        metavar="N",
+        default=None,
+        help="noise seed (non-negative integer; needs --noise-std)",
+    )
     arm.set_defaults(func=run_manipulator)
 
     msd = systems.add_parser(
@@ -68,12 +76,13 @@ def register(subparsers) -> None:
             "A1 = 333.33 on the normalised equation, i.e. 1000 N on 3 kg); Δ = 1 ms; 5 s. "
             "Writes t, u [m/s²], x [m] (+ x_true [m] when noise or a disturbance is added)."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     msd.add_argument("--out", metavar="F", required=True, help="output file (.csv or .npz)")
-    msd.add_argument("--mass", metavar="KG", default=None, help="mass m [kg] (default 3)")
-    msd.add_argument("--stiffness", metavar="N_PER_M", default=None, help="k [N/m] (default 400)")
-    msd.add_argument("--damping", metavar="NS_PER_M", default=None, help="c [N·s/m] (default 0.05)")
+    msd.add_argument("--mass", metavar="KG", default=None, help="mass m [kg] (default: 3)")
+    msd.add_argument("--stiffness", metavar="N_PER_M", default=None, help="k [N/m] (default: 400)")
+    msd.add_argument(
+        "--damping", metavar="NS_PER_M", default=None, help="c [N·s/m] (default: 0.05)"
+    )
     msd.add_argument(
         "--natural-frequency", metavar="RAD_S", default=None, help="ω0 [rad/s] instead of k, c"
     )
@@ -82,15 +91,22 @@ def register(subparsers) -> None:
         "--amplitude",
         metavar="A",
         default=None,
-        help="amplitude of u = F/m [m/s²] (default 1000/3)",
+        help="amplitude of u = F/m [m/s²] (default: 1000/3)",
     )
     msd.add_argument(
         "--force", metavar="N", default=None, help="force amplitude [N] (needs --mass)"
     )
-    msd.add_argument("--ratio", metavar="Z", default="1", help="Z = ω1 / ω0")
-    msd.add_argument("--duration", metavar="S", default="5", help="duration [s]")
-    msd.add_argument("--dt", metavar="S", default="0.001", help="sample period [s]")
-    msd.add_argument("--snr", metavar="DB", default=None, help="white noise on x at this SNR [dB]")
+    msd.add_argument("--ratio", metavar="Z", default="1", help="Z = ω1 / ω0 (default: 1)")
+    msd.add_argument("--duration", metavar="S", default="5", help="duration [s] (default: 5)")
+    msd.add_argument(
+        "--dt", metavar="S", default="0.001", help="sample period [s] (default: 0.001)"
+    )
+    msd.add_argument(
+        "--snr",
+        metavar="DB",
+        default=None,
+        help="white noise on x at this SNR [dB] (default: none)",
+    )
     msd.add_argument(
         "--disturbance",
         metavar="A2,W2",
@@ -103,8 +119,12 @@ def register(subparsers) -> None:
         default=None,
         help="stiffness jumps: from time T [s] on, k = K [N/m] (position and velocity continuous)",
     )
-    msd.add_argument("--initial", metavar="X0,V0", default=None, help="x(0) [m], ẋ(0) [m/s]")
-    msd.add_argument("--seed", metavar="N", default=None, help="noise seed (non-negative integer)")
+    msd.add_argument(
+        "--initial", metavar="X0,V0", default=None, help="x(0) [m], ẋ(0) [m/s] (default: 0,0)"
+    )
+    msd.add_argument(
+        "--seed", metavar="N", default=None, help="noise seed (non-negative integer; needs --snr)"
+    )
     msd.set_defaults(func=run_msd)
 
 
@@ -212,6 +232,12 @@ def run_msd(args) -> int:
                     f"'paper'; got {args.disturbance!r}."
                 )
             disturbance = tuple(values)
+    seed = _seed(args.seed)
+    if seed is not None and args.snr is None:
+        raise InputError(
+            "--seed only seeds the measurement noise; give --snr DB as well (the --disturbance "
+            "sinusoid is deterministic), or drop --seed."
+        )
     x0 = (0.0, 0.0)
     if args.initial:
         x0 = tuple(float_list(args.initial, "--initial"))
@@ -226,7 +252,7 @@ def run_msd(args) -> int:
         force_amplitude=force,
         disturbance=disturbance,
         jumps=_jumps(args.jumps),
-        seed=_seed(args.seed),
+        seed=seed,
         mass=3.0 if mass is None else mass,
         damping=damping,
         stiffness=stiffness,

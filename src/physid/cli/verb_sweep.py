@@ -98,6 +98,13 @@ def _fmt_time(cell, column: str) -> str:
     return "never" if value is None or not math.isfinite(value) else f"{value:.3g}"
 
 
+def _fmt_pct(value) -> str:
+    """A relative bias or spread as a percentage; "-" where undefined (e.g. one trial)."""
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{100 * value:.2g} %"
+
+
 def run(args) -> int:
     from ..analysis.montecarlo import MSD_TIME_COLUMNS, msd_sweep, write_sweep
     from ..report.msd import plot_convergence_maps, variant_label
@@ -142,13 +149,16 @@ def run(args) -> int:
         return 0
     print(
         f"{'estimator':<22} {'SNR':>6} {'Z':>6} {'ok':>7} {'first hit [s]':>14} {'settle [s]':>11}"
+        f" {'ω0 bias':>9} {'ω0 spread':>10}"
     )
     for cell in result.summarize():
         snr = "clean" if cell["snr_db"] is None else f"{cell['snr_db']:g}"
+        acc = cell.get("accuracy", {}).get("omega0", {})
         print(
             f"{variant_label(cell):<22} {snr:>6} {cell['ratio']:>6g} "
             f"{cell['n_ok']:>3}/{cell['n']:<3} {_fmt_time(cell, 't_first_hit'):>14} "
-            f"{_fmt_time(cell, 't_settle'):>11}"
+            f"{_fmt_time(cell, 't_settle'):>11} {_fmt_pct(acc.get('relative_bias')):>9} "
+            f"{_fmt_pct(acc.get('relative_spread')):>10}"
         )
     for key, path in paths.items():
         print(f"{key}: {path}")

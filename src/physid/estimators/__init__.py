@@ -11,11 +11,13 @@ from .algebraic import (
     StreamingAlgebraicEstimator,
     algebraic_estimates,
 )
-from .input_error import FilterWarning, InputErrorEstimator, InputErrorResult
+from .input_error import BoundWarning, FilterWarning, InputErrorEstimator, InputErrorResult
 from .recursive import (
     RecursiveLeastSquares,
     RecursiveResult,
+    StreamingRecursiveEstimator,
     StreamingRLS,
+    StreamingStateVariableFilter,
     build_regression,
     rls_update,
 )
@@ -25,6 +27,7 @@ __all__ = [
     "InputErrorEstimator",
     "InputErrorResult",
     "FilterWarning",
+    "BoundWarning",
     "AlgebraicEstimator",
     "AlgebraicResult",
     "StreamingAlgebraicEstimator",
@@ -32,6 +35,8 @@ __all__ = [
     "RecursiveLeastSquares",
     "RecursiveResult",
     "StreamingRLS",
+    "StreamingRecursiveEstimator",
+    "StreamingStateVariableFilter",
     "rls_update",
     "build_regression",
     "ResultMixin",

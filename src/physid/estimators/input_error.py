@@ -61,6 +61,7 @@ __all__ = [
     "InputErrorEstimator",
     "InputErrorResult",
     "FilterWarning",
+    "BoundWarning",
     "FilterBandCheck",
     "filter_band_check",
     "quality_factor",
@@ -79,6 +80,22 @@ RESIDUAL_WARN = 1e-3
 
 class FilterWarning(UserWarning):
     """The filter's pass band does not cover the signals' spectrum: expect biased estimates."""
+
+
+class BoundWarning(UserWarning):
+    """The fit ended with parameters on (or within ``BOUND_RTOL`` of) their bounds.
+
+    Not a filter problem (`FilterWarning`) and not an identifiability problem (the data do
+    determine the direction; the unconstrained optimum lies outside the physical region): the
+    usual cause is a model that does not match the system, e.g. ``kinetic="paper"`` fitted to
+    data of the exact kinetic energy. The estimate is then a boundary point, not a minimum of J;
+    its standard error is reported as NaN and ``success`` is False.
+    """
+
+
+#: A parameter within ``BOUND_RTOL * max(|initial value|, 1)`` of a finite bound (or flagged by
+#: least_squares' ``active_mask``) counts as ended on that bound.
+BOUND_RTOL = 1e-3
 
 
 # ---------------------------------------------------------------------- filter guidance
@@ -221,7 +238,8 @@ class InputErrorResult(ResultMixin):
         Estimates (SI units), fixed parameters included at their held values.
     stderr : dict name -> float
         Standard errors from the Jacobian at the optimum and the residual variance
-        (``NaN`` for fixed parameters, ``inf`` along numerically unidentifiable directions). The
+        (``NaN`` for fixed parameters and for parameters that ended on a bound, ``inf`` along
+        numerically unidentifiable directions). The
         filtered residuals are correlated and, on noise-free data, are model-filter mismatch
         rather than noise, so these are nominal values; see ``docs/input-error.md``.
     correlation : ndarray, shape (n_free, n_free)
@@ -271,6 +289,9 @@ class InputErrorResult(ResultMixin):
         ``rms(τ̂ - τ^f) / rms(τ^f)`` per joint at the estimate: how well the filtered equations of
         motion balance (a `FilterWarning` is raised above ``RESIDUAL_WARN``).
     warnings : tuple of str
+    at_bound : tuple of str
+        Free parameters that ended on a bound (`BoundWarning`; their ``stderr`` is NaN and
+        ``success`` is False).
     t : ndarray, shape (n_valid,) [s]
         Times of the valid (filtered) samples.
     residuals : ndarray, shape (n_valid, n_joints) [N·m]
@@ -308,6 +329,7 @@ class InputErrorResult(ResultMixin):
     filter_energy_fraction: np.ndarray
     relative_residual: np.ndarray
     warnings: tuple[str, ...]
+    at_bound: tuple[str, ...]
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
 
@@ -431,6 +453,7 @@ class InputErrorEstimator:
         ``r1..rn`` [rad], as the paper does.
     kp, kd : float or sequence of float, optional
         PD gains [N·m/rad], [N·m·s/rad] for ``torque="pd"``; default: the recording's metadata.
+        Given with ``torque="measured"`` they would be unused, so that is an `InputError`.
     fixed : mapping name -> value, optional
         Parameters to hold at the given values. Each structurally unidentifiable combination that
         ``fixed`` does not touch gets one parameter held at its initial value, with an
@@ -461,10 +484,21 @@ class InputErrorEstimator:
     xtol, ftol, gtol : float
         Tolerances passed to `scipy.optimize.least_squares`.
 
+    Warns
+    -----
+    FilterWarning
+        The filter's pass band does not cover the motion, or the equations do not balance.
+    IdentifiabilityWarning
+        A parameter of an unidentifiable combination is held at its initial value.
+    BoundWarning
+        Parameters ended on a bound (likely model mismatch); they are named in ``message``,
+        their ``stderr`` is NaN and ``success`` is False.
+
     Examples
     --------
-    The paper's experiment (noise-free, paper's kinetic energy) and filter recover m2 = 25 kg to
-    0.04 %; m1 and l1 can only be identified as m1*l1**2, so l1 is held (with a warning):
+    The paper's experiment (noise-free, paper's kinetic energy) with the paper's M = 100,
+    Ω_g = 0.2 and the default consistent derivative filters recovers m2 = 25 kg to 0.001 %; m1 and
+    l1 can only be identified as m1*l1**2, so l1 is held (with a warning):
 
     >>> import warnings, physid
     >>> from physid.simulate.closed_loop import paper_manipulator_experiment
@@ -474,7 +508,7 @@ class InputErrorEstimator:
     ...     warnings.simplefilter("ignore")
     ...     result = InputErrorEstimator(model, torque="pd").fit(rec, initial={"m2": 25.1}).result_
     >>> round(result.parameters["m2"], 2), result.unidentifiable, result.fixed
-    (25.01, ('m1*l1**2',), {'l1': 0.4})
+    (25.0, ('m1*l1**2',), {'l1': 0.4})
     """
 
     def __init__(
@@ -518,6 +552,14 @@ class InputErrorEstimator:
     def _check_settings(self) -> None:
         if self.torque not in ("measured", "pd"):
             raise InputError(f"torque must be 'measured' or 'pd'; got {self.torque!r}.")
+        if self.torque != "pd" and (self.kp is not None or self.kd is not None):
+            given = [n for n in ("kp", "kd") if getattr(self, n) is not None]
+            raise InputError(
+                f"--kp/--kd are used only with --torque pd; got {'/'.join(given)} with "
+                f"torque={self.torque!r} (the measured tau1..taun need no gains). Use "
+                "torque='pd' (CLI --torque pd) to rebuild the torque from the PD law, or drop "
+                "kp/kd."
+            )
         if self.derivatives not in ("paper", "consistent"):
             raise InputError(
                 f"derivatives must be 'paper' or 'consistent'; got {self.derivatives!r}."
@@ -560,6 +602,18 @@ class InputErrorEstimator:
                 f"{type(recording).__name__}."
             )
         q_names = recording.channels("q")
+        q_all = sorted(
+            (n for n in recording.names if n[:1] == "q" and n[1:].isdigit() and int(n[1:]) > 0),
+            key=lambda n: int(n[1:]),
+        )
+        gaps = [f"q{k}" for k in range(1, max([int(n[1:]) for n in q_all] + [0]) + 1)]
+        gaps = [n for n in gaps if n not in q_all]
+        if gaps:
+            raise DataFileError(
+                f"the recording's joint-angle channels {q_all} have a gap: {gaps} missing "
+                f"(the model has {nj} joints and needs q1..q{nj} [rad]). Add or rename the "
+                "missing column(s)."
+            )
         if not q_names:
             raise DataFileError(
                 f"the recording has no joint-angle channels q1..q{nj} [rad]; it has "
@@ -761,6 +815,31 @@ class InputErrorEstimator:
             gtol=self.gtol,
         )
         theta_hat = full_theta(sol.x)
+        # -- parameters that ended on a bound: a boundary point, not a minimum of J
+        x_hat, lo_free, hi_free = sol.x, lower[free_idx], upper[free_idx]
+        near = BOUND_RTOL * np.maximum(scale[free_idx], 1.0)
+        with np.errstate(invalid="ignore"):
+            on_bound = (np.asarray(sol.active_mask) != 0) | (
+                (np.isfinite(lo_free) & (x_hat - lo_free <= near))
+                | (np.isfinite(hi_free) & (hi_free - x_hat <= near))
+            )
+        at_bound = tuple(n for n, b in zip(free_names, on_bound, strict=True) if b)
+        bound_text = ""
+        if at_bound:
+            where = ", ".join(
+                f"{n} = {x_hat[k]:.6g} (bounds [{lo_free[k]:.6g}, {hi_free[k]:.6g}])"
+                for k, n in enumerate(free_names)
+                if on_bound[k]
+            )
+            bound_text = (
+                f"the fit ended on a bound: {where}. The data push these parameters out of the "
+                "physical region, which usually means the model does not match the system (e.g. "
+                "kinetic='paper' / --kinetic paper fitted to data of the exact kinetic energy, "
+                "wrong gains, or a missing friction term); their standard errors are not "
+                "meaningful (NaN). Check the model, or set bounds= if the bound was too tight."
+            )
+            warnings.warn(bound_text, BoundWarning, stacklevel=2)
+            notes.append(bound_text)
         e_hat = residual_matrix(theta_hat)
         cost = quality_factor(e_hat)
         tau_rms = np.sqrt(np.mean(tau_f**2, axis=0))
@@ -796,6 +875,7 @@ class InputErrorEstimator:
             corr = cov / np.outer(sd, sd)
         stderr = {n: float("nan") for n in names}
         stderr.update({n: float(v) for n, v in zip(free_names, sd, strict=True)})
+        stderr.update({n: float("nan") for n in at_bound})
 
         combos = tuple(c.expression for c in structural.combinations)
         combo_values, combo_errors = _expression_values(combos, names, theta_hat, cov, free_idx)
@@ -807,6 +887,9 @@ class InputErrorEstimator:
                 f" The fit stopped after {sol.nfev} evaluations; raise max_nfev (now "
                 f"{self.max_nfev}) or use start='linear'."
             )
+        if at_bound:
+            success = False
+            message += " Not a minimum: " + bound_text
         if not after.ok:
             notes.append("after the fit: " + after.summary())
             message += " Warning: " + after.summary() + "."
@@ -846,6 +929,7 @@ class InputErrorEstimator:
             filter_energy_fraction=band.fractions,
             relative_residual=relative_residual,
             warnings=tuple(notes),
+            at_bound=at_bound,
             t=t_valid,
             residuals=e_hat,
         )

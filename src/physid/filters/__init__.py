@@ -1,8 +1,10 @@
 """Differential filters: the Harris-windowed FIR low-pass, d/dt and d²/dt² of Cedro & Janecki.
 
-Design (`design_filter`) is separate from application (`DifferentialFilter.apply`); every filter
-reports its delay, valid range, frequency response and white-noise gain. `filter_derivatives`
-returns the low-passed signal and both derivatives, aligned on the same output times.
+Design (`design_filter`) is separate from application (`DifferentialFilter.apply` for the
+samples, `DifferentialFilter.filter_signal` for a `FilteredSignal` of samples and aligned times);
+every filter reports its delay, valid range, frequency response and white-noise gain.
+`filter_derivatives` returns the low-passed signal and both derivatives, aligned on the same
+output times.
 """
 
 from .differential import (
@@ -10,6 +12,7 @@ from .differential import (
     KINDS,
     DifferentialFilter,
     FilteredDerivatives,
+    FilteredSignal,
     design_filter,
     design_filter_bank,
     filter_derivatives,
@@ -23,6 +26,7 @@ __all__ = [
     "KINDS",
     "DifferentialFilter",
     "FilteredDerivatives",
+    "FilteredSignal",
     "design_filter",
     "filter_derivatives",
     "harris_window",

@@ -49,13 +49,14 @@ import numpy as np
 from scipy import signal, special
 
 from .._validate import as_1d, check_finite, check_length, check_time, sample_period
-from ..errors import InputError, ShapeError
+from ..errors import InputError, SamplingError, ShapeError
 
 __all__ = [
     "BANK_DESIGNS",
     "design_filter_bank",
     "DifferentialFilter",
     "FilteredDerivatives",
+    "FilteredSignal",
     "design_filter",
     "filter_derivatives",
     "harris_window",
@@ -186,8 +187,30 @@ class DifferentialFilter:
     def valid_slice(self, n_samples: int, *, paper: bool = False) -> slice:
         """Input samples that get an output: ``slice(M, n - M)`` (``n - M - 1`` when ``paper``).
 
-        Raises `SamplingError` when the record is shorter than the filter (``2M + 1`` samples,
-        ``2M + 2`` when ``paper``).
+        Parameters
+        ----------
+        n_samples : int
+            Length n of the record to be filtered [samples].
+        paper : bool
+            Drop one more sample at the end, like the paper's loop ``i = M+1 .. NN-M-1``.
+
+        Returns
+        -------
+        slice
+            Indices into the input [samples]; ``x[valid_slice(n)]`` are the input samples the
+            output rows belong to, in order.
+
+        Raises
+        ------
+        SamplingError
+            The record is shorter than the filter (``2M + 1`` samples, ``2M + 2`` when
+            ``paper``).
+
+        Examples
+        --------
+        >>> f = design_filter("lowpass", half_width=3, cutoff=0.5, dt=1.0)
+        >>> f.valid_slice(10), f.valid_slice(10, paper=True)
+        (slice(3, 7, None), slice(3, 6, None))
         """
         n_samples = int(n_samples)
         self._check_length(n_samples, paper)
@@ -199,6 +222,18 @@ class DifferentialFilter:
 
         Note: the paper restarts the filtered signal's time at 0 (``tp1 = Δ Range[0, ...]``); we
         keep the true time of each output, which is ``M Δ`` later.
+
+        Parameters
+        ----------
+        t : array_like, shape (n_samples,) [s]
+            Sample times of the input.
+        paper : bool
+            Drop one more sample at the end, like the paper.
+
+        Returns
+        -------
+        ndarray, shape (n_samples - 2M,) [s]
+            (``n_samples - 2M - 1`` when ``paper``.)
         """
         t = as_1d(t, "t")
         return t[self.valid_slice(t.size, paper=paper)]
@@ -214,9 +249,12 @@ class DifferentialFilter:
             Drop one more sample at the end, like the paper's loop ``i = M+1 .. NN-M-1``.
         method : {"fft", "direct"}
             ``"fft"``: overlap-add FFT convolution (``scipy.signal.oaconvolve``), fast for long
-            records; ``"direct"``: the sum of products over each window, like the paper's dot
-            product (``np.einsum``; slower, and exactly 0 where the window sees only zeros).
-            Both agree to ~1e-13 relative.
+            records. ``"direct"``: the paper's dot product ``x[i-M..i+M] · taps`` with the
+            same floating-point operations in the same order as the literal loop
+            ``acc = 0; for k: acc += x[i-M+k] · taps[k]``, vectorised over the outputs (one
+            pass per tap), so it agrees with that loop *bit for bit*; slower (O(n·M)), and
+            exactly 0 where the window sees only zeros. FFT rounding differs in principle;
+            both agree to ~1e-13 relative.
 
         Returns
         -------
@@ -256,9 +294,13 @@ class DifferentialFilter:
             # correlation with c == convolution with c reversed; 'valid' keeps n - 2M rows.
             # Transposed so that each channel is one contiguous convolution (fastest layout).
             out = signal.oaconvolve(arr.T, self.taps[None, ::-1], mode="valid", axes=1).T
-        else:  # "direct"
-            windows = np.lib.stride_tricks.sliding_window_view(arr, self.n_taps, axis=0)
-            out = np.einsum("jcn,n->jc", windows, self.taps)  # y[j] = x[j .. j+2M] · taps
+        else:  # "direct": y[j] = Σ_k x[j+k] taps[k], accumulated k = 0..2M left to right
+            # (a BLAS dot or einsum may sum in blocks or use FMA: different last bits; this loop
+            # runs over the 2M+1 taps, each pass vectorised over all samples and channels)
+            n_out = n - 2 * self.half_width
+            out = np.zeros((n_out, arr.shape[1]))
+            for k, tap in enumerate(self.taps.tolist()):
+                out += arr[k : k + n_out] * tap  # product rounded, then the sum: as in the loop
         if paper:
             out = out[:-1]
         out = np.ascontiguousarray(out)
@@ -266,19 +308,106 @@ class DifferentialFilter:
 
     __call__ = apply
 
+    def filter_signal(self, x, t, *, paper: bool = False, method: str = "fft") -> FilteredSignal:
+        """Filter ``x`` and return the samples with their aligned time vector.
+
+        Parameters
+        ----------
+        x : array_like, shape (n_samples, n_channels) or (n_samples,)
+            Uniformly sampled signal.
+        t : array_like, shape (n_samples,) [s]
+            Its sample times, strictly increasing with period `dt` (relative tolerance 1e-6).
+        paper : bool
+            Drop one more sample at the end, like the paper.
+        method : {"fft", "direct"}
+            As in `apply`.
+
+        Returns
+        -------
+        FilteredSignal
+            ``t`` (n_out,) [s] and ``values`` (n_out, n_channels) or (n_out,) [unit of x per
+            s^order], read-only, with ``n_out = n_samples - 2M`` (one fewer when ``paper``);
+            ``values[j]`` belongs to input sample ``j + M`` at time ``t[j]``.
+
+        Raises
+        ------
+        ShapeError
+            ``x`` does not have one row per sample of ``t``.
+        SamplingError
+            ``t`` is not strictly increasing, not uniform, or its period is not `dt`; or the
+            record is shorter than the filter.
+
+        Examples
+        --------
+        The derivative of 3t + 1 is 3, at the times t[M:n-M]:
+
+        >>> import numpy as np
+        >>> f = design_filter("first", half_width=10, cutoff=0.5, dt=0.1)
+        >>> t = 0.1 * np.arange(50)
+        >>> out = f.filter_signal(3.0 * t + 1.0, t)
+        >>> out.values.shape, float(out.t[0]), bool(np.allclose(out.values, 3.0))
+        ((30,), 1.0, True)
+        """
+        t = check_time(t, "t")
+        period = sample_period(t, "t")
+        if not np.isclose(period, self.dt, rtol=1e-6, atol=0.0):
+            raise SamplingError(
+                f"t has sample period {period:.9g} s but the filter was designed for "
+                f"dt = {self.dt:.9g} s; design the filter with dt={period:.9g} (e.g. "
+                "design_filter(kind, M, cutoff, rec.dt)) or pass the matching time vector."
+            )
+        if np.shape(x)[:1] != t.shape:
+            raise ShapeError(
+                f"x must have one row per sample of t ({t.size}); got x of shape {np.shape(x)}."
+            )
+        values = self.apply(x, paper=paper, method=method)
+        t_out = np.array(self.output_time(t, paper=paper))
+        values.setflags(write=False)
+        t_out.setflags(write=False)
+        return FilteredSignal(t_out, values)
+
     # ------------------------------------------------------------------ frequency domain
     def frequency_response(self, omega) -> np.ndarray:
         """Complex response of the centred filter at ``omega`` [rad/sample].
 
         ``H(Ω) = Σ_n taps[n] e^{+jΩn}`` (correlation taps), which approximates ``(jΩ/Δ)^order``
         in the pass band; the M-sample delay of a causal implementation is not included.
+
+        Parameters
+        ----------
+        omega : array_like, any shape [rad/sample]
+            Normalised angular frequencies Ω = 2π f Δ.
+
+        Returns
+        -------
+        ndarray of complex, same shape as ``omega`` [1/s^order]
+            For a sinusoid ``x[i] = e^{jΩi}`` the output row belonging to sample i is
+            ``H(Ω) e^{jΩi}``.
+
+        Examples
+        --------
+        The first-derivative filter's response in the pass band is ``jΩ/Δ``:
+
+        >>> f = design_filter("first", half_width=100, cutoff=0.2, dt=1e-3)
+        >>> h = f.frequency_response(0.01)
+        >>> bool(abs(h / (1j * 0.01 / 1e-3) - 1) < 1e-3)   # flat to 1e-3 below Ω_g/4
+        True
         """
         omega = np.asarray(omega, dtype=float)
         n = np.arange(-self.half_width, self.half_width + 1)
         return np.exp(1j * omega[..., None] * n) @ self.taps.astype(complex)
 
     def ideal_response(self, omega) -> np.ndarray:
-        """Ideal response ``(jΩ/Δ)^order`` for ``|Ω| <= Ω_g``, 0 beyond (omega in rad/sample)."""
+        """Ideal response ``(jΩ/Δ)^order`` for ``|Ω| <= Ω_g``, 0 beyond (omega in rad/sample).
+
+        Parameters
+        ----------
+        omega : array_like, any shape [rad/sample]
+
+        Returns
+        -------
+        ndarray of complex, same shape as ``omega`` [1/s^order]
+        """
         omega = np.asarray(omega, dtype=float)
         ideal = (1j * omega / self.dt) ** self.order
         return np.where(np.abs(omega) <= self.cutoff, ideal, 0.0 + 0.0j)
@@ -363,6 +492,27 @@ def design_filter(kind, half_width: int, cutoff: float, dt: float) -> Differenti
     return DifferentialFilter(
         kind=_KIND_BY_ORDER[order], order=order, half_width=m, cutoff=cutoff, dt=dt, taps=taps
     )
+
+
+@dataclass(frozen=True, eq=False)
+class FilteredSignal:
+    """One filter's output with its aligned time vector (see `DifferentialFilter.filter_signal`).
+
+    Attributes
+    ----------
+    t : ndarray, shape (n_out,) [s]
+        Time of each output row: the time of the input sample at the centre of its window.
+    values : ndarray, shape (n_out, n_channels) or (n_out,) [unit of x per s^order]
+        Filtered samples, read-only.
+    """
+
+    t: np.ndarray
+    values: np.ndarray
+
+    @property
+    def n_samples(self) -> int:
+        """Number of output rows, n_out."""
+        return int(self.t.size)
 
 
 @dataclass(frozen=True, eq=False)

@@ -355,6 +355,7 @@ class BaseParameters:
         return self.summary()
 
     def summary(self) -> str:
+        """Multi-line text: the count, each base parameter, and what cannot be identified."""
         lines = [
             f"{self.n_base} base parameters (identifiable combinations) out of {self.n_beta} "
             f"monomials; θ-rank {self.theta_rank} of {len(self.parameter_names)} parameters.",
@@ -479,6 +480,7 @@ class ChainModel:
     # -- description --------------------------------------------------------------------------
     @property
     def parameters(self) -> dict:
+        """Nominal parameter values, name → value in SI units (a fresh dict on every access)."""
         return dict(zip(self.parameter_names, self._nominal.tolist(), strict=False))
 
     @property
@@ -494,7 +496,26 @@ class ChainModel:
 
     # -- argument handling --------------------------------------------------------------------
     def parameter_vector(self, params=None) -> np.ndarray:
-        """θ ordered like `parameter_names`: nominal values overridden by ``params``."""
+        """θ ordered like `parameter_names`: nominal values overridden by ``params``.
+
+        Parameters
+        ----------
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_parameters,) [SI units of each parameter]
+            A new array.
+
+        Raises
+        ------
+        InputError
+            Unknown names or non-finite values.
+        ShapeError
+            An array of the wrong length.
+        """
         if params is None:
             return self._nominal.copy()
         if isinstance(params, dict):
@@ -548,17 +569,55 @@ class ChainModel:
 
         Parameters
         ----------
-        q, qd, qdd : array_like (n_samples, n_joints)
-            Joint angles [rad], rates [rad/s] and accelerations [rad/s²].
-        params : dict or array_like, optional
-            Parameter overrides (see class docstring).
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+            Joint angles [rad], rates [rad/s] and accelerations [rad/s²] (a 1-D array is one
+            joint's samples for a one-joint model).
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints) [N·m]
+            Joint torques τ(q, q̇, q̈, θ) (Lagrange's equations; friction included).
+
+        Examples
+        --------
+        At rest the torque is the gravity torque:
+
+        >>> import numpy as np, physid
+        >>> model = physid.load_model("manipulator")
+        >>> q = np.array([[0.1, 0.5, -0.3, 0.2]]); zero = np.zeros((1, 4))
+        >>> bool(np.allclose(model.inverse_dynamics(q, zero, zero), model.gravity_forces(q)))
+        True
         """
         n, cols = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))
         th = self.parameter_vector(params).tolist()
         return np.ascontiguousarray(self._f_tau(*cols, th, n).T)
 
     def mass_matrix(self, q, params=None) -> np.ndarray:
-        """Mass (inertia) matrix M(q) [kg·m²], shape (n_samples, n_joints, n_joints), symmetric."""
+        """Mass (inertia) matrix M(q) [kg·m²], shape (n_samples, n_joints, n_joints), symmetric.
+
+        Parameters
+        ----------
+        q : array_like, shape (n_samples, n_joints) [rad]
+            Joint angles.
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints, n_joints) [kg·m²]
+            M(q) with T = ½ q̇ᵀ M(q) q̇ (``kinetic="paper"``: the paper's diagonal form).
+
+        Examples
+        --------
+        >>> import numpy as np, physid
+        >>> M = physid.load_model("manipulator").mass_matrix([[0.1, 0.5, -0.3, 0.2]])
+        >>> M.shape, bool(np.allclose(M, M.transpose(0, 2, 1)))
+        ((1, 4, 4), True)
+        """
         n, (Q,) = self._states((q, "q"))
         th = self.parameter_vector(params).tolist()
         return self._assemble_mass(self._f_mass(Q, th, n), n)
@@ -572,13 +631,41 @@ class ChainModel:
         return M
 
     def bias_forces(self, q, qd, params=None) -> np.ndarray:
-        """h = c(q, q̇) + G(q) + F(q̇) [N·m]: the torque at q̈ = 0, shape (n_samples, n_joints)."""
+        """h = c(q, q̇) + G(q) + F(q̇) [N·m]: the torque at q̈ = 0, shape (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q, qd : array_like, shape (n_samples, n_joints)
+            Joint angles [rad] and rates [rad/s].
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints) [N·m]
+            Coriolis/centrifugal, gravity and friction torques, so that τ = M(q) q̈ + h.
+        """
         n, cols = self._states((q, "q"), (qd, "qd"))
         th = self.parameter_vector(params).tolist()
         return np.ascontiguousarray(self._f_bias(*cols, th, n).T)
 
     def gravity_forces(self, q, params=None) -> np.ndarray:
-        """G(q) = ∂V/∂q [N·m], the torque holding the arm still; shape (n_samples, n_joints)."""
+        """G(q) = ∂V/∂q [N·m], the torque holding the arm still; shape (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q : array_like, shape (n_samples, n_joints) [rad]
+            Joint angles.
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints) [N·m]
+            G(q) with V = −Σ m_k g·p_k (g the model's `gravity` vector).
+        """
         n, cols = self._states((q, "q"))
         th = self.parameter_vector(params).tolist()
         return np.ascontiguousarray(self._f_gravity(*cols, th, n).T)
@@ -587,6 +674,37 @@ class ChainModel:
         """Joint accelerations q̈ = M(q)⁻¹ (τ − h(q, q̇)) [rad/s²], shape (n_samples, n_joints).
 
         One batched ``numpy.linalg.solve`` over all samples (no explicit inverse).
+
+        Parameters
+        ----------
+        q, qd : array_like, shape (n_samples, n_joints)
+            Joint angles [rad] and rates [rad/s].
+        tau : array_like, shape (n_samples, n_joints) [N·m]
+            Joint torques.
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints) [rad/s²]
+
+        Raises
+        ------
+        InputError
+            M(q) is singular at some sample (a joint that moves no mass).
+
+        Examples
+        --------
+        Forward dynamics inverts inverse dynamics:
+
+        >>> import numpy as np, physid
+        >>> model = physid.load_model("manipulator")
+        >>> rng = np.random.default_rng(0)
+        >>> q, qd, qdd = rng.normal(size=(3, 5, 4))
+        >>> tau = model.inverse_dynamics(q, qd, qdd)
+        >>> bool(np.allclose(model.forward_dynamics(q, qd, tau), qdd))
+        True
         """
         n, (Q, QD, TAU) = self._states((q, "q"), (qd, "qd"), (tau, "tau"))
         th = self.parameter_vector(params).tolist()
@@ -610,6 +728,33 @@ class ChainModel:
         with β polynomial in θ); for models not polynomial in θ, from symbolically
         differentiated code. Tip for repeated calls on the same data (an input-error fit): compute
         ``Y = regressor(q, qd, qdd)`` once, then τ = Y @ beta(θ) and ∂τ/∂θ = Y @ beta_jacobian(θ).
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+            Joint angles [rad], rates [rad/s] and accelerations [rad/s²].
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints, n_parameters) [N·m per unit of each parameter]
+            Entry [i, k, j] = ∂τ_k/∂θ_j at sample i.
+
+        Examples
+        --------
+        τ is linear in the masses, so ∂τ/∂m2 equals τ(m2 = 1) − τ(m2 = 0):
+
+        >>> import numpy as np, physid
+        >>> model = physid.load_model("manipulator")
+        >>> q, qd, qdd = np.random.default_rng(1).normal(size=(3, 4, 4))
+        >>> jac = model.parameter_jacobian(q, qd, qdd)
+        >>> j = model.parameter_names.index("m2")
+        >>> diff = (model.inverse_dynamics(q, qd, qdd, {"m2": 1.0})
+        ...         - model.inverse_dynamics(q, qd, qdd, {"m2": 0.0}))
+        >>> bool(np.allclose(jac[:, :, j], diff))
+        True
         """
         n, cols = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))
         theta = self.parameter_vector(params)
@@ -638,12 +783,31 @@ class ChainModel:
         """Return ``f(q, qd, tau) -> qdd`` for ONE state (1-D arrays or lists of length n_joints).
 
         Generated scalar Python (no numpy calls inside) with an unrolled Cholesky solve of
-        M q̈ = τ − h; parameters are bound once. Returns a numpy array [rad/s²].
+        M q̈ = τ − h; parameters are bound once.
 
-        Example
+        Parameters
+        ----------
+        params : dict or array_like (n_parameters,), optional
+            None: nominal values; a dict overrides some (``{"m2": 24.0}``); an array gives all,
+            ordered like `parameter_names` (SI units).
+
+        Returns
         -------
-        >>> f = load_model("manipulator").make_rhs()
-        >>> f([0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 0])      # doctest: +SKIP
+        callable
+            ``f(q, qd, tau)`` with q [rad], q̇ [rad/s], τ [N·m] of length n_joints, returning
+            q̈ [rad/s²] as an ndarray of shape (n_joints,).
+
+        Examples
+        --------
+        Holding the arm with its gravity torque leaves it at rest:
+
+        >>> import numpy as np, physid
+        >>> model = physid.load_model("manipulator")
+        >>> f = model.make_rhs()
+        >>> q = [0.1, 0.5, -0.3, 0.2]
+        >>> qdd = f(q, [0.0] * 4, model.gravity_forces([q])[0])
+        >>> bool(np.allclose(qdd, 0.0, atol=1e-9))
+        True
         """
         core = self._scalar["rhs"](self.parameter_vector(params).tolist())
         asarray = np.asarray
@@ -664,6 +828,17 @@ class ChainModel:
 
         ẏ = [q̇, M⁻¹(τ − h)] as a Python list of floats (``scipy.integrate.solve_ivp`` accepts it);
         ``y`` may be a numpy array or a list, ``tau`` a sequence of n_joints torques [N·m].
+
+        Parameters
+        ----------
+        params : dict or array_like (n_parameters,), optional
+            As in `parameter_vector`; bound once.
+
+        Returns
+        -------
+        callable
+            ``f(y, tau)`` with y = [q [rad], q̇ [rad/s]] of length 2·n_joints and τ [N·m] of
+            length n_joints, returning [q̇ [rad/s], q̈ [rad/s²]] as a list of 2·n_joints floats.
         """
         core = self._scalar["state"](self.parameter_vector(params).tolist())
 
@@ -752,13 +927,33 @@ class ChainModel:
         return tuple(d["names"][b] for b in d["keep"])
 
     def beta(self, params=None) -> np.ndarray:
-        """β(θ): the monomial values, shape (n_beta,), so that τ = regressor(q, q̇, q̈) @ β."""
+        """β(θ): the monomial values, shape (n_beta,), so that τ = regressor(q, q̇, q̈) @ β.
+
+        Parameters
+        ----------
+        params : dict or array_like (n_parameters,), optional
+            As in `parameter_vector`.
+
+        Returns
+        -------
+        ndarray, shape (n_beta,) [SI units of each monomial, e.g. kg·m² for ``m2*l2**2``]
+        """
         theta = self.parameter_vector(params)
         E = self._regressor_data()["exponents"]
         return np.prod(theta[None, :] ** E, axis=1)
 
     def beta_jacobian(self, params=None) -> np.ndarray:
-        """∂β/∂θ, shape (n_beta, n_parameters)."""
+        """∂β/∂θ, shape (n_beta, n_parameters), at ``params`` (nominal by default).
+
+        Parameters
+        ----------
+        params : dict or array_like (n_parameters,), optional
+            As in `parameter_vector`.
+
+        Returns
+        -------
+        ndarray, shape (n_beta, n_parameters) [unit of β_b per unit of θ_j]
+        """
         theta = self.parameter_vector(params)
         E = self._regressor_data()["exponents"]
         out = np.zeros_like(E)
@@ -776,6 +971,30 @@ class ChainModel:
         """Y(q, q̇, q̈), shape (n_samples, n_joints, n_beta), with τ = Y @ beta(params).
 
         Derived on first use (then cached on disk like the rest of the model).
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+            Joint angles [rad], rates [rad/s] and accelerations [rad/s²].
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints, n_beta) [N·m per unit of each monomial]
+            Column b multiplies the monomial `beta_names` [b] of the parameters.
+
+        Raises
+        ------
+        IdentifiabilityError
+            The model is not polynomial in its parameters (no linear-in-parameters form).
+
+        Examples
+        --------
+        >>> import numpy as np, physid
+        >>> model = physid.load_model("manipulator")
+        >>> q, qd, qdd = np.random.default_rng(2).normal(size=(3, 6, 4))
+        >>> tau = model.regressor(q, qd, qdd) @ model.beta()
+        >>> bool(np.allclose(tau, model.inverse_dynamics(q, qd, qdd)))
+        True
         """
         self._regressor_data()
         n, cols = self._states((q, "q"), (qd, "qd"), (qdd, "qdd"))

@@ -534,7 +534,29 @@ def numeric_identifiability(
 
 
 def raise_if_not_excited(analysis: NumericIdentifiability, where: str) -> None:
-    """Raise `IdentifiabilityError` naming the parameters the data do not excite or determine."""
+    """Raise `IdentifiabilityError` naming the parameters the data do not excite or determine.
+
+    Parameters
+    ----------
+    analysis : NumericIdentifiability
+        The singular-value analysis of the scaled Jacobian (from `numeric_identifiability`);
+        `analysis.not_excited` lists parameters with an all-zero Jacobian column and
+        `analysis.weak_directions` the combinations whose relative singular value is below
+        `analysis.rtol` (dimensionless).
+    where : str
+        Prefix of the message naming the caller, e.g. ``"InputErrorEstimator.fit"``.
+
+    Returns
+    -------
+    None
+        Returns only when every parameter is excited and determined.
+
+    Raises
+    ------
+    IdentifiabilityError
+        Naming the unexcited parameters, or each weak combination in words, and the fix
+        (``fixed={NAME: VALUE}`` / CLI ``--fix NAME=VALUE``, or a richer motion).
+    """
     if analysis.not_excited:
         raise IdentifiabilityError(
             f"{where}: the data do not excite {_join_words(analysis.not_excited)} at all (the "

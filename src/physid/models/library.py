@@ -19,7 +19,18 @@ BUILTIN_MODELS = ("manipulator", "msd")
 
 
 def manipulator_spec():
-    """The specification of the paper's arm (packaged ``models/data/manipulator.toml``)."""
+    """The specification of the paper's arm (packaged ``models/data/manipulator.toml``).
+
+    Returns
+    -------
+    ChainSpec
+        4 joints, θ = (m1, m2, m3, m4, l1, l2, l3, l4), gravity (0, 0, +9.81) m/s².
+
+    Examples
+    --------
+    >>> manipulator_spec().parameter_names
+    ('m1', 'm2', 'm3', 'm4', 'l1', 'l2', 'l3', 'l4')
+    """
     text = (
         resources.files("physid.models")
         .joinpath("data/manipulator.toml")
@@ -42,6 +53,16 @@ def manipulator_model(*, kinetic: str = "exact", cache: bool = True):
         without cross terms, to reproduce its numbers).
     cache : bool
         Use the on-disk derivation cache.
+
+    Returns
+    -------
+    ChainModel
+
+    Examples
+    --------
+    >>> model = manipulator_model()
+    >>> model.n_joints, model.parameters["m2"], model.gravity
+    (4, 25.0, (0.0, 0.0, 9.81))
     """
     return model_from_spec(manipulator_spec(), kinetic=kinetic, cache=cache)
 
@@ -62,8 +83,8 @@ def load_model(name_or_path, **options):
     -------
     ChainModel or LinearODEModel
 
-    Example
-    -------
+    Examples
+    --------
     >>> model = load_model("msd")
     >>> model.a_names, model.b_names
     (('theta2', 'theta1'), ('b0',))

@@ -144,7 +144,8 @@ class LinearODEModel:
         Parameters
         ----------
         unknown : str or sequence of str, optional
-            Coefficients to estimate (default: the model's ``unknown``).
+            Coefficients to estimate (default: the model's ``unknown`` less the names given in
+            ``known``).
         known : mapping, optional
             Values of other coefficients, overriding the nominal ``parameters``.
 
@@ -155,7 +156,16 @@ class LinearODEModel:
             Value of every coefficient that is not estimated, and of the others' nominal values.
         """
         names = self.coefficient_names
-        unknown = self.unknown if unknown is None else unknown
+        known_names = set(known or {})
+        if unknown is None:
+            # default: the model's unknowns, less those the caller gives values for
+            unknown = tuple(u for u in self.unknown if u not in known_names)
+            if not unknown:
+                raise InputError(
+                    f"known gives values for all of the model's unknowns {list(self.unknown)}, "
+                    "so nothing is left to estimate; pass unknown=... (--unknown) or drop one "
+                    "from known."
+                )
         unknown = (unknown,) if isinstance(unknown, str) else tuple(unknown)
         bad = [u for u in unknown if u not in names]
         if bad:

@@ -19,6 +19,7 @@ load never needs sympy.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,6 +103,9 @@ class JointSpec:
     Exactly one of ``dh`` (tuple of (key, expression) for ``a, alpha, d, offset``) and
     ``transform`` (4 × 4 tuple of expression strings) is set. ``mass`` sits at the origin of the
     link frame; ``rotor_inertia`` J adds ½ J q̇²; ``viscous``·q̇ + ``coulomb``·sign(q̇) is friction.
+    ``where`` locates the joint's dh/transform key in the model file; ``locations`` holds
+    ``(key, "file, line N (...)")`` pairs for the other keys, so that an error in ``mass`` names
+    the line of ``mass`` (see `location`).
     """
 
     mass: str
@@ -112,8 +116,14 @@ class JointSpec:
     coulomb: str = "0"
     name: str = ""
     where: str = ""
+    locations: tuple = field(default=(), compare=False)
+
+    def location(self, key: str) -> str:
+        """Where ``key`` (``"mass"``, ``"viscous"``, ...) is written; `where` if not recorded."""
+        return dict(self.locations).get(key, self.where)
 
     def content(self) -> dict:
+        """The expressions the derivation depends on (keys of the on-disk cache)."""
         return {
             "mass": self.mass,
             "dh": self.dh,
@@ -139,6 +149,7 @@ class ChainSpec:
 
     @property
     def parameter_names(self) -> tuple:
+        """Names of the parameters θ, in the order of the parameter vector."""
         return tuple(p.name for p in self.parameters)
 
     def derivation_content(self) -> dict:
@@ -200,6 +211,36 @@ def _line_of(text: str, key: str, *, table: str | None = None, index: int = 0) -
     return None
 
 
+def _parameter_line(text: str, pname: str, key: str | None = None) -> int | None:
+    """1-based line of parameter ``pname`` (or of its ``key``, e.g. ``value``) in the text.
+
+    Handles ``pname = {...}`` under ``[parameters]``, a sub-table ``[parameters.pname]`` (then
+    ``key`` is looked up inside it), and dotted keys ``pname.value = ...``.
+    """
+    if not text:
+        return None
+    lines = text.splitlines()
+    name = re.escape(pname)
+    sub = re.compile(r"^\s*\[\s*parameters\s*\.\s*[\"']?" + name + r"[\"']?\s*\]\s*(#.*)?$")
+    for i, line in enumerate(lines):
+        if sub.match(line):
+            if key is not None:
+                key_pattern = re.compile(r"^\s*" + re.escape(key) + r"\s*=")
+                for j in range(i + 1, len(lines)):
+                    if re.match(r"^\s*\[", lines[j]):
+                        break
+                    if key_pattern.match(lines[j]):
+                        return j + 1
+            return i + 1
+    return _line_of(text, pname, table="parameters")
+
+
+def _parameter_where(source: str, text: str, pname: str, key: str | None = None) -> str:
+    line = _parameter_line(text, pname, key)
+    loc = f"{source}, line {line}" if line else source
+    return f"{loc} (parameter {pname!r})"
+
+
 def _where(
     source: str, text: str, what: str, key: str, *, table: str | None = None, index: int = 0
 ) -> str:
@@ -214,7 +255,23 @@ def _where(
 
 
 def read_model_file(path) -> ChainSpec | LinearODESpec:
-    """Read a TOML model file into a specification (no sympy needed)."""
+    """Read a TOML model file into a specification (no sympy needed).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.toml`` file (format: ``docs/model-files.md``).
+
+    Returns
+    -------
+    ChainSpec or LinearODESpec
+        With ``source`` = the path, used in error messages.
+
+    Raises
+    ------
+    ModelFileError
+        The file is missing or unreadable, or its content is invalid (see `parse_model_text`).
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -241,7 +298,45 @@ def _expr_text(value, where: str) -> str:
 
 
 def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearODESpec:
-    """Parse the TOML text of a model file into a specification."""
+    """Parse the TOML text of a model file into a specification.
+
+    Only the structure is checked here (keys, tables, parameter values, 4×4 shape of
+    transforms); expressions are parsed with sympy when the model is built
+    (`model_from_spec`), and those errors too name the line of the offending key.
+
+    Parameters
+    ----------
+    text : str
+        TOML text in the format of ``docs/model-files.md``.
+    source : str
+        Name used in error messages (a file path, or ``"<string>"``).
+
+    Returns
+    -------
+    ChainSpec or LinearODESpec
+        ``kind = "chain"`` (the default) or ``kind = "linear_ode"``.
+
+    Raises
+    ------
+    ModelFileError
+        Invalid TOML, unknown keys, a parameter with no or a non-finite value, a transform that
+        is not 4×4, ... — each with ``source, line N (what)`` and the fix.
+
+    Examples
+    --------
+    >>> spec = parse_model_text('''
+    ... name = "pendulum"
+    ... gravity = [0, -9.81, 0]
+    ... [parameters]
+    ... m1 = { value = 2.0, unit = "kg" }
+    ... l1 = { value = 0.5, unit = "m" }
+    ... [[joints]]
+    ... dh = { a = "l1" }
+    ... mass = "m1"
+    ... ''')
+    >>> spec.name, spec.parameter_names, spec.joints[0].dh
+    ('pendulum', ('m1', 'l1'), (('a', 'l1'), ('alpha', '0'), ('d', '0'), ('offset', '0')))
+    """
     tomllib = _tomllib()
     try:
         data = tomllib.loads(text)
@@ -270,7 +365,7 @@ def _parse_parameters(data: dict, text: str, source: str) -> tuple:
         raise ModelFileError(f"{source}: [parameters] must be a table of name = {{ value = ... }}.")
     params = []
     for pname, entry in table.items():
-        where = _where(source, text, f"parameter {pname!r}", pname, table="parameters")
+        where = _parameter_where(source, text, pname)
         if not _NAME_PATTERN.match(pname):
             raise ModelFileError(
                 f"{where}: parameter name {pname!r} must start with a letter and hold only "
@@ -301,13 +396,21 @@ def _parse_parameters(data: dict, text: str, source: str) -> tuple:
                 "units>."
             )
         value = entry["value"]
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or value != value:
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float))
+            or not math.isfinite(value)
+        ):
             raise ModelFileError(
-                f"{where}: the value of {pname!r} must be a finite number; got {value!r}."
+                f"{_parameter_where(source, text, pname, 'value')}: the value of {pname!r} must be "
+                f"a finite number (nominal value in SI units); got {value!r}."
             )
         identify = entry.get("identify", True)
         if not isinstance(identify, bool):
-            raise ModelFileError(f"{where}: identify must be true or false; got {identify!r}.")
+            raise ModelFileError(
+                f"{_parameter_where(source, text, pname, 'identify')}: identify must be true or "
+                f"false; got {identify!r}."
+            )
         params.append(
             ParameterSpec(
                 name=pname,
@@ -323,6 +426,14 @@ def _parse_parameters(data: dict, text: str, source: str) -> tuple:
 
 _JOINT_KEYS = {"name", "dh", "transform", "mass", "rotor_inertia", "viscous", "coulomb"}
 _DH_KEYS = ("a", "alpha", "d", "offset")
+#: SI units suggested when an unknown symbol should be declared as a parameter.
+_DH_UNITS = {"a": "m", "alpha": "rad", "d": "m", "offset": "rad"}
+_ATTRIBUTE_UNITS = {
+    "mass": "kg",
+    "rotor_inertia": "kg*m^2",
+    "viscous": "N*m*s/rad",
+    "coulomb": "N*m",
+}
 
 
 def _parse_chain(data, text, source, name, params) -> ChainSpec:
@@ -426,6 +537,11 @@ def _parse_chain(data, text, source, name, params) -> ChainSpec:
                 f"{_where(source, text, label, key0, table='joints', index=k)}: joint {k + 1} "
                 f'has no mass; add mass = "m{k + 1}" (a parameter name, expression or number).'
             )
+        locations = tuple(
+            (key, where(key))
+            for key in ("mass", "rotor_inertia", "viscous", "coulomb")
+            if key in jt
+        )
         joints.append(
             JointSpec(
                 mass=_expr_text(jt["mass"], where("mass")),
@@ -438,6 +554,7 @@ def _parse_chain(data, text, source, name, params) -> ChainSpec:
                 where=_where(
                     source, text, label, "dh" if has_dh else "transform", table="joints", index=k
                 ),
+                locations=locations,
             )
         )
     return ChainSpec(
@@ -520,8 +637,30 @@ def dh_transform(a, alpha, d, theta):
         ⎣  0          0             0           1   ⎦
 
     With a = 0, α = π/2 this is the paper's T1 and with a = l_k, α = 0 its T2..T4 (Cedro &
-    Janecki, section 2), for θ = φ_k. Arguments may be numbers or sympy expressions; the result
-    is a sympy Matrix.
+    Janecki, section 2), for θ = φ_k.
+
+    Parameters
+    ----------
+    a : number or sympy expression [m]
+        Link length (translation along the new x axis).
+    alpha : number or sympy expression [rad]
+        Link twist (rotation about the new x axis).
+    d : number or sympy expression [m]
+        Link offset (translation along the old z axis).
+    theta : number or sympy expression [rad]
+        Joint angle (rotation about the old z axis), q_k + offset.
+
+    Returns
+    -------
+    sympy.Matrix, shape (4, 4)
+        The homogeneous transform from the link frame to the previous one.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> q, l = sp.symbols("q l")
+    >>> dh_transform(l, 0, 0, q)[:2, 3].T
+    Matrix([[l*cos(q), l*sin(q)]])
     """
     import sympy as sp
 
@@ -569,8 +708,51 @@ def _parse_functions():
     return funcs, base
 
 
-def parse_expression(text: str, symbols: dict, where: str, *, allowed_hint: str = ""):
-    """Parse one expression string with only ``symbols`` and the standard functions allowed."""
+def parse_expression(
+    text: str,
+    symbols: dict,
+    where: str,
+    *,
+    allowed_hint: str = "",
+    unit: str = "",
+    variable_hint: str = "",
+):
+    """Parse one expression string with only ``symbols`` and the standard functions allowed.
+
+    Parameters
+    ----------
+    text : str
+        The expression, in Python syntax (``"m1*l1**2/12"``, ``"cos(q1)"``).
+    symbols : dict of str to sympy.Symbol
+        The names the expression may use.
+    where : str
+        Location for error messages (``"arm.toml, line 7 (joints[1].mass)"``).
+    allowed_hint : str
+        Appended to the unknown-symbol message (e.g. the declared parameters).
+    unit : str
+        SI unit of the key (``"kg"`` for a mass), suggested in the "declare it under
+        [parameters]" fix when the unknown symbol is the whole expression; empty: none.
+    variable_hint : str
+        Message used when an unknown symbol is a reserved name (another joint's ``q<k>``,
+        ``qd<k>``, ``qdd<k>``, ...), which cannot be declared as a parameter.
+
+    Returns
+    -------
+    sympy.Expr
+        A finite real expression in ``symbols``.
+
+    Raises
+    ------
+    ModelFileError
+        The text does not parse, uses an unknown symbol or function, or is not finite and real.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> m, l = sp.symbols("m l")
+    >>> parse_expression("m*l**2/12", {"m1": m, "l1": l}, "demo")
+    l**2*m/12
+    """
     import sympy as sp
     from sympy.core.function import AppliedUndef
     from sympy.parsing.sympy_parser import (
@@ -609,10 +791,19 @@ def parse_expression(text: str, symbols: dict, where: str, *, allowed_hint: str 
             f"{where}: unknown function(s) {undefined} in {text!r}; allowed functions: "
             f"{', '.join(n for n in FUNCTION_NAMES if n != 'pi')}."
         )
+    reserved = [u for u in unknown if u in RESERVED_NAMES or _RESERVED_PATTERN.match(u)]
+    if reserved:
+        fix = variable_hint or (
+            "these are reserved names (joint variables q<k>, qd<k>, qdd<k>, tau<k>, functions), "
+            "not parameters"
+        )
+        raise ModelFileError(f"{where}: symbol(s) {reserved} may not appear in {text!r}: {fix}.")
     if unknown:
+        # the key's unit fits the symbol only when the symbol is the whole expression
+        unit_text = f', unit = "{unit}"' if unit and text.strip() == unknown[0] else ""
         raise ModelFileError(
             f"{where}: unknown symbol(s) {unknown} in {text!r}; declare each under [parameters] "
-            f'(e.g. {unknown[0]} = {{ value = 1.0, unit = "m" }}){allowed_hint}.'
+            f"(e.g. {unknown[0]} = {{ value = 1.0{unit_text} }}){allowed_hint}."
         )
     if expr.has(sp.I) or expr.has(sp.zoo) or expr.has(sp.nan) or expr.has(sp.oo):
         raise ModelFileError(f"{where}: the expression {text!r} is not a finite real expression.")
@@ -663,8 +854,22 @@ def check_transform(
 def symbolic_chain(spec: ChainSpec):
     """Parse and validate a chain spec; return the sympy pieces for the derivation.
 
-    Returns a dict with ``q, qd, qdd, theta`` (internal symbols ``_q0``, ``_th0``, ...),
-    ``transforms``, ``masses``, ``rotor_inertias``, ``viscous``, ``coulomb``.
+    Parameters
+    ----------
+    spec : ChainSpec
+
+    Returns
+    -------
+    dict
+        ``q, qd, qdd, theta`` (tuples of internal symbols ``_q0``, ``_th0``, ...),
+        ``transforms`` (list of 4×4 sympy matrices), ``axis_static``, ``masses``,
+        ``rotor_inertias``, ``viscous``, ``coulomb`` (lists of sympy expressions, one per joint).
+
+    Raises
+    ------
+    ModelFileError
+        An expression does not parse or uses an unknown symbol (the message names the line of
+        its key), or a transform is not a rigid homogeneous transform.
     """
     import sympy as sp
 
@@ -695,9 +900,24 @@ def symbolic_chain(spec: ChainSpec):
         with_q[f"q{k + 1}"] = q[k]
         hint_q = f"; the transform may use the joint variable q{k + 1} and: {declared}"
         hint = f"; declared parameters: {declared}"
+        only_own = (
+            f"only q{k + 1} of this joint may appear in its transform (joint variables are "
+            "reserved names, not parameters)"
+        )
+        no_variables = (
+            f"joint variables may not appear here; the angle q{k + 1} enters through the DH "
+            "rotation about z (use offset for a constant angle)"
+        )
         if joint.dh is not None:
             dh = {
-                key: parse_expression(txt, param_syms, f"{jt_where} dh.{key}", allowed_hint=hint)
+                key: parse_expression(
+                    txt,
+                    param_syms,
+                    f"{jt_where} dh.{key}",
+                    allowed_hint=hint,
+                    unit=_DH_UNITS[key],
+                    variable_hint=no_variables,
+                )
                 for key, txt in joint.dh
             }
             T = dh_transform(dh["a"], dh["alpha"], dh["d"], q[k] + dh["offset"])
@@ -706,7 +926,12 @@ def symbolic_chain(spec: ChainSpec):
             rows = [
                 [
                     parse_expression(
-                        txt, with_q, f"{jt_where} transform[{r}][{c}]", allowed_hint=hint_q
+                        txt,
+                        with_q,
+                        f"{jt_where} transform[{r}][{c}]",
+                        allowed_hint=hint_q,
+                        unit="m" if c == 3 and r < 3 else "",  # translation column; rotation: 1
+                        variable_hint=only_own,
                     )
                     for c, txt in enumerate(row)
                 ]
@@ -725,7 +950,15 @@ def symbolic_chain(spec: ChainSpec):
         ):
             out[key].append(
                 parse_expression(
-                    getattr(joint, attr), param_syms, f"{jt_where} {attr}", allowed_hint=hint
+                    getattr(joint, attr),
+                    param_syms,
+                    dict(joint.locations).get(attr, f"{jt_where} {attr}"),
+                    allowed_hint=hint,
+                    unit=_ATTRIBUTE_UNITS[attr],
+                    variable_hint=(
+                        f"the {attr} of a joint is a constant; joint variables (q<k>, qd<k>, "
+                        "qdd<k>) may not appear in it"
+                    ),
                 )
             )
     return out
@@ -746,13 +979,42 @@ def load_model_file(path, **options):
     **options
         For chains: ``kinetic`` ("exact" | "paper", overrides the file), ``cache`` (bool).
         Linear ODE models take no options.
+
+    Returns
+    -------
+    ChainModel or LinearODEModel
+
+    Raises
+    ------
+    ModelFileError
+        Any problem in the file, naming its line and the fix.
     """
     spec = read_model_file(path)
     return model_from_spec(spec, **options)
 
 
 def model_from_spec(spec, **options):
-    """Build a `ChainModel` or `LinearODEModel` from a specification."""
+    """Build a `ChainModel` or `LinearODEModel` from a specification.
+
+    Parameters
+    ----------
+    spec : ChainSpec or LinearODESpec
+        From `read_model_file` / `parse_model_text`.
+    **options
+        For chains: ``kinetic`` ("exact" | "paper", overrides the spec) and ``cache`` (bool,
+        use the on-disk derivation cache). Linear ODE models take none.
+
+    Returns
+    -------
+    ChainModel or LinearODEModel
+
+    Raises
+    ------
+    InputError
+        An unknown option.
+    ModelFileError
+        An expression that does not parse, an unknown symbol, a transform that is not rigid.
+    """
     from ..errors import InputError
 
     if isinstance(spec, ChainSpec):

@@ -33,7 +33,8 @@ def plot_algebraic(
     -------
     matplotlib.figure.Figure
         One axis per series; grey bands mark windows that do not exist or failed the determinant
-        guard, the solid line the final (median) estimate.
+        guard, the solid line the final estimate (``result.parameters``: pooled least squares
+        over the valid windows by default, or their median with ``final="median"``).
     """
     from matplotlib.figure import Figure
 

@@ -334,8 +334,16 @@ th, td { padding: 0.35rem 0.75rem; border-top: 1px solid var(--line); text-align
          vertical-align: top; }
 th { background: var(--band); white-space: nowrap; }
 th.num { text-align: right; }
-td:not(.num) { overflow-wrap: anywhere; min-width: 4em; }
+/* Break long text only between words (inside a word only when the word alone is wider than
+   the column); break-word does not shrink columns below their longest word. */
+td:not(.num) { overflow-wrap: break-word; word-break: normal; hyphens: auto; min-width: 4em; }
 table.errata td:first-child { white-space: nowrap; }
+table.errata th:nth-child(2), table.errata td:nth-child(2) { min-width: 8.5em; }
+/* Tables with many columns (and the errata) use the page width, centred on the text column,
+   up to 1500px, so that no column hides behind a horizontal scroll on a laptop screen. */
+.table-wrap.wide { width: min(calc(100vw - 2rem), 1500px);
+                   margin-left: calc(50% - min(calc(50vw - 1rem), 750px)); }
+.table-wrap.wide th { white-space: normal; min-width: 4.5em; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 figure { margin: 1rem 0 1.5rem; }
 figure img { display: block; max-width: 100%; height: auto; margin: 0 auto;
@@ -362,9 +370,15 @@ def _paragraph(p: str) -> str:
     return f"<p>{_esc(p)}</p>"
 
 
+#: Tables with at least this many columns get the full page width (class "wide").
+WIDE_TABLE_COLUMNS = 7
+
+
 def _table_html(table: Table, css_class: str = "") -> str:
     opening = f'<table class="{css_class}">' if css_class else "<table>"
-    out = ['<div class="table-wrap">' + opening, f"<caption>{_esc(table.caption)}</caption>"]
+    wide = len(table.columns) >= WIDE_TABLE_COLUMNS or css_class == "errata"
+    wrap = '<div class="table-wrap wide">' if wide else '<div class="table-wrap">'
+    out = [wrap + opening, f"<caption>{_esc(table.caption)}</caption>"]
     numeric = [
         any(isinstance(r[j], (int, float)) for r in table.rows)
         and all(r[j] is None or isinstance(r[j], (int, float)) for r in table.rows)

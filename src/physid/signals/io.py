@@ -14,7 +14,8 @@ NPZ, MAT, HDF5
     description) are not channels: they are skipped and listed in
     ``metadata["ignored_variables"]``.
 
-Every problem raises `DataFileError` naming the file, the channel or row, and the fix.
+Every problem with a file raises `DataFileError` naming the file, the channel or row, and the
+fix; bad keyword values raise `InputError`, and a missing h5py `MissingDependencyError`.
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import UNIFORM_RTOL
-from ..errors import DataFileError, PhysidError
+from ..errors import DataFileError, InputError, MissingDependencyError, PhysidError
 from .recording import Recording
 
 __all__ = ["load_recording", "save_recording", "DEFAULT_UNIFORM_RTOL", "SUPPORTED_SUFFIXES"]
@@ -70,9 +71,11 @@ def load_recording(
         The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``.
     resample : bool
         If the sampling is not uniform within ``uniform_rtol``, interpolate linearly onto a uniform
-        grid with the mean period (`Recording.resample`) instead of raising.
-    uniform_rtol : float or None
-        Largest accepted deviation of a sample interval from the mean period, relative to it.
+        grid with the mean period (`Recording.resample`) instead of raising (CLI: ``--resample``).
+        Must be a real bool (a string such as ``'no'`` is refused, not read as truthy).
+    uniform_rtol : float ≥ 0 or None
+        Largest accepted deviation of a sample interval from the mean period, relative to it
+        (finite; NaN or inf are refused).
         Within it the time vector is snapped onto the exact grid ``t0 + k·Δ`` (so that
         ``rec.dt`` works downstream; the worst deviation is kept in ``metadata``). ``None``
         keeps the time vector as it is, uniform or not.
@@ -84,9 +87,13 @@ def load_recording(
 
     Raises
     ------
+    InputError
+        ``resample`` is not a bool, or ``uniform_rtol`` is neither None nor a finite number ≥ 0.
     DataFileError
         Unknown suffix, missing file, empty file, no ``t``, non-numeric cells, NaN/inf,
         duplicate channel names, time not strictly increasing, non-uniform sampling.
+    MissingDependencyError
+        An HDF5 or MATLAB v7.3 file and h5py is not installed (``pip install "physid[io]"``).
 
     Examples
     --------
@@ -97,6 +104,7 @@ def load_recording(
     >>> rec.names, rec.units, rec.dt
     (('x',), ('m',), 0.5)
     """
+    resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
     path = Path(path)
     fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
     if not path.is_file():
@@ -177,6 +185,36 @@ def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
 
 
 # =============================================================================== validation
+def _check_load_options(resample, uniform_rtol) -> tuple[bool, float | None]:
+    """Validate `load_recording`'s keywords (a truthy string or a NaN tolerance would be
+    silently misread: ``resample='no'`` is truthy, and ``worst > nan`` is never true, which
+    would snap non-uniform times onto a grid without moving the data)."""
+    if not isinstance(resample, (bool, np.bool_)):
+        raise InputError(
+            f"resample must be True or False, got {resample!r} of type "
+            f"{type(resample).__name__}; pass resample=True to interpolate onto a uniform grid "
+            "or resample=False (the default) to refuse non-uniform sampling."
+        )
+    if uniform_rtol is None:
+        return bool(resample), None
+    if isinstance(uniform_rtol, (bool, np.bool_)) or not isinstance(
+        uniform_rtol, (int, float, np.integer, np.floating)
+    ):
+        raise InputError(
+            f"uniform_rtol must be None or a finite number >= 0, got {uniform_rtol!r} of type "
+            f"{type(uniform_rtol).__name__}; pass e.g. uniform_rtol=1e-3 (the default), or "
+            "uniform_rtol=None to keep the time vector as it is."
+        )
+    value = float(uniform_rtol)
+    if not np.isfinite(value) or value < 0:
+        raise InputError(
+            f"uniform_rtol must be None or a finite number >= 0, got {uniform_rtol!r}; pass e.g. "
+            "uniform_rtol=1e-3 (the default), or uniform_rtol=None to keep the time vector as "
+            "it is."
+        )
+    return bool(resample), value
+
+
 def _build(
     path, t, data, names, units, metadata, row_label, *, resample, uniform_rtol
 ) -> Recording:
@@ -227,8 +265,9 @@ def _build(
                 f"{path}: time is not uniformly sampled: the interval from {row_label(i)} to "
                 f"{row_label(i + 1)} is {steps[i]:.6g} s against a mean period of "
                 f"{period:.6g} s (worst relative deviation {worst:.3g}, tolerance "
-                f"{uniform_rtol:g}). Pass resample=True to interpolate onto a uniform grid, "
-                "or uniform_rtol=None to keep the time vector as it is."
+                f"{uniform_rtol:g}). Pass resample=True (CLI: --resample) to interpolate onto a "
+                "uniform grid with the mean period, or uniform_rtol=None to keep the time "
+                "vector as it is."
             )
     elif uniform_rtol is not None and worst > UNIFORM_RTOL:
         # within the file tolerance but beyond Recording.dt's: snap onto the exact grid t0 + kΔ
@@ -573,9 +612,9 @@ def _read_hdf5(path: Path, *, matlab: bool = False):
         import h5py
     except ImportError:
         kind = "MATLAB v7.3 files" if matlab else "HDF5 files"
-        raise DataFileError(
+        raise MissingDependencyError(
             f"{path}: reading {kind} needs h5py, which is not installed; run "
-            "'pip install physid[io]' (or 'pip install h5py'), or save the file as MATLAB v7 "
+            'pip install "physid[io]" (or pip install h5py), or save the file as MATLAB v7 '
             "(save -v7) or CSV."
         ) from None
     items: dict[str, np.ndarray] = {}

@@ -120,7 +120,35 @@ class Recording:
     ) -> Recording:
         """Build a recording from ``{name: 1-D array}`` (``(n, k)`` arrays become ``name1..namek``).
 
-        A 2-D value of shape (n_samples, k) under key ``"q"`` becomes channels ``q1 .. qk``.
+        Parameters
+        ----------
+        t : array_like, shape (n_samples,) [s]
+            Sample times, strictly increasing.
+        columns : mapping of str to array_like, each of shape (n_samples,) or (n_samples, k)
+            Channel values; a 2-D value under key ``"q"`` becomes channels ``q1 .. qk``.
+        units : mapping of str to str, optional
+            Unit per channel name; a unit given for ``"q"`` applies to ``q1 .. qk``.
+        metadata : mapping, optional
+            JSON-serialisable information.
+
+        Returns
+        -------
+        Recording
+            Channels in the order of ``columns``.
+
+        Raises
+        ------
+        ShapeError
+            Columns of different lengths, or not matching ``t``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> rec = Recording.from_columns(
+        ...     [0.0, 0.1], {"q": np.zeros((2, 2)), "tau": [1.0, 2.0]}, units={"q": "rad"}
+        ... )
+        >>> rec.names, rec.units
+        (('q1', 'q2', 'tau'), ('rad', 'rad', ''))
         """
         names: list[str] = []
         cols: list[np.ndarray] = []
@@ -173,11 +201,11 @@ class Recording:
         return name in self.names
 
     def __getitem__(self, name: str) -> np.ndarray:
-        """Return one channel as a read-only 1-D array."""
+        """Return one channel as a read-only 1-D array of shape (n_samples,)."""
         return self.data[:, self._index(name)]
 
     def unit(self, name: str) -> str:
-        """Unit of channel ``name``."""
+        """Unit of channel ``name`` (``""`` if unknown); `InputError` if there is no such one."""
         return self.units[self._index(name)]
 
     def _index(self, name: str) -> int:
@@ -189,7 +217,29 @@ class Recording:
             ) from None
 
     def select(self, names: Iterable[str]) -> np.ndarray:
-        """Return the named channels as a new array of shape (n_samples, len(names))."""
+        """Return the named channels as a new array of shape (n_samples, len(names)).
+
+        Parameters
+        ----------
+        names : iterable of str
+            Channel names, in the column order wanted.
+
+        Returns
+        -------
+        ndarray, shape (n_samples, len(names)) [units of the channels]
+            A writable copy.
+
+        Raises
+        ------
+        InputError
+            A name is not a channel of the recording (the message lists the channels).
+
+        Examples
+        --------
+        >>> rec = Recording([0.0, 1.0], [[1.0, 2.0], [3.0, 4.0]], ["a", "b"])
+        >>> rec.select(["b", "a"]).tolist()
+        [[2.0, 1.0], [4.0, 3.0]]
+        """
         names = list(names)
         missing = [n for n in names if n not in self.names]
         if missing:
@@ -199,7 +249,25 @@ class Recording:
         return self.data[:, [self.names.index(n) for n in names]].copy()
 
     def channels(self, prefix: str) -> list[str]:
-        """Names ``prefix1, prefix2, ...`` present in order (e.g. ``channels("q")`` -> q1..qn)."""
+        """Names ``prefix1, prefix2, ...`` present in order (e.g. ``channels("q")`` -> q1..qn).
+
+        Parameters
+        ----------
+        prefix : str
+            Channel-name stem, e.g. ``"q"`` or ``"tau"``.
+
+        Returns
+        -------
+        list of str
+            ``prefix1 .. prefixk`` for the longest unbroken run starting at 1 (empty if
+            ``prefix1`` is missing).
+
+        Examples
+        --------
+        >>> rec = Recording([0.0, 1.0], [[0, 0, 0]] * 2, ["q1", "q2", "q4"])
+        >>> rec.channels("q")
+        ['q1', 'q2']
+        """
         out = []
         k = 1
         while f"{prefix}{k}" in self.names:
@@ -211,7 +279,25 @@ class Recording:
     def with_channels(
         self, columns: Mapping[str, Any], units: Mapping[str, str] | None = None
     ) -> Recording:
-        """Return a new recording with channels added or replaced."""
+        """Return a new recording with channels added or replaced.
+
+        Parameters
+        ----------
+        columns : mapping of str to array_like (n_samples,)
+            New channels (appended) or replacements of existing ones (same position).
+        units : mapping of str to str, optional
+            Units of the given columns; a replaced channel keeps its unit when none is given.
+
+        Returns
+        -------
+        Recording
+            Same time vector and metadata; this recording is unchanged.
+
+        Raises
+        ------
+        ShapeError
+            A column does not have one value per sample.
+        """
         names = list(self.names)
         data = [self.data[:, i] for i in range(self.n_channels)]
         unit_list = list(self.units)
@@ -235,7 +321,29 @@ class Recording:
         )
 
     def slice_time(self, start: float | None = None, stop: float | None = None) -> Recording:
-        """Return the samples with ``start <= t <= stop`` [s]."""
+        """Return the samples with ``start <= t <= stop`` [s].
+
+        Parameters
+        ----------
+        start, stop : float or None [s]
+            Inclusive bounds; None means unbounded on that side.
+
+        Returns
+        -------
+        Recording
+            The kept samples with all channels, units and metadata.
+
+        Raises
+        ------
+        SamplingError
+            No sample lies in the interval.
+
+        Examples
+        --------
+        >>> rec = Recording([0.0, 0.5, 1.0, 1.5], [1.0, 2.0, 3.0, 4.0], ["x"])
+        >>> rec.slice_time(0.5, 1.0).t.tolist()
+        [0.5, 1.0]
+        """
         keep = np.ones(self.n_samples, dtype=bool)
         if start is not None:
             keep &= self.t >= start
@@ -249,11 +357,49 @@ class Recording:
         return Recording(self.t[keep], self.data[keep], self.names, self.units, dict(self.metadata))
 
     def resample(self, dt: float | None = None) -> Recording:
-        """Linearly interpolate onto a uniform grid of period ``dt`` [s] (default: mean period)."""
+        """Linearly interpolate onto a uniform grid of period ``dt`` [s] (default: mean period).
+
+        Parameters
+        ----------
+        dt : float or None [s]
+            Period of the new grid ``t0 + k·dt``, k = 0 .. floor(duration/dt); None: the mean
+            period ``duration / (n_samples - 1)`` (same first and last time, same length).
+
+        Returns
+        -------
+        Recording
+            With ``metadata["resampled_from"]`` = {"n_samples", "dt"}.
+
+        Raises
+        ------
+        InputError
+            ``dt`` is not a finite number > 0.
+        SamplingError
+            The recording has fewer than 2 samples.
+
+        Examples
+        --------
+        Interpolation is exact on linear data:
+
+        >>> rec = Recording([0.0, 0.1, 0.3, 0.4], [0.0, 1.0, 3.0, 4.0], ["x"])
+        >>> out = rec.resample()
+        >>> out.dt, out["x"].round(12).tolist()
+        (0.13333333333333333, [0.0, 1.333333333333, 2.666666666667, 4.0])
+        """
+        if self.n_samples < 2:
+            raise SamplingError(
+                f"resampling needs at least 2 samples; the recording has {self.n_samples}."
+            )
         if dt is None:
             dt = self.duration / (self.n_samples - 1)
-        if not (np.isfinite(dt) and dt > 0):
-            raise InputError(f"dt must be finite and > 0; got {dt!r}.")
+        if (
+            isinstance(dt, (bool, np.bool_))
+            or not isinstance(dt, (int, float, np.integer, np.floating))
+            or not (np.isfinite(dt) and dt > 0)
+        ):
+            raise InputError(
+                f"dt must be a finite number > 0 [s] or None (the mean period); got {dt!r}."
+            )
         n = int(np.floor(self.duration / dt + 1e-9)) + 1
         t_new = self.t[0] + dt * np.arange(n)
         data = np.column_stack(

@@ -139,11 +139,32 @@ class ReferenceTrajectory:
 
 
 def make_reference(reference, n_joints: int, t_grid: np.ndarray | None = None):
-    """Normalise a reference to a callable ``r(t) -> sequence of n_joints`` [rad].
+    """Normalise a joint reference to a callable ``r(t) -> sequence of n_joints`` [rad].
 
-    ``reference`` may be a `ReferenceTrajectory`, a `FilteredSteps`, a constant array (n_joints,),
-    an array of samples (n_samples, n_joints) on ``t_grid`` (cubic spline), or a callable
-    ``r(t)`` returning n_joints values.
+    Parameters
+    ----------
+    reference : ReferenceTrajectory, FilteredSteps, array_like or callable
+        One of: a `ReferenceTrajectory` (returned as is); a `FilteredSteps` (its samples,
+        interpolated by a cubic spline); a constant array, shape (n_joints,) [rad]; an array of
+        samples, shape (n_samples, n_joints) [rad], on `t_grid` (cubic spline); or a callable
+        ``r(t)`` (t [s]) returning n_joints angles [rad] (returned as is after a probe at t = 0).
+    n_joints : int
+        Number of joints the reference must provide.
+    t_grid : ndarray, shape (n_samples,) [s], optional
+        Time stamps of a sampled-array reference (required only for that form).
+
+    Returns
+    -------
+    ReferenceTrajectory or callable
+        ``r(t)`` [rad] for scalar t [s]; a `ReferenceTrajectory` also evaluates whole arrays.
+
+    Raises
+    ------
+    ShapeError
+        The reference does not hold `n_joints` angles, or a sampled reference does not have one
+        row per sample of `t_grid`.
+    InputError
+        Non-finite reference values.
     """
     if isinstance(reference, ReferenceTrajectory):
         ref = reference
@@ -185,8 +206,23 @@ def make_reference(reference, n_joints: int, t_grid: np.ndarray | None = None):
 def paper_reference(paper: bool = True, *, dt: float = PAPER_MANIPULATOR["dt"]) -> FilteredSteps:
     """The filtered step references of Cedro & Janecki, section 4 (see the module docstring).
 
-    Returns the 4 channels on the grid 0 .. 10 s at Δ, filtered (M = 100, Ω_g = 0.025):
-    stamped from t = 0 when ``paper`` (leading the raw steps by 0.1 s), else centred.
+    Raw 0.5 rad steps at 1, 3, 5, 7 s (joints 1..4), sampled on 0 .. 10 s at `dt`, passed through
+    the low-pass differential filter (M = 100, Ω_g = 0.025 rad/sample).
+
+    Parameters
+    ----------
+    paper : bool
+        True (default): stamp the filtered samples from t = 0, as the paper's code does
+        (``tp1 = Δ Range[0, Length[Mf] − 1]``), so the reference *leads* the raw steps by
+        M·Δ = 0.1 s. False: stamp each sample at the centre of its window (zero phase).
+    dt : float [s]
+        Sample period Δ (default 1 ms).
+
+    Returns
+    -------
+    FilteredSteps
+        ``t`` [s], shape (n_out,), ``values`` [rad], shape (n_out, 4), with
+        n_out = 10/Δ + 1 − 2M (9801 at Δ = 1 ms), plus ``alignment`` and ``lead`` [s].
     """
     pm = PAPER_MANIPULATOR
     t_raw = uniform_time(duration=pm["reference_end"], dt=dt)
@@ -456,7 +492,7 @@ def _load_manipulator(kinetic: str):
 
 
 def paper_manipulator_experiment(
-    kinetic: str = "exact",
+    kinetic: str | None = None,
     paper: bool = True,
     noise_std=None,
     seed=None,
@@ -478,8 +514,10 @@ def paper_manipulator_experiment(
 
     Parameters
     ----------
-    kinetic : {"exact", "paper"}
-        Kinetic energy of the model (see `physid.load_model`).
+    kinetic : {"exact", "paper"}, optional
+        Kinetic energy of the model (see `physid.load_model`); default ``"exact"``. When
+        `model` is given, `kinetic` may be left out; if both are given they must agree
+        (``model.kinetic``), otherwise `InputError`.
     paper : bool
         True (default): stamp the filtered reference from t = 0 like the paper's
         ``tp1 = Δ Range[0, Length[Mf] − 1]``, so it leads the raw steps by MΔ = 0.1 s.
@@ -487,7 +525,7 @@ def paper_manipulator_experiment(
     noise_std : float or array_like (4,) [rad], optional
         White measurement noise on q.
     seed : None, int, SeedSequence or Generator
-        Noise seed.
+        Noise seed; only meaningful with `noise_std` (given alone it is an `InputError`).
     model : ChainModel, optional
         Use this model instead of loading ``"manipulator"``.
     params : dict or array, optional
@@ -500,8 +538,19 @@ def paper_manipulator_experiment(
     Recording
         t, q1..q4, qd1..qd4, tau1..tau4, r1..r4 on 0 .. 9.7 s (9701 samples).
     """
+    if seed is not None and noise_std is None:
+        raise InputError(
+            f"seed={seed!r} is used only to draw measurement noise, but noise_std was not given; "
+            "pass noise_std=<rad> as well, or drop seed."
+        )
     if model is None:
-        model = _load_manipulator(kinetic)
+        model = _load_manipulator("exact" if kinetic is None else kinetic)
+    elif kinetic is not None and getattr(model, "kinetic", None) != kinetic:
+        raise InputError(
+            f"kinetic={kinetic!r} conflicts with the model given, which has "
+            f"kinetic={getattr(model, 'kinetic', None)!r}; drop kinetic= (the model decides) or "
+            f"pass a model loaded with load_model('manipulator', kinetic={kinetic!r})."
+        )
     pm = PAPER_MANIPULATOR
     ref = paper_reference(paper, dt=dt)
     t = uniform_time(duration=end_time, dt=dt)

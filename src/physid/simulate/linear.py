@@ -398,8 +398,38 @@ def _recurse(Phi: np.ndarray, Gamma: np.ndarray, z0: np.ndarray, W: np.ndarray) 
 def uniform_time(t=None, *, duration=None, dt=None, t0: float = 0.0) -> np.ndarray:
     """A uniform time grid [s]: ``t`` itself (checked), or ``t0 + Δ·k`` for k = 0 .. duration/Δ.
 
-    ``duration`` must be a whole number of periods (to 1e-9 relative), so the last sample is at
-    ``t0 + duration`` (the paper: 5 s at Δ = 1 ms gives 5001 samples).
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,) [s], optional
+        An existing grid; it is checked (finite, strictly increasing, uniform) and returned.
+        Give either `t` or both `duration` and `dt`.
+    duration : float [s], optional
+        Length of the grid; must be a whole number of periods `dt` (to 1e-9 relative), so the
+        last sample is at ``t0 + duration``.
+    dt : float [s], optional
+        Sample period Δ > 0.
+    t0 : float [s]
+        Time of the first sample (default 0).
+
+    Returns
+    -------
+    ndarray, shape (n_samples,) [s]
+        ``t0 + dt * arange(round(duration / dt) + 1)``, or the checked `t`.
+
+    Raises
+    ------
+    InputError
+        Both or neither of `t` and (`duration`, `dt`) given; non-positive `duration`/`dt`.
+    SamplingError
+        `duration` is not a whole number of periods, or `t` is not uniform.
+
+    Examples
+    --------
+    The paper's MSD record, 5 s at Δ = 1 ms, has 5001 samples ending at 5 s:
+
+    >>> t = uniform_time(duration=5.0, dt=1e-3)
+    >>> t.size, float(t[-1])
+    (5001, 5.0)
     """
     if t is not None:
         if duration is not None or dt is not None:

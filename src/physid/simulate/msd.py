@@ -180,7 +180,7 @@ def simulate_msd(
     force_amplitude: float | None = None,
     angular_frequency: float | None = None,
     ratio: float | None = None,
-    phase: float = 0.0,
+    phase: float | None = None,
     input=None,  # noqa: A002
     hold: str = "foh",
     t=None,
@@ -211,7 +211,9 @@ def simulate_msd(
         ω1 of the sinusoid; or give
     ratio : float
         Z = ω1 / ω0 (ω0 of the initial parameters).
-    phase : float [rad]
+    phase : float [rad], optional
+        Phase of the built-in sinusoid (default 0). Not allowed with ``input`` (put the phase
+        into the `Sinusoid` instead).
     input : Sinusoid, Multisine, callable or array, optional
         Any other input u [m/s²] (see `simulate_linear_ode`), instead of amplitude/frequency.
     t, duration, dt : time grid (default: the paper's 5 s at Δ = 1 ms)
@@ -274,6 +276,7 @@ def simulate_msd(
             amp = float(amplitude)
         if not np.isfinite(amp):
             raise InputError(f"the input amplitude must be finite; got {amp!r}.")
+        phase = 0.0 if phase is None else float(phase)
         input = Sinusoid(amp, omega1, phase)
         meta.update(
             {"amplitude": amp, "angular_frequency": omega1, "ratio": omega1 / w0, "phase": phase}
@@ -281,6 +284,12 @@ def simulate_msd(
     elif angular_frequency is not None or ratio is not None:
         raise InputError(
             "angular_frequency/ratio apply to the built-in sinusoid; omit them with input=..."
+        )
+    elif phase is not None:
+        raise InputError(
+            f"phase={phase!r} applies only to the built-in sinusoid (amplitude=/force_amplitude=); "
+            "with input=... it would be ignored: drop phase, or pass Sinusoid(amplitude, omega, "
+            "phase) as input."
         )
     elif isinstance(input, (Sinusoid, Multisine)):
         meta["input"] = repr(input)
