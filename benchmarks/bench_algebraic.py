@@ -29,6 +29,7 @@ import time
 import warnings
 
 import numpy as np
+from _timing import best_time
 from scipy.integrate import simpson
 
 from physid.estimators.algebraic import _kernel_coefficients, algebraic_estimates, quadrature_taps
@@ -39,15 +40,6 @@ OMEGA0 = math.sqrt(400.0 / 3.0)
 DT = 1e-3
 WINDOW = 0.05
 LOOP_WINDOWS = 2000
-
-
-def _best_time(fn, repeat: int) -> float:
-    best = math.inf
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def loop_exact_taps(u, y, dt, window, n_windows=None):
@@ -118,7 +110,7 @@ def _speed_rows(sizes, repeat, loop_windows=LOOP_WINDOWS):
             algebraic_estimates(
                 u[:2000], x[:2000], DT, model, window=WINDOW, integration=rule
             )  # warm caches
-            t_vec = _best_time(
+            t_vec = best_time(
                 lambda u=u, x=x, rule=rule: algebraic_estimates(
                     u, x, DT, model, window=WINDOW, integration=rule
                 ),

@@ -18,9 +18,8 @@ Rows
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
+from _timing import best_time
 from scipy.signal import savgol_filter
 
 from physid.filters import design_filter
@@ -31,15 +30,6 @@ FREQS_HZ = np.array([1.0, 2.5, 4.0, 7.0])
 AMPLITUDES = np.array([1.0, 0.6, 0.4, 0.25])
 PHASES = np.array([0.0, 1.0, 2.0, 3.0])
 SNR_DB = 40.0
-
-
-def _best_time(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def _throughput_rows(quick: bool) -> list[dict]:
@@ -56,8 +46,8 @@ def _throughput_rows(quick: bool) -> list[dict]:
             return savgol_filter(x, 2 * M + 1, polyorder, deriv=order, delta=DT, axis=0)
 
         ours()  # warm-up (FFT plans, imports)
-        t_ours = _best_time(ours, repeats)
-        t_sg = _best_time(savgol, repeats)
+        t_ours = best_time(ours, repeats)
+        t_sg = best_time(savgol, repeats)
         rate, rate_sg = x.size / t_ours, x.size / t_sg
         rows.append(
             {

@@ -17,9 +17,9 @@ Rows
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
+from _timing import best_of
 
 from physid.estimators.recursive import (
     RecursiveLeastSquares,
@@ -31,15 +31,6 @@ from physid.estimators.recursive import (
 W0 = math.sqrt(400.0 / 3.0)
 
 
-def _best_of(fn, repeat: int) -> tuple[float, object]:
-    best, out = math.inf, None
-    for _ in range(repeat):
-        start = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - start)
-    return best, out
-
-
 def _speed_rows(n: int) -> list[dict]:
     rng = np.random.default_rng(7)
     t = np.arange(n) * 1e-3
@@ -47,7 +38,7 @@ def _speed_rows(n: int) -> list[dict]:
     Y = X @ [6.0, 100.0] + 0.01 * rng.standard_normal(n)
     lam, M = 0.99, 19
 
-    t_batch, (theta_b, _, _) = _best_of(
+    t_batch, (theta_b, _, _) = best_of(
         lambda: weighted_ls_path(X, Y, forgetting=lam, init_end=M), 10
     )
 
@@ -60,8 +51,8 @@ def _speed_rows(n: int) -> list[dict]:
             out[k] = theta
         return out
 
-    t_loop, theta_l = _best_of(loop, 1)
-    t_stream, theta_s = _best_of(
+    t_loop, theta_l = best_of(loop, 1)
+    t_stream, theta_s = best_of(
         lambda: StreamingRLS(2, forgetting=lam, init_samples=M + 1).update(X, Y), 1
     )
     diff = max(

@@ -15,19 +15,10 @@ Rows
 
 from __future__ import annotations
 
-import time
 import timeit
 
 import numpy as np
-
-
-def _best(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
+from _timing import best_time
 
 
 def _manipulator_rows(quick: bool) -> list[dict]:
@@ -58,7 +49,7 @@ def _manipulator_rows(quick: bool) -> list[dict]:
         times[backend] = np.inf if rec.metadata["integrator"]["backend"] == backend else np.nan
     for _ in range(repeats):  # interleaved, so that all backends see the same machine load
         for backend in backends:
-            elapsed = _best(
+            elapsed = best_time(
                 lambda b=backend: paper_manipulator_experiment(
                     model=model, backend=b, end_time=end_time
                 ),
@@ -132,14 +123,14 @@ def _msd_rows(quick: bool) -> list[dict]:
         dt=dt,
     )
     repeats = 1 if quick else 3
-    ours = _best(lambda: simulate_msd(**kwargs), repeats)
+    ours = best_time(lambda: simulate_msd(**kwargs), repeats)
     rec = simulate_msd(**kwargs)
     th1 = PAPER_MSD["damping"] / PAPER_MSD["mass"]
     th2 = w0**2
     lsim_n = min(n, 100_000)  # lsim loops in Python; extrapolate its per-sample cost
     t = rec.t[:lsim_n]
     u = rec["u"][:lsim_n]
-    theirs = _best(lambda: lsim(([1.0], [1.0, th1, th2]), u, t), 1) * n / lsim_n
+    theirs = best_time(lambda: lsim(([1.0], [1.0, th1, th2]), u, t), 1) * n / lsim_n
     rows = [
         {
             "case": f"msd exact simulation, {n} samples",

@@ -249,3 +249,20 @@ def test_rls_errors(msd_csv, tmp_path, capsys):
     )
     assert main(["estimate", str(zero), "--method", "rls"]) == 2
     assert "is zero over the whole record (no excitation)" in capsys.readouterr().err
+
+
+def test_resample_accepts_a_jittered_record(tmp_path, capsys):
+    """Sample times jittered by 1 % of Δ: refused by default, estimated with --resample."""
+    rec = simulate_msd(
+        duration=2.0, dt=1e-3, ratio=3.0, amplitude=100.0, natural_frequency=12.0, damping_ratio=0.3
+    )
+    t = rec.t + 1e-5 * np.sin(np.arange(rec.n_samples))  # ≤ 1 % of Δ = 1 ms
+    t[0], t[-1] = rec.t[0], rec.t[-1]
+    path = tmp_path / "jitter.csv"
+    save_recording(Recording(t, rec.select(["u", "x"]), ["u", "x"]), path)
+    assert main(["estimate", str(path), "--method", "algebraic", "--json"]) == 2
+    assert "--resample" in capsys.readouterr().err
+    assert main(["estimate", str(path), "--method", "algebraic", "--resample", "--json"]) == 0
+    out = _json(capsys)
+    assert out["parameters"]["natural_frequency"] == pytest.approx(12.0, rel=1e-3)
+    assert out["parameters"]["damping_ratio"] == pytest.approx(0.3, rel=1e-2)

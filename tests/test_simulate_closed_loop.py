@@ -262,3 +262,10 @@ def test_paper_experiment_rejects_conflicting_or_unused_keywords():
     # a seed with no noise seeds nothing (the CLI verb rejects the same)
     with pytest.raises(InputError, match="seed=3 is used only to draw measurement noise"):
         paper_manipulator_experiment(seed=3, model=paper_model)
+
+
+def test_a_seed_without_noise_is_refused_not_ignored(arm):
+    with pytest.raises(InputError, match="only seeds the measurement noise on q"):
+        simulate_closed_loop(
+            arm, kp=KP, kd=KD, reference=np.zeros(4), duration=0.01, dt=1e-3, rng=3
+        )

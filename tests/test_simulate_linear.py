@@ -436,3 +436,12 @@ def test_simulate_msd_rejects_phase_with_an_explicit_input():
             natural_frequency=2.0, damping_ratio=0.1, input=np.zeros(11), phase=0.3,
             duration=1.0, dt=0.1,
         )
+
+
+def test_a_seed_without_noise_is_refused_not_ignored():
+    from physid.models import load_model
+
+    with pytest.raises(InputError, match="only seeds the measurement noise"):
+        simulate_linear_ode(
+            load_model("msd"), duration=0.1, dt=1e-3, input=Sinusoid(1.0, 5.0), rng=3
+        )

@@ -9,7 +9,7 @@ from typing import Any
 from ..errors import InputError
 from ..estimators.results import jsonable
 
-__all__ = ["float_list", "assignments", "print_json", "progress"]
+__all__ = ["float_list", "assignments", "print_json", "progress", "add_resample_option"]
 
 
 def float_list(text: str, option: str) -> list[float]:
@@ -53,3 +53,13 @@ def print_json(obj: Any) -> None:
 def progress(message: str) -> None:
     """Progress goes to stderr so stdout stays machine-readable."""
     print(message, file=sys.stderr, flush=True)
+
+
+def add_resample_option(parser) -> None:
+    """``--resample``: accept a non-uniformly sampled recording by interpolating it."""
+    parser.add_argument(
+        "--resample",
+        action="store_true",
+        help="interpolate a non-uniformly sampled recording linearly onto a uniform grid "
+        "with its mean period (default: refuse it with an error)",
+    )

@@ -9,7 +9,7 @@ otherwise), ``success``, ``message`` and ``valid_fraction``.
 from __future__ import annotations
 
 from ..errors import InputError
-from ._common import assignments, print_json, progress
+from ._common import add_resample_option, assignments, print_json, progress
 
 ORDER = 40
 
@@ -121,6 +121,7 @@ def register(subparsers) -> None:
         metavar="NAME=VALUE,...",
         help="values of known coefficients overriding the model's",
     )
+    add_resample_option(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.set_defaults(func=run)
 
@@ -148,7 +149,7 @@ def run(args) -> int:
             "physid estimate needs 'msd' or a TOML file of kind 'linear_ode'. Use "
             "'physid identify' for chains."
         )
-    rec = load_recording(args.file)
+    rec = load_recording(args.file, resample=args.resample)
     common = {}
     if args.unknown is not None:
         common["unknown"] = tuple(n.strip() for n in args.unknown.split(",") if n.strip())

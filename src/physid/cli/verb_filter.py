@@ -11,7 +11,7 @@ import math
 import re
 
 from ..errors import InputError, PhysidError
-from ._common import progress
+from ._common import add_resample_option, progress
 
 ORDER = 60
 
@@ -64,12 +64,7 @@ def register(subparsers) -> None:
         action="store_true",
         help="drop one more sample at the end, like the paper's loop i = M+1..NN-M-1",
     )
-    parser.add_argument(
-        "--resample",
-        action="store_true",
-        help="interpolate a non-uniformly sampled recording linearly onto a uniform grid "
-        "with its mean period (default: refuse it with an error)",
-    )
+    add_resample_option(parser)
     parser.add_argument("--out", metavar="G", required=True, help="output file (.csv or .npz)")
     parser.set_defaults(func=run)
 

@@ -394,6 +394,11 @@ def simulate_closed_loop(
     SimulationError
         When the integrator fails; the message says which setting to change.
     """
+    if rng is not None and noise_std is None:
+        raise InputError(
+            f"rng={rng!r} only seeds the measurement noise on q, and none was asked for; give "
+            "noise_std [rad], or drop the seed (the simulation itself is deterministic)."
+        )
     n = int(model.n_joints)
     t = uniform_time(t, duration=duration, dt=dt)
     period = sample_period(t, "t")

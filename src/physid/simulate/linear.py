@@ -532,6 +532,11 @@ def simulate_linear_ode(
     >>> np.round(rec["x"], 12).tolist()
     [1.0, 0.707106781187, 0.0, -0.707106781187, -1.0]
     """
+    if rng is not None and snr_db is None and noise_std is None:
+        raise InputError(
+            f"rng={rng!r} only seeds the measurement noise, and none was asked for; give "
+            "snr_db or noise_std, or drop the seed (the simulation itself is deterministic)."
+        )
     source = _CoefficientSource(model)
     t = uniform_time(t, duration=duration, dt=dt, t0=t0)
     period = sample_period(t, "t")
