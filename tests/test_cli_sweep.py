@@ -82,7 +82,9 @@ def test_sweep_writes_parquet_with_exact_seeds_and_readable_files(sweep_dir):
     summary = json.loads((sweep_dir / "summary.json").read_text())
     assert summary["outputs"]["parquet"] == "written"
     # written atomically (mkstemp + rename), yet with the mode a plain open() gives
-    expected = 0o666 & ~mc._current_umask()
+    from physid._paths import _current_umask
+
+    expected = 0o666 & ~_current_umask()
     for path in sweep_dir.iterdir():
         assert path.stat().st_mode & 0o777 == expected, path.name
 

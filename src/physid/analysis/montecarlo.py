@@ -53,7 +53,6 @@ import multiprocessing
 import os
 import pickle
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -63,6 +62,7 @@ from typing import Any
 
 import numpy as np
 
+from .._paths import atomic_write
 from ..errors import InputError, MissingDependencyError
 from ..estimators.results import ResultMixin, jsonable
 from . import metrics
@@ -883,57 +883,6 @@ def run_sweep(
 
 
 # =========================================================================== writing
-def _current_umask() -> int:
-    """The process umask (os.umask can only be read by setting it; set it straight back)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) -> Path:
-    """Write a file atomically: ``write(handle)`` fills a temporary file that replaces ``path``.
-
-    The temporary file lives in the same folder (so the final `os.replace` is an atomic rename on
-    POSIX and Windows); it is flushed and fsync'ed first and given the permissions a plain
-    ``open()`` would give (``0o666`` less the umask; `tempfile.mkstemp` alone makes it private). If
-    ``write`` raises, the temporary file is removed, an existing ``path`` is left untouched, and the
-    exception propagates.
-
-    Parameters
-    ----------
-    path : str or Path
-        Destination file.
-    write : callable
-        Receives the open temporary file (text, UTF-8, or binary with ``binary=True``).
-    binary : bool
-
-    Returns
-    -------
-    Path
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(
-            fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": ""})
-        ) as fh:
-            write(fh)
-            fh.flush()
-            os.fsync(fh.fileno())
-        # mkstemp creates the file -rw------- ; give it the permissions open() would (0o666 less
-        # the umask), so the outputs are as readable as any other file the user writes
-        os.chmod(tmp, 0o666 & ~_current_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    return path
-
-
 def _summary_document(result: SweepResult) -> dict:
     return jsonable(
         {

@@ -18,12 +18,10 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 
-from .._paths import cache_dir
+from .._paths import atomic_write, cache_dir
 
 __all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry"]
 
@@ -83,20 +81,9 @@ def load_entry(kind: str, key: str) -> dict | None:
 
 def save_entry(kind: str, key: str, data: dict) -> bool:
     """Write an entry atomically; return False (silently) if the folder is not writable."""
-    folder = cache_dir()
+    entry = {"format": CACHE_FORMAT, "key": key, "data": data}
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{kind}-", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                json.dump({"format": CACHE_FORMAT, "key": key, "data": data}, fh)
-            os.replace(tmp, _path(kind, key))
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-            raise
+        atomic_write(_path(kind, key), lambda fh: json.dump(entry, fh))
     except OSError:
         return False
     return True

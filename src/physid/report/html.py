@@ -38,7 +38,6 @@ import json
 import math
 import os
 import re
-import uuid
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from .._paths import atomic_write
 from ..errors import InputError
 from ..estimators.results import jsonable
 
@@ -260,25 +260,6 @@ def format_cell(cell: Cell) -> str:
 
 # --------------------------------------------------------------------------------------------
 # Writing files
-
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write to a temporary file in the same folder, then rename over ``path`` (atomic).
-
-    The temporary file is created with ``open(..., "xb")`` (not `tempfile.mkstemp`, whose files
-    are private, mode 0600), so the result gets the usual permissions from the umask.
-    """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        with open(tmp, "xb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
 
 def _figure_png(figure: Any) -> bytes:
     buf = io.BytesIO()
@@ -541,7 +522,7 @@ def write_report(
         for f in s.figures:
             png = _figure_png(f.figure)
             path = out / f"{f.name}.png"
-            _atomic_write_bytes(path, png)
+            atomic_write(path, lambda fh, data=png: fh.write(data), binary=True)
             figure_paths.append(path)
             pngs[f.name] = png
             if progress:
@@ -569,7 +550,7 @@ def write_report(
     }
     text = json.dumps(jsonable(payload), indent=2, allow_nan=False, ensure_ascii=False)
     json_path = out / "results.json"
-    _atomic_write_bytes(json_path, (text + "\n").encode("utf-8"))
+    atomic_write(json_path, lambda fh: fh.write(text + "\n"))
 
     # report.html
     parts = [
@@ -630,5 +611,5 @@ def write_report(
     )
     parts.extend(["</main>", "</body>", "</html>"])
     html_path = out / "report.html"
-    _atomic_write_bytes(html_path, ("\n".join(parts) + "\n").encode("utf-8"))
+    atomic_write(html_path, lambda fh: fh.write("\n".join(parts) + "\n"))
     return ReportPaths(html=html_path, json=json_path, figures=tuple(figure_paths))
