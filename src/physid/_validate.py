@@ -21,6 +21,7 @@ __all__ = [
     "check_positive",
     "check_in_range",
     "check_length",
+    "check_signal_pair",
 ]
 
 #: Relative tolerance on the spread of sample intervals before sampling counts as non-uniform.
@@ -164,3 +165,16 @@ def check_length(n_samples: int, needed: int, what: str, fix: str) -> None:
         raise SamplingError(
             f"{what} needs at least {needed} samples but the record has {n_samples}. {fix}"
         )
+
+
+def check_signal_pair(u, y, name_u: str = "u", name_y: str = "y") -> tuple[np.ndarray, np.ndarray]:
+    """Return input and output samples as new 1-D float arrays of equal length, all finite."""
+    u = as_1d(u, name_u)
+    y = as_1d(y, name_y)
+    if u.size != y.size:
+        raise ShapeError(
+            f"{name_u} and {name_y} must have the same length; got {u.size} and {y.size}."
+        )
+    check_finite(u[:, None], name_u)
+    check_finite(y[:, None], name_y)
+    return u, y

@@ -46,8 +46,8 @@ from typing import Any
 import numpy as np
 from scipy import ndimage, signal
 
-from .._validate import as_1d, check_finite, check_positive
-from ..errors import EstimationError, InputError, SamplingError, ShapeError
+from .._validate import check_positive, check_signal_pair
+from ..errors import EstimationError, InputError, SamplingError
 from ..models.linear_ode import as_linear_ode_model
 from .results import ResultMixin
 
@@ -833,18 +833,6 @@ _SETTINGS_DOC = """
 """
 
 
-def _check_signals(u, y, name_u="u", name_y="y"):
-    u = as_1d(u, name_u)
-    y = as_1d(y, name_y)
-    if u.size != y.size:
-        raise ShapeError(
-            f"{name_u} and {name_y} must have the same length; got {u.size} and {y.size}."
-        )
-    check_finite(u[:, None], name_u)
-    check_finite(y[:, None], name_y)
-    return u, y
-
-
 def _settings_plan(model, dt, settings):
     return _make_plan(as_linear_ode_model(model), dt, **settings)
 
@@ -925,7 +913,7 @@ def algebraic_estimates(
         raise InputError(f"final_fraction must lie in (0, 1]; got {final_fraction!r}.")
     if final not in FINAL_RULES:
         raise InputError(f"final must be one of {FINAL_RULES}; got {final!r}.")
-    u, y = _check_signals(u, y)
+    u, y = check_signal_pair(u, y)
     plan = _settings_plan(
         model,
         dt,
@@ -1064,14 +1052,7 @@ class AlgebraicEstimator:
                 "Use fit_arrays(u, y, dt) for plain arrays."
             )
         model = as_linear_ode_model(self.model)
-        in_name = getattr(model, "input_name", "u")
-        candidates = [getattr(model, "output_name", "x"), "x", "y"]
-        out = next((c for c in candidates if c in names), None)
-        if in_name not in names or out is None:
-            raise InputError(
-                f"the recording needs an input channel {in_name!r} and an output channel "
-                f"{' or '.join(repr(c) for c in dict.fromkeys(candidates))}; it has {list(names)}."
-            )
+        in_name, out = model.recording_channels(names)
         dt = recording.dt
         self.result_ = algebraic_estimates(
             recording[in_name],
@@ -1180,7 +1161,7 @@ class StreamingAlgebraicEstimator:
 
     def update(self, u, y) -> StreamingUpdate:
         """Feed the next samples ``u``, ``y`` (shape (n_new,)); return their estimates."""
-        u, y = _check_signals(u, y)
+        u, y = check_signal_pair(u, y)
         plan = self._plan
         u_all = np.concatenate([self._u, u])
         y_all = np.concatenate([self._y, y])

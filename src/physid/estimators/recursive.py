@@ -61,7 +61,14 @@ from typing import Any
 import numpy as np
 from scipy import linalg, signal
 
-from .._validate import as_1d, as_2d, check_finite, check_in_range, check_positive
+from .._validate import (
+    as_1d,
+    as_2d,
+    check_finite,
+    check_in_range,
+    check_positive,
+    check_signal_pair,
+)
 from ..errors import EstimationError, IdentifiabilityError, InputError, ShapeError
 from ..models.linear_ode import (
     LinearODEModel,
@@ -432,10 +439,7 @@ def build_regression(
     """
     spec = as_linear_ode_model(spec_or_model)
     n, m = spec.order, spec.input_order
-    y = as_1d(y, "y")
-    u = as_1d(u, "u")
-    if y.size != u.size:
-        raise ShapeError(f"y has {y.size} samples but u has {u.size}; they must be equal.")
+    u, y = check_signal_pair(u, y)
     unknown, values = spec.split_coefficients(unknown, known)
 
     if discard is not None and (
@@ -1010,23 +1014,6 @@ def _check_init_samples(init_samples, p: int) -> int:
 
 
 # =============================================================================== estimator
-def _channel_names(spec: LinearODEModel, names: Sequence[str]) -> tuple[str, str]:
-    """(input, output) channel of ``spec`` in a recording with channels ``names``.
-
-    The model's ``input_name`` and ``output_name``; the output falls back to ``x`` then ``y``
-    (the recording convention of docs/architecture.md), the same rule as the algebraic estimator.
-    """
-    in_name = getattr(spec, "input_name", "u")
-    candidates = list(dict.fromkeys([getattr(spec, "output_name", "x"), "x", "y"]))
-    out_name = next((c for c in candidates if c in names), None)
-    if in_name not in names or out_name is None:
-        raise InputError(
-            f"the recording needs an input channel {in_name!r} and an output channel "
-            f"{' or '.join(repr(c) for c in candidates)}; it has {list(names)}."
-        )
-    return in_name, out_name
-
-
 @dataclass(frozen=True, eq=False)
 class RecursiveResult(ResultMixin):
     """Result of `RecursiveLeastSquares.fit`.
@@ -1170,7 +1157,7 @@ class RecursiveLeastSquares:
         names = getattr(recording, "names", None)
         if names is None:
             raise InputError(f"fit expects a Recording; got {type(recording).__name__}.")
-        in_name, out_name = _channel_names(spec, names)
+        in_name, out_name = spec.recording_channels(names)
         dt = recording.dt
         reg = build_regression(
             spec, recording[out_name], recording[in_name], dt, unknown=self.unknown,
@@ -1385,12 +1372,7 @@ class StreamingRecursiveEstimator:
 
     def update(self, u, y) -> StreamingRecursiveUpdate:
         """Feed the next samples ``u``, ``y`` (shape (n_new,)); return their estimates."""
-        u = as_1d(u, "u")
-        y = as_1d(y, "y")
-        if u.size != y.size:
-            raise ShapeError(f"u has {u.size} samples but y has {y.size}; they must be equal.")
-        check_finite(u[:, None], "u")
-        check_finite(y[:, None], "y")
+        u, y = check_signal_pair(u, y)
         n_new = u.size
         p = len(self._unknown)
         index = np.arange(self.n_samples, self.n_samples + n_new)

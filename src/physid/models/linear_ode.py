@@ -138,6 +138,21 @@ class LinearODEModel:
         """True for the mass–spring–damper form ẍ + θ1 ẋ + θ2 x = b0 u."""
         return self.a_names == ("theta2", "theta1")
 
+    def recording_channels(self, names) -> tuple[str, str]:
+        """(input, output) channel names of this model in a recording with channels ``names``.
+
+        The model's ``input_name`` and ``output_name``; the output falls back to ``x`` then
+        ``y`` (the recording convention of docs/architecture.md).
+        """
+        candidates = list(dict.fromkeys([self.output_name, "x", "y"]))
+        out_name = next((c for c in candidates if c in names), None)
+        if self.input_name not in names or out_name is None:
+            raise InputError(
+                f"the recording needs an input channel {self.input_name!r} and an output channel "
+                f"{' or '.join(repr(c) for c in candidates)}; it has {list(names)}."
+            )
+        return self.input_name, out_name
+
     def split_coefficients(self, unknown=None, known=None) -> tuple[tuple[str, ...], dict]:
         """Validate which coefficients an estimator estimates and which it is given.
 
