@@ -35,13 +35,13 @@ from ..estimators.input_error import (
     BoundWarning,
     FilterWarning,
     InputErrorEstimator,
-    filter_band_check,
     linear_least_squares,
 )
 from ..filters import design_filter, design_filter_bank
 from ..models import load_model
 from ..report.html import Erratum, FigureSpec, ReportSection, Table
 from ..report.manipulator import plot_filter_sweep, plot_parameter_histories, plot_valley
+from ..signals.noise import add_white_noise
 from ..simulate.closed_loop import PAPER_MANIPULATOR, paper_manipulator_experiment
 
 __all__ = ["run", "PAPER_RESULT", "PAPER_INITIAL", "TRUTH", "SEPARATE", "TITLES"]
@@ -569,13 +569,12 @@ def _identifiability_section(model, result, fast, nm, quick) -> ReportSection:
 
 
 # ---------------------------------------------------------------------- 4. filters
-def _filter_section(
-    exact_model, rec_exact, paper_model, rec_paper, quick, progress, filtr2, j_pd
-) -> ReportSection:
+def _filter_section(exact_model, rec_exact, r_pp, quick, progress, filtr2, j_pd) -> ReportSection:
+    """The filter sweep; ``r_pp`` is the paper's setting (M = 100, Ω_g = 0.2, its filters,
+    measured torque) fitted to the paper-mode data, shared with the noise section."""
     cutoffs = (0.2, 0.4, 0.6) if quick else (0.1, 0.2, 0.3, 0.4, 0.6, 0.8)
     widths = (200,) if quick else (100, 200)
     rows, curves, sweep = [], {}, []
-    q = [f"q{i}" for i in range(1, 5)]
     for m in widths:
         for derivatives in ("paper", "consistent"):
             label = f"M = {m}, {derivatives} filters"
@@ -590,7 +589,6 @@ def _filter_section(
                     derivatives=derivatives,
                     start="linear",
                 )
-                band = filter_band_check(rec_exact.select(q), m, w, rec_exact.dt)
                 err = _errors(r.parameters, r.combinations[COMBO])
                 curves[label].append(_max_abs(err))
                 rows.append(
@@ -602,7 +600,7 @@ def _filter_section(
                         err[COMBO],
                         max(abs(err[n]) for n in SEPARATE),
                         r.cost,
-                        float(band.fractions.max()),
+                        float(r.filter_energy_fraction.max()),
                         float(r.relative_residual.max()),
                         "yes" if warned else "no",
                     )
@@ -614,14 +612,12 @@ def _filter_section(
                         "derivatives": derivatives,
                         "errors_percent": err,
                         "J": r.cost,
-                        "energy_fraction": band.fractions.max(),
+                        "energy_fraction": r.filter_energy_fraction.max(),
                         "relative_residual": r.relative_residual.max(),
                         "warned": warned,
                         "nfev": r.nfev,
                     }
                 )
-    # the paper's setting on the paper's data, for reference
-    r_pp, _ = _fit(paper_model, rec_paper, half_width=100, cutoff=0.2, start="linear")
     fig = plot_filter_sweep(
         cutoffs, curves, title="Exact model on exact data: largest error vs Ω_g", target=0.05
     )
@@ -631,7 +627,7 @@ def _filter_section(
         key=lambda row: _max_abs(row["errors_percent"]),
     )
     pp_error = _max_abs(_errors(r_pp.parameters, r_pp.combinations[COMBO]))
-    paper_edge = filter_band_check(rec_exact.select(q)[:, :1], 100, 0.2, rec_exact.dt).passband_edge
+    paper_edge = r_pp.filter_passband_edge  # depends on the filter only (M = 100, Ω_g = 0.2)
     paragraphs = (
         "The input-error method is exact only where the filters act as the ideal 1, s and s²: "
         "filtering does not commute with the nonlinear dynamics, so every frequency of q, τ and "
@@ -712,22 +708,31 @@ def _filter_section(
 
 
 # ---------------------------------------------------------------------- 5. noise
-def _noise_section(paper_model, rec_paper, quick, progress) -> ReportSection:
+def _noise_section(paper_model, rec_paper, r_pp, quick, progress) -> ReportSection:
     std = 1e-4
     seeds = (1,) if quick else (1, 2, 3, 4, 5)
     settings = ((100, 0.2, "paper"), (200, 0.1, "consistent"))
-    noisy_recs = {
-        seed: paper_manipulator_experiment(
-            kinetic="paper", model=paper_model, noise_std=std, seed=seed
-        )
-        for seed in seeds
-    }
+    # the noise is added after the integration (it never feeds back), so a noisy record is the
+    # clean one plus noise: the same bits as simulating again with noise_std and seed
+    q = [f"q{i}" for i in range(1, 5)]
+    noisy_recs = {}
+    for seed in seeds:
+        noisy_q, _ = add_white_noise(rec_paper.select(q), std=std, rng=seed)
+        noisy_recs[seed] = rec_paper.with_channels(dict(zip(q, noisy_q.T, strict=True)))
     rows, results = [], {}
     for m, w, derivatives in settings:
         label = f"M={m}, Ω_g={w}, {derivatives}"
-        clean_fit, _ = _fit(
-            paper_model, rec_paper, half_width=m, cutoff=w, derivatives=derivatives, start="linear"
-        )
+        if (m, w, derivatives) == (100, 0.2, "paper"):
+            clean_fit = r_pp  # already fitted for the filter section
+        else:
+            clean_fit, _ = _fit(
+                paper_model,
+                rec_paper,
+                half_width=m,
+                cutoff=w,
+                derivatives=derivatives,
+                start="linear",
+            )
         clean = _errors(clean_fit.parameters, clean_fit.combinations[COMBO])
         errs, stderrs = [], []
         for seed in seeds:
@@ -1000,9 +1005,9 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
     nm, nm_history, nm_time = _nelder_mead(fast, 3000 if quick else 8000)
 
     sections = [_simulation_section(rec_paper, rec_exact, mismatch, mismatch_fit.at_bound)]
-    filters = _filter_section(
-        exact_model, rec_exact, paper_model, rec_paper, quick, progress, filtr2, result.cost
-    )
+    # the paper's setting on the paper's data (measured torque), shared by two sections
+    r_pp, _ = _fit(paper_model, rec_paper, half_width=100, cutoff=0.2, start="linear")
+    filters = _filter_section(exact_model, rec_exact, r_pp, quick, progress, filtr2, result.cost)
     ident = _identification_section(
         result,
         walltime,
@@ -1017,7 +1022,7 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
     )
     _say(progress, "identifiability and the m1–l1 valley")
     identifiability = _identifiability_section(paper_model, result, fast, nm, quick)
-    noise = _noise_section(paper_model, rec_paper, quick, progress)
+    noise = _noise_section(paper_model, rec_paper, r_pp, quick, progress)
 
     q = [f"q{i}" for i in range(1, 5)]
     evidence = {

@@ -28,7 +28,7 @@ from scipy.interpolate import CubicSpline
 
 from .._validate import as_1d, as_2d, check_finite, check_positive, sample_period
 from ..errors import InputError, ShapeError, SimulationError
-from ..signals.noise import make_rng
+from ..signals.noise import add_white_noise
 from .linear import uniform_time
 from .recordings import ClosedLoopRecording
 from .references import FilteredSteps, filtered_steps
@@ -468,17 +468,10 @@ def simulate_closed_loop(
     }
     q_meas = q
     if noise_std is not None:
-        sigma = as_1d(noise_std, "noise_std")
-        if sigma.size not in (1, n):
-            raise ShapeError(
-                f"noise_std must be one value or one per joint ({n}); got {sigma.size}."
-            )
-        for s in sigma:
-            check_positive(s, "noise_std [rad]", allow_zero=True)
-        q_meas = q + make_rng(rng).standard_normal(q.shape) * sigma
+        q_meas, _ = add_white_noise(q, std=noise_std, rng=rng)  # checks: one std or one per joint
         meta["noise"] = {
             "kind": "white Gaussian, added to q only",
-            "std": sigma.tolist(),
+            "std": as_1d(noise_std, "noise_std").tolist(),
             "seed": int(rng) if isinstance(rng, (int, np.integer)) else None,
         }
     meta.update(dict(metadata or {}))
