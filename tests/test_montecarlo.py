@@ -371,3 +371,11 @@ def test_bad_arguments_raise_clear_errors():
         mc.run_sweep(lambda s, seed: {}, GRID, trials=5, scheduler="local", workers=2)
     with pytest.raises(InputError, match="no column 'nope'"):
         mc.run_sweep(toy_trial, GRID, scheduler="serial", progress=False).column("nope")
+
+
+def test_msd_sweep_refuses_a_bad_record_length_before_running():
+    """Checked by the sweep itself, not only by the CLI: no sweep full of error rows."""
+    with pytest.raises(InputError, match=r"duration \[s\] must be finite and > 0"):
+        mc.msd_sweep([80.0], [1.0], trials=1, duration=-1.0, scheduler="serial", progress=False)
+    with pytest.raises(InputError, match=r"dt \[s\] must be finite and > 0"):
+        mc.msd_sweep([80.0], [1.0], trials=1, dt=0.0, scheduler="serial", progress=False)

@@ -63,6 +63,7 @@ from typing import Any
 import numpy as np
 
 from .._paths import atomic_write
+from .._validate import check_positive
 from ..errors import InputError, MissingDependencyError
 from ..estimators.results import ResultMixin, jsonable
 from . import metrics
@@ -1224,11 +1225,13 @@ def msd_sweep(
     for w in windows:
         if not float(w) > 0:
             raise InputError(f"windows must be positive lengths [s]; got {w!r}.")
+    duration = check_positive(duration, "duration [s]")
+    dt = check_positive(dt, "dt [s]")
     variants = msd_estimator_variants(methods, windows=windows, forgettings=forgettings)
     options = dict(estimator_options or {})
     for v in variants:
-        v["duration"] = float(duration)
-        v["dt"] = float(dt)
+        v["duration"] = duration
+        v["dt"] = dt
         if options.get(v["method"]):
             v["estimator_options"] = dict(options[v["method"]])
     grid = {"snr_db": snr_values, "ratio": ratio_values, "estimator": variants}

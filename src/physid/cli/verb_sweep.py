@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
 from ..errors import InputError
-from ._common import float_list, progress
+from ._common import float_list, print_json, progress
 
 ORDER = 50
 
@@ -111,8 +110,6 @@ def run(args) -> int:
 
     if args.trials < 1:
         raise InputError(f"--trials must be >= 1; got {args.trials}.")
-    if args.duration <= 0 or args.dt <= 0:
-        raise InputError(f"--duration and --dt must be > 0; got {args.duration} and {args.dt}.")
     result = msd_sweep(
         snr_db=float_list(args.snr, "--snr"),
         ratio=float_list(args.ratio, "--ratio"),
@@ -127,31 +124,29 @@ def run(args) -> int:
         workers=args.workers,
         progress=not args.no_progress,
     )
+    cells = result.summarize()  # once: the maps, the table and --json all read it
     figures = {
-        f"convergence_{c.removeprefix('t_')}": plot_convergence_maps(result, metric=c)
+        f"convergence_{c.removeprefix('t_')}": plot_convergence_maps(cells, metric=c)
         for c in MSD_TIME_COLUMNS
     }
     paths = write_sweep(result, args.out, figures=figures)
     progress(f"sweep: {result.message}")
     if args.json:
-        print(
-            json.dumps(
-                {
-                    "summary": str(paths["summary"]),
-                    "csv": str(paths["csv"]),
-                    "success": result.success,
-                    "message": result.message,
-                    "cells": json.loads(paths["summary"].read_text())["cells"],
-                },
-                indent=2,
-            )
+        print_json(
+            {
+                "summary": str(paths["summary"]),
+                "csv": str(paths["csv"]),
+                "success": result.success,
+                "message": result.message,
+                "cells": cells,
+            }
         )
         return 0
     print(
         f"{'estimator':<22} {'SNR':>6} {'Z':>6} {'ok':>7} {'first hit [s]':>14} {'settle [s]':>11}"
         f" {'ω0 bias':>9} {'ω0 spread':>10}"
     )
-    for cell in result.summarize():
+    for cell in cells:
         snr = "clean" if cell["snr_db"] is None else f"{cell['snr_db']:g}"
         acc = cell.get("accuracy", {}).get("omega0", {})
         print(
