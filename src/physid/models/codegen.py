@@ -179,11 +179,9 @@ def cholesky_solve_lines(
     return lines
 
 
-def source_to_function(source: str, name: str, *, scalar: bool = False, extra: dict | None = None):
+def source_to_function(source: str, name: str, *, scalar: bool = False):
     """Compile generated ``source`` and return the function called ``name``."""
     namespace = dict(SCALAR_NAMESPACE if scalar else VECTOR_NAMESPACE)
-    if extra:
-        namespace.update(extra)
     code = compile(source, f"<physid-generated {name}>", "exec")
     exec(code, namespace)  # noqa: S102 - our own generated source (or our own cache of it)
     return namespace[name]
@@ -336,7 +334,8 @@ class SharedExpressions:
         return "\n".join(lines) + "\n"
 
     def scalar_lines_split(self, assignments, constant_symbols) -> tuple[list[str], list[str]]:
-        """Like `scalar_lines`, split into (lines depending only on ``constant_symbols``, the rest).
+        """Scalar ``target = expression`` lines for reduced expressions, with what they need, split
+        into (lines depending only on ``constant_symbols``, the rest).
 
         The constant part (typically parameter-only products such as ``m2*l2**2``) can be
         evaluated once when parameters are bound, not at every call. Inside the remaining lines,
@@ -386,13 +385,3 @@ class SharedExpressions:
             else:
                 body.append(f"{t} = {sca.doprint(hoist(e))}")
         return head, body
-
-    def scalar_lines(self, assignments) -> list[str]:
-        """Scalar ``target = expression`` lines for reduced expressions, with what they need."""
-        import sympy as sp
-
-        _, sca = _printers()
-        exprs = [sp.sympify(e) for _, e in assignments]
-        lines = [self._line(i, True) for i in self._needed(exprs)]
-        lines += [f"{t} = {sca.doprint(e)}" for (t, _), e in zip(assignments, exprs, strict=False)]
-        return lines

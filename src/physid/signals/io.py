@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from .._paths import atomic_write
 from .._validate import UNIFORM_RTOL
 from ..errors import DataFileError, InputError, MissingDependencyError, PhysidError
 from .recording import Recording
@@ -171,16 +172,17 @@ def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
         # C speed; reshape "[[a, b], [c, d]]" into "a,b\nc,d"
         table = str(np.column_stack([rec.t, rec.data]).tolist())
         body = table[2:-2].replace("], [", "\n").replace(", ", ",")
-        path.write_text(f"# metadata: {meta}\n{header}\n{body}\n", encoding="utf-8")
+        text = f"# metadata: {meta}\n{header}\n{body}\n"
+        atomic_write(path, lambda fh: fh.write(text))
     else:
-        np.savez(
-            path,
-            t=rec.t,
-            data=rec.data,
-            names=np.array(rec.names, dtype=str),
-            units=np.array(rec.units, dtype=str),
-            metadata=np.array(meta),
-        )
+        arrays = {
+            "t": rec.t,
+            "data": rec.data,
+            "names": np.array(rec.names, dtype=str),
+            "units": np.array(rec.units, dtype=str),
+            "metadata": np.array(meta),
+        }
+        atomic_write(path, lambda fh: np.savez(fh, **arrays), binary=True)
     return path
 
 

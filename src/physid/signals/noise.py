@@ -22,6 +22,7 @@ import numpy as np
 
 from .._validate import as_1d, check_finite, check_positive
 from ..errors import InputError
+from .excitation import sinusoid
 
 __all__ = [
     "make_rng",
@@ -193,8 +194,7 @@ def sinusoidal_disturbance(
     Sampled at period Δ, a sinusoid above the Nyquist frequency π/Δ is indistinguishable from one at
     `alias_frequency` (Oueslati et al.'s ω2 = 500 ω0 at 1 kHz appears at about 509.7 rad/s).
     """
-    t = as_1d(t, "t")
-    return float(amplitude) * np.sin(float(angular_frequency) * t + float(phase))
+    return sinusoid(t, amplitude, angular_frequency, phase)
 
 
 def alias_frequency(angular_frequency: float, dt: float) -> float:

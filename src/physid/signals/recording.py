@@ -58,11 +58,7 @@ class Recording:
     metadata: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        t = (
-            check_time(self.t, "t", min_samples=1)
-            if np.size(self.t) < 2
-            else check_time(self.t, "t")
-        )
+        t = check_time(self.t, "t", min_samples=1)
         names = tuple(str(n) for n in self.names)
         data = as_2d(self.data, "data")
         if data.shape[0] != t.size:
