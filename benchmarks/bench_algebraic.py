@@ -34,9 +34,10 @@ from scipy.integrate import simpson
 
 from physid.estimators.algebraic import _kernel_coefficients, algebraic_estimates, quadrature_taps
 from physid.models import msd_model
+from physid.models.linear_ode import MSD_NATURAL_FREQUENCY
 from physid.simulate import msd_paper_scenario
 
-OMEGA0 = math.sqrt(400.0 / 3.0)
+OMEGA0 = MSD_NATURAL_FREQUENCY
 DT = 1e-3
 WINDOW = 0.05
 LOOP_WINDOWS = 2000

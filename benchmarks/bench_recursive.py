@@ -16,8 +16,6 @@ Rows
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from _timing import best_of
 
@@ -27,8 +25,9 @@ from physid.estimators.recursive import (
     rls_update,
     weighted_ls_path,
 )
+from physid.models.linear_ode import MSD_NATURAL_FREQUENCY
 
-W0 = math.sqrt(400.0 / 3.0)
+W0 = MSD_NATURAL_FREQUENCY
 
 
 def _speed_rows(n: int) -> list[dict]:

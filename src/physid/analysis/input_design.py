@@ -53,6 +53,7 @@ from scipy import optimize
 from .._validate import as_1d, check_positive
 from ..errors import InputError
 from ..estimators.results import ResultMixin
+from ..models.linear_ode import MSD_NATURAL_FREQUENCY
 
 __all__ = [
     "PAPER_NATURAL_FREQUENCY",
@@ -65,7 +66,7 @@ __all__ = [
 ]
 
 #: ω0 of the paper's system, √(k/m) = √(400 N/m / 3 kg) [rad/s].
-PAPER_NATURAL_FREQUENCY = math.sqrt(400.0 / 3.0)
+PAPER_NATURAL_FREQUENCY = MSD_NATURAL_FREQUENCY
 #: Largest number of (ratio × row) terms evaluated at once (memory bound of the vectorised sums).
 _CHUNK_TERMS = 4_000_000
 

@@ -66,6 +66,7 @@ from .._paths import atomic_write
 from .._validate import check_positive
 from ..errors import InputError, MissingDependencyError
 from ..estimators.results import ResultMixin, jsonable
+from ..models.linear_ode import MSD_NATURAL_FREQUENCY
 from . import metrics
 
 __all__ = [
@@ -1083,8 +1084,6 @@ def _msd_truth(rec, default: float) -> float:
     return default
 
 
-#: The paper's MSD (k = 400 N/m, m = 3 kg): ω0 = sqrt(k / m) [rad/s].
-MSD_NATURAL_FREQUENCY = math.sqrt(400.0 / 3.0)
 
 
 def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:

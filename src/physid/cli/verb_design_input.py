@@ -45,22 +45,9 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _natural_frequency(model: str, given: float | None) -> float:
-    from ..analysis.input_design import PAPER_NATURAL_FREQUENCY
-
-    if given is not None:
-        return given
-    try:
-        from .. import load_model
-
-        theta2 = float(load_model(model).parameters["theta2"])
-        return math.sqrt(theta2) if theta2 > 0 else PAPER_NATURAL_FREQUENCY
-    except Exception:  # noqa: BLE001 - models not available yet: the paper's system
-        return PAPER_NATURAL_FREQUENCY
-
-
 def run(args) -> int:
     from ..analysis.input_design import design_input
+    from ..models.linear_ode import MSD_NATURAL_FREQUENCY
 
     if args.model.lower() != "msd":
         raise InputError(
@@ -73,7 +60,8 @@ def run(args) -> int:
     horizons = None
     if args.horizons:
         horizons = [int(round(v)) for v in float_list(args.horizons, "--horizons")]
-    w0 = _natural_frequency(args.model, args.natural_frequency)
+    # the model's own ω0 unless --natural-frequency is given
+    w0 = MSD_NATURAL_FREQUENCY if args.natural_frequency is None else args.natural_frequency
     progress(f"design-input: K(Z) for λ = {lams}, k = {args.samples}, m = {args.init_samples}, "
              f"ω0 = {w0:.6g} rad/s, T_s = {args.sample_period:g} s")
     res = design_input(
@@ -89,7 +77,7 @@ def run(args) -> int:
         print_json({
             "model": "msd",
             "parameters": res.parameters,
-            "optimal_ratio": dict(zip(keys, res.optimal_ratio, strict=True)),
+            "optimal_ratio": res.optimal_ratio_by_forgetting(),
             "optimal_log10_variance_factor": {
                 k: math.log10(v) for k, v in zip(keys, res.optimal_variance_factor, strict=True)
             },

@@ -20,6 +20,7 @@ Example
 
 from __future__ import annotations
 
+import html
 import importlib
 import math
 import os
@@ -103,15 +104,16 @@ def _intro_section(quick: bool, timings: list[tuple[str, int, float]], total_s: 
             "</ul>"
         ),
         Html(
-            f"Made by <code>{command} --out {_html_text(out_dir.name)}</code> "
+            f"Made by <code>{command} --out {html.escape(out_dir.name)}</code> "
             f"({kind}). Every data set is simulated by physid with fixed seeds, so running the "
             "command again gives the same numbers. All numbers shown are also in "
             "<code>results.json</code>, keyed by section title; every figure is also a PNG file "
             "beside this page."
         ),
     ]
+    versions = _versions()
     tables = [
-        Table("Software versions", ("package", "version"), _versions()),
+        Table("Software versions", ("package", "version"), versions),
         Table(
             "Run time of each part of the demo",
             ("part", "report sections", "wall time [s]"),
@@ -121,18 +123,12 @@ def _intro_section(quick: bool, timings: list[tuple[str, int, float]], total_s: 
     ]
     results = {
         "quick": quick,
-        "versions": dict(_versions()),
+        "versions": dict(versions),
         "wall_time_s": {name: round(seconds, 2) for name, _, seconds in timings},
         "total_wall_time_s": round(total_s, 2),
         "cpu_count": os.cpu_count(),
     }
     return ReportSection(INTRO_TITLE, paragraphs=paragraphs, tables=tables, results=results)
-
-
-def _html_text(text: str) -> str:
-    import html
-
-    return html.escape(text, quote=True)
 
 
 def _errata_section(sections: Sequence[ReportSection]) -> ReportSection:

@@ -28,12 +28,15 @@ __all__ = [
     "MSD_MASS",
     "MSD_DAMPING",
     "MSD_STIFFNESS",
+    "MSD_NATURAL_FREQUENCY",
 ]
 
 #: Oueslati et al., section 4: load mass m = 3 kg, damping c = 0.05 N·s/m, spring k = 400 N/m.
 MSD_MASS = 3.0
 MSD_DAMPING = 0.05
 MSD_STIFFNESS = 400.0
+#: Its undamped natural frequency ω0 = √(k/m) [rad/s] (≈ 11.547).
+MSD_NATURAL_FREQUENCY = float(np.sqrt(MSD_STIFFNESS / MSD_MASS))
 
 
 class LinearODEModel:
