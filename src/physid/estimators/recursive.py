@@ -379,6 +379,26 @@ class LinearRegression:
     cutoff: float
 
 
+def _prefilter_settings(spec, dt, prefilter_cutoff, prefilter_order, discard):
+    """The pre-filter's settings, shared by `build_regression` and the streaming estimator so that
+    both filter alike: (highest derivative order, cut-off [Hz], Butterworth order, samples to
+    discard or None for the filter's own transient)."""
+    if discard is not None and (
+        isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
+    ):
+        raise InputError(
+            f"transient_samples (discard) must be an integer >= 0; got {discard!r}."
+        )
+    highest = max(spec.order, spec.input_order)
+    cutoff = (
+        default_prefilter_cutoff(dt, _model_frequency(spec))
+        if prefilter_cutoff is None
+        else check_positive(prefilter_cutoff, "prefilter_cutoff")
+    )
+    order = highest + 1 if prefilter_order is None else int(prefilter_order)
+    return highest, cutoff, order, (None if discard is None else int(discard))
+
+
 def build_regression(
     spec_or_model,
     y,
@@ -438,28 +458,16 @@ def build_regression(
     [2.0, 100.0]
     """
     spec = as_linear_ode_model(spec_or_model)
-    n, m = spec.order, spec.input_order
     u, y = check_signal_pair(u, y)
     unknown, values = spec.split_coefficients(unknown, known)
-
-    if discard is not None and (
-        isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
-    ):
-        raise InputError(
-            f"transient_samples (discard) must be an integer >= 0; got {discard!r}."
-        )
-    highest = max(n, m)
+    highest, cutoff, order, discard = _prefilter_settings(
+        spec, dt, prefilter_cutoff, prefilter_order, discard
+    )
     if prefilter == "butterworth":
-        cutoff = (
-            default_prefilter_cutoff(dt, _model_frequency(spec))
-            if prefilter_cutoff is None
-            else check_positive(prefilter_cutoff, "prefilter_cutoff")
-        )
-        order = highest + 1 if prefilter_order is None else int(prefilter_order)
         derivs = state_variable_filter(np.column_stack([y, u]), dt, cutoff, highest, order)
-        yd, ud = derivs[:, 0, :], derivs[:, 1, :]
-        skip = svf_transient_samples(cutoff, dt, order) if discard is None else int(discard)
+        skip = svf_transient_samples(cutoff, dt, order) if discard is None else discard
         rows = np.arange(skip, y.size)
+        yd, ud = derivs[skip:, 0, :], derivs[skip:, 1, :]
     elif prefilter == "differential":
         if highest > 2:
             raise InputError(
@@ -468,22 +476,16 @@ def build_regression(
             )
         from ..filters import design_filter_bank
 
-        cutoff = (
-            default_prefilter_cutoff(dt, _model_frequency(spec))
-            if prefilter_cutoff is None
-            else check_positive(prefilter_cutoff, "prefilter_cutoff")
-        )
         omega = 2 * np.pi * cutoff * dt  # [rad/sample]
         half = max(highest + 1, int(round(4 * np.pi / omega)))  # ≈ 2 main-lobe widths of the kernel
         sig = np.column_stack([y, u])
         # consistent bank: F_k = s^k F0 in the pass band, so the pre-filter adds no bias
         bank = design_filter_bank(half, omega, dt, design="consistent")
-        parts = [f.apply(sig) for f in bank[: highest + 1]]
-        yd = np.stack([p[:, 0] for p in parts], axis=-1)
-        ud = np.stack([p[:, 1] for p in parts], axis=-1)
-        skip = half if discard is None else max(int(discard), half)
-        yd, ud = yd[skip - half :], ud[skip - half :]
+        parts = [f.apply(sig) for f in bank[: highest + 1]]  # output j belongs to sample j + half
+        skip = half if discard is None else max(discard, half)
         rows = np.arange(skip, y.size - half)
+        yd = np.stack([p[skip - half : skip - half + rows.size, 0] for p in parts], axis=-1)
+        ud = np.stack([p[skip - half : skip - half + rows.size, 1] for p in parts], axis=-1)
     else:
         raise InputError(f"prefilter must be 'butterworth' or 'differential'; got {prefilter!r}.")
     if rows.size == 0:
@@ -491,8 +493,6 @@ def build_regression(
             f"the record has {y.size} samples but the pre-filter discards {skip}; record longer or "
             "raise prefilter_cutoff."
         )
-    yd = yd[: rows.size] if prefilter == "differential" else yd[rows]
-    ud = ud[: rows.size] if prefilter == "differential" else ud[rows]
 
     X, Y = _regression_rows(spec, unknown, values, yd, ud)
     return LinearRegression(X, Y, unknown, rows, int(rows[0]), float(cutoff))
@@ -1327,23 +1327,12 @@ class StreamingRecursiveEstimator:
         spec = as_linear_ode_model(est.model)
         self._spec = spec
         self._unknown, self._values = spec.split_coefficients(est.unknown, est.known)
-        highest = max(spec.order, spec.input_order)
-        cutoff = (
-            default_prefilter_cutoff(self.dt, _model_frequency(spec))
-            if est.prefilter_cutoff is None
-            else check_positive(est.prefilter_cutoff, "prefilter_cutoff")
+        highest, cutoff, order, discard = _prefilter_settings(
+            spec, self.dt, est.prefilter_cutoff, est.prefilter_order, est.transient_samples
         )
-        order = highest + 1 if est.prefilter_order is None else int(est.prefilter_order)
-        discard = est.transient_samples
-        if discard is not None and (
-            isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
-        ):
-            raise InputError(
-                f"transient_samples (discard) must be an integer >= 0; got {discard!r}."
-            )
-        self.discarded = (
-            svf_transient_samples(cutoff, self.dt, order) if discard is None else int(discard)
-        )
+        if discard is None:
+            discard = svf_transient_samples(cutoff, self.dt, order)
+        self.discarded = discard
         self.prefilter_cutoff = float(cutoff)
         self._highest = highest
         self._svf = StreamingStateVariableFilter(
