@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import as_1d, check_positive
+from .._validate import as_1d, check_finite, check_positive
 from ..errors import InputError, ShapeError
 from .spec import LinearODESpec
 
 __all__ = [
     "LinearODEModel",
     "as_linear_ode_model",
+    "linear_ode_state_space",
+    "normalised_coefficients",
     "msd_model",
     "msd_from_physical",
     "natural_frequency_damping",
@@ -260,24 +262,81 @@ class LinearODEModel:
         return a, b
 
     def state_space(self, params=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Controllable canonical form (A, B, C, D) of G(s) = Σ b_i s^i / Σ a_i s^i.
+        """Controllable canonical form (A, B, C, D) of G(s) = Σ b_i s^i / Σ a_i s^i, as 2-D
+        arrays (n, n), (n, 1), (1, n), (1, 1); see `linear_ode_state_space`.
 
         State z = (w, ẇ, …, w^(n−1)) with w^(n) + Σ a_i w^(i) = u, output y = Σ b_i w^(i):
-
         A = companion matrix (last row −a_0 … −a_{n−1}), B = e_n, C = (b_0 … b_m, 0 …), D = 0
         (m < n). For the MSD with b0 ≠ 1 the first state is x / b0, not x.
         """
-        a, b = self.coefficients(params)
-        n = self.order
-        A = np.zeros((n, n))
-        A[np.arange(n - 1), np.arange(1, n)] = 1.0
-        A[-1, :] = -a[:n]
-        B = np.zeros((n, 1))
-        B[-1, 0] = 1.0
-        C = np.zeros((1, n))
-        C[0, : b.size] = b
-        D = np.zeros((1, 1))
-        return A, B, C, D
+        A, B, C, D = linear_ode_state_space(*self.coefficients(params))
+        return A, B[:, None], C[None, :], np.array([[D]])
+
+
+# ---------------------------------------------------------------------------------------------
+# coefficients and their state-space realisation
+def normalised_coefficients(a, b, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """Validate ``(a, b)`` (ascending derivative order) and scale them so that ``a[n] = 1``."""
+    a = as_1d(a, f"{where}: denominator coefficients a")
+    b = as_1d(b, f"{where}: numerator coefficients b")
+    check_finite(a[:, None], f"{where}: a")
+    check_finite(b[:, None], f"{where}: b")
+    if a.size < 2:
+        raise InputError(
+            f"{where}: a must hold a_0 .. a_n with order n >= 1 (ascending derivative order); "
+            f"got {a.tolist()}."
+        )
+    if a[-1] == 0:
+        raise InputError(
+            f"{where}: the leading coefficient a_n (of the highest derivative, last entry) is 0; "
+            f"got a = {a.tolist()}. Drop trailing zeros or fix the order."
+        )
+    if b.size > a.size:
+        raise InputError(
+            f"{where}: the input order m = {b.size - 1} exceeds the model order n = "
+            f"{a.size - 1}; the "
+            "model is improper (it would differentiate the input). Give b with at most n + 1 "
+            "entries."
+        )
+    lead = a[-1]
+    return a / lead, b / lead
+
+
+
+def linear_ode_state_space(a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Controllable canonical realisation of ``Σ_i a_i y^(i) = Σ_j b_j u^(j)``.
+
+    Parameters
+    ----------
+    a : array_like, shape (n + 1,)
+        Denominator coefficients a_0 .. a_n in ascending derivative order (a_n ≠ 0).
+    b : array_like, shape (m + 1,), m <= n
+        Numerator coefficients b_0 .. b_m in ascending derivative order.
+
+    Returns
+    -------
+    A (n, n), B (n,), C (n,), D (float)
+        ``ż = A z + B u``, ``y = C z + D u`` with ``z = (w, ẇ, …, w^(n−1))`` where
+        ``Σ a_i w^(i) = u`` and ``y = Σ b_j w^(j)``.
+
+    Examples
+    --------
+    >>> A, B, C, D = linear_ode_state_space([400 / 3, 0.05 / 3, 1.0], [1.0])  # the paper's MSD
+    >>> A.round(4).tolist(), B.tolist(), C.tolist(), D
+    ([[0.0, 1.0], [-133.3333, -0.0167]], [0.0, 1.0], [1.0, 0.0], 0.0)
+    """
+    a, b = normalised_coefficients(a, b, "linear_ode_state_space")
+    n = a.size - 1
+    A = np.zeros((n, n))
+    A[:-1, 1:] = np.eye(n - 1)
+    A[-1, :] = -a[:-1]  # w^(n) = u − Σ_{i<n} a_i w^(i)
+    B = np.zeros(n)
+    B[-1] = 1.0
+    bb = np.zeros(n + 1)
+    bb[: b.size] = b
+    D = float(bb[n])
+    C = bb[:n] - D * a[:n]  # y = Σ_{j<n} (b_j − b_n a_j) w^(j) + b_n u
+    return A, B, C, D
 
 
 # ---------------------------------------------------------------------------------------------

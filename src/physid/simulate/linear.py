@@ -37,6 +37,7 @@ from scipy.signal import lfilter
 
 from .._validate import as_1d, check_finite, check_positive, check_time, sample_period
 from ..errors import InputError, SamplingError, ShapeError, SimulationError
+from ..models.linear_ode import linear_ode_state_space, normalised_coefficients
 from ..signals.excitation import Multisine, Sinusoid
 from ..signals.noise import add_white_noise, alias_frequency, make_rng, sinusoidal_disturbance
 from .recordings import LinearODERecording
@@ -51,33 +52,6 @@ _HOLDS = ("zoh", "foh")
 
 
 # --------------------------------------------------------------------------- coefficients
-def _normalised_coefficients(a, b, where: str) -> tuple[np.ndarray, np.ndarray]:
-    """Validate ``(a, b)`` (ascending derivative order) and scale them so that ``a[n] = 1``."""
-    a = as_1d(a, f"{where}: denominator coefficients a")
-    b = as_1d(b, f"{where}: numerator coefficients b")
-    check_finite(a[:, None], f"{where}: a")
-    check_finite(b[:, None], f"{where}: b")
-    if a.size < 2:
-        raise InputError(
-            f"{where}: a must hold a_0 .. a_n with order n >= 1 (ascending derivative order); "
-            f"got {a.tolist()}."
-        )
-    if a[-1] == 0:
-        raise InputError(
-            f"{where}: the leading coefficient a_n (of the highest derivative, last entry) is 0; "
-            f"got a = {a.tolist()}. Drop trailing zeros or fix the order."
-        )
-    if b.size > a.size:
-        raise InputError(
-            f"{where}: the input order m = {b.size - 1} exceeds the model order n = "
-            f"{a.size - 1}; the "
-            "model is improper (it would differentiate the input). Give b with at most n + 1 "
-            "entries."
-        )
-    lead = a[-1]
-    return a / lead, b / lead
-
-
 class _CoefficientSource:
     """Turns (model, params) into normalised ``(a, b)`` for each parameter segment."""
 
@@ -91,7 +65,7 @@ class _CoefficientSource:
                     "physid.load_model('msd')) or a pair (a, b) of coefficient arrays in ascending "
                     f"derivative order; got {type(model).__name__}."
                 )
-            _normalised_coefficients(model[0], model[1], "model")
+            normalised_coefficients(model[0], model[1], "model")
 
     def initial(self, params):
         """Full parameter set of the first segment."""
@@ -150,45 +124,9 @@ class _CoefficientSource:
 
     def coefficients(self, params, where: str) -> tuple[np.ndarray, np.ndarray]:
         if not self.is_model:
-            return _normalised_coefficients(params[0], params[1], where)
+            return normalised_coefficients(params[0], params[1], where)
         a, b = self.model.coefficients(params)
-        return _normalised_coefficients(a, b, where)
-
-
-def linear_ode_state_space(a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Controllable canonical realisation of ``Σ_i a_i y^(i) = Σ_j b_j u^(j)``.
-
-    Parameters
-    ----------
-    a : array_like, shape (n + 1,)
-        Denominator coefficients a_0 .. a_n in ascending derivative order (a_n ≠ 0).
-    b : array_like, shape (m + 1,), m <= n
-        Numerator coefficients b_0 .. b_m in ascending derivative order.
-
-    Returns
-    -------
-    A (n, n), B (n,), C (n,), D (float)
-        ``ż = A z + B u``, ``y = C z + D u`` with ``z = (w, ẇ, …, w^(n−1))`` where
-        ``Σ a_i w^(i) = u`` and ``y = Σ b_j w^(j)``.
-
-    Examples
-    --------
-    >>> A, B, C, D = linear_ode_state_space([400 / 3, 0.05 / 3, 1.0], [1.0])  # the paper's MSD
-    >>> A.round(4).tolist(), B.tolist(), C.tolist(), D
-    ([[0.0, 1.0], [-133.3333, -0.0167]], [0.0, 1.0], [1.0, 0.0], 0.0)
-    """
-    a, b = _normalised_coefficients(a, b, "linear_ode_state_space")
-    n = a.size - 1
-    A = np.zeros((n, n))
-    A[:-1, 1:] = np.eye(n - 1)
-    A[-1, :] = -a[:-1]  # w^(n) = u − Σ_{i<n} a_i w^(i)
-    B = np.zeros(n)
-    B[-1] = 1.0
-    bb = np.zeros(n + 1)
-    bb[: b.size] = b
-    D = float(bb[n])
-    C = bb[:n] - D * a[:n]  # y = Σ_{j<n} (b_j − b_n a_j) w^(j) + b_n u
-    return A, B, C, D
+        return normalised_coefficients(a, b, where)
 
 
 # --------------------------------------------------------------------------- exogenous input
