@@ -59,6 +59,7 @@ __all__ = [
     "algebraic_kernels",
     "quadrature_taps",
     "INTEGRATION_RULES",
+    "min_window_intervals",
 ]
 
 #: Integration rules for the window integrals.
@@ -317,6 +318,22 @@ class _Plan:
         return _taps_for(self.order, self.nus, self.n_derivatives, L, self.rule, self.degree)
 
 
+def min_window_intervals(
+    integration: str = "exact", interpolation_degree: int = DEFAULT_INTERPOLATION_DEGREE
+) -> int:
+    """The fewest sample intervals L = T / T_s a window may span.
+
+    The "exact" rule interpolates each window with a polynomial of ``interpolation_degree`` and
+    needs that many intervals; every rule needs at least 4. Shorter windows raise SamplingError.
+
+    Examples
+    --------
+    >>> min_window_intervals(), min_window_intervals("simpson")
+    (7, 4)
+    """
+    return max(int(interpolation_degree) if integration == "exact" else 2, 4)
+
+
 def _make_plan(
     model,
     dt: float,
@@ -376,7 +393,7 @@ def _make_plan(
     degree = int(interpolation_degree)
     if degree < 1:
         raise InputError(f"interpolation_degree must be >= 1; got {interpolation_degree!r}.")
-    min_intervals = max(degree if integration == "exact" else 2, 4)
+    min_intervals = min_window_intervals(integration, degree)
     if L < min_intervals:
         raise SamplingError(
             f"window = {window:g} s is {L} sample interval(s) at dt = {dt:g} s; the kernels need "

@@ -32,7 +32,7 @@ import numpy as np
 from ..analysis import metrics
 from ..analysis.montecarlo import MSD_NATURAL_FREQUENCY, msd_sweep
 from ..errors import PhysidError
-from ..estimators.algebraic import AlgebraicEstimator
+from ..estimators.algebraic import AlgebraicEstimator, min_window_intervals
 from ..estimators.recursive import RecursiveLeastSquares
 from ..report.html import Erratum, FigureSpec, Html, ReportSection, Table
 from ..report.msd import (
@@ -117,21 +117,6 @@ def _pct(value: float) -> str:
     if value is None or not math.isfinite(value):
         return "n/a"
     return f"{100 * value:.0f} %" if abs(value) >= 0.1 else f"{100 * value:.2g} %"
-
-
-def _min_window_intervals() -> int:
-    """The fewest sample intervals L = T / T_s the algebraic estimator accepts (its kernels' need;
-    asked of the estimator itself, which raises SamplingError below it)."""
-    from ..errors import SamplingError
-
-    rec = msd_paper_scenario(ratio=10.0, duration=0.1)
-    for intervals in range(1, 64):
-        try:
-            _algebraic(rec, window=intervals * TS)
-        except SamplingError:
-            continue
-        return intervals
-    return 64
 
 
 def _see(key: str) -> str:
@@ -392,7 +377,7 @@ def _traces_section(quick: bool, progress) -> tuple[ReportSection, dict]:
     # time is its first window T, RLS's its fastest first hit over every SNR and Z run here
     rls_hits = [c["first_hit"] for c in results["cases"] if c["method"] == "rls"]
     rls_best = min((h for h in rls_hits if math.isfinite(h)), default=math.nan)
-    min_intervals = _min_window_intervals()
+    min_intervals = min_window_intervals()  # the default estimator's (exact rule)
     hundredfold = {
         "rls_fastest_first_hit_s": rls_best,
         "ratio_over_window": rls_best / WINDOW,

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..errors import InputError
+from ..signals.noise import add_white_noise
 
 __all__ = ["plot_frequency_responses", "plot_derivative_estimates", "derivative_demo_figure"]
 
@@ -151,9 +152,7 @@ def derivative_demo_figure(
     value = np.sin(arg) @ amps
     first = np.cos(arg) @ (amps * freqs)
     second = -np.sin(arg) @ (amps * freqs**2)
-    rng = np.random.default_rng(seed)
-    sigma = np.sqrt(np.mean(value**2)) * 10 ** (-snr_db / 20)
-    noisy = value + sigma * rng.standard_normal(t.size)
+    noisy, _ = add_white_noise(value, snr_db=snr_db, rng=seed)
     result = filter_derivatives(noisy, t, half_width, cutoff)
     fig = plot_derivative_estimates(
         t, noisy, result, {"value": value, "first": first, "second": second}
