@@ -48,7 +48,7 @@ from scipy import ndimage, signal
 
 from .._validate import check_positive, check_signal_pair
 from ..errors import EstimationError, InputError, SamplingError
-from ..models.linear_ode import as_linear_ode_model
+from ..models.linear_ode import as_linear_ode_model, natural_frequency_damping
 from .results import ResultMixin
 
 __all__ = [
@@ -262,16 +262,6 @@ def _taps_for(order, nus, n_derivatives, L, rule, degree):
     taps = quadrature_taps(coeffs, L, rule, degree) * scale[:, None, None]
     taps.setflags(write=False)
     return taps  # (n_eq, order+1, L+1)
-
-
-# ----------------------------------------------------------------------------------------------
-# Model handling
-# ----------------------------------------------------------------------------------------------
-def _natural_frequency_damping(theta1, theta2):
-    """ω0 = √θ2 [rad/s], ζ = θ1 / (2 ω0); NaN where θ2 <= 0 (θ1 = 2ζω0, θ2 = ω0², eq. 1)."""
-    from ..models.linear_ode import natural_frequency_damping
-
-    return natural_frequency_damping(theta1, theta2)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -707,7 +697,7 @@ class AlgebraicResult(ResultMixin):
         if name in ("natural_frequency", "damping_ratio") and {"theta1", "theta2"} <= (
             set(self.names) | set(self.known)
         ):
-            omega0, zeta = _natural_frequency_damping(self.series("theta1"), self.series("theta2"))
+            omega0, zeta = natural_frequency_damping(self.series("theta1"), self.series("theta2"))
             return omega0 if name == "natural_frequency" else zeta
         raise InputError(f"no series {name!r}; available: {list(self.names) + list(self.known)}.")
 
@@ -777,7 +767,7 @@ def _make_result(
     if {"theta1", "theta2"} <= allnames:
         th1 = params.get("theta1", known.get("theta1"))
         th2 = params.get("theta2", known.get("theta2"))
-        omega0, zeta = _natural_frequency_damping(th1, th2)
+        omega0, zeta = natural_frequency_damping(th1, th2)
         params["natural_frequency"] = float(omega0)
         params["damping_ratio"] = float(zeta)
     return AlgebraicResult(
