@@ -23,7 +23,7 @@ from pathlib import Path
 
 from .._paths import atomic_write, cache_dir
 
-__all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry"]
+__all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry", "cached"]
 
 #: Bump when the generated code or the metadata layout changes: old entries then miss.
 CACHE_FORMAT = "physid-models-9"
@@ -87,3 +87,17 @@ def save_entry(kind: str, key: str, data: dict) -> bool:
     except OSError:
         return False
     return True
+
+
+def cached(kind: str, key: str, derive, *, enabled: bool = True, valid=None) -> tuple[dict, bool]:
+    """The entry ``kind``/``key`` if cached and ``valid(data)``, else ``derive()`` (then saved).
+
+    Returns ``(data, hit)``; with ``enabled=False`` the cache is neither read nor written.
+    """
+    data = load_entry(kind, key) if enabled else None
+    if data is not None and (valid is None or valid(data)):
+        return data, True
+    data = derive()
+    if enabled:
+        save_entry(kind, key, data)
+    return data, False

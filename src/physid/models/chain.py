@@ -274,12 +274,9 @@ def build_chain_model(
         raise InputError(f"cache must be True or False; got {cache!r}.")
     key = _cache.content_key(spec.derivation_content())
     start = time.perf_counter()
-    data = _cache.load_entry("chain", key) if cache else None
-    from_cache = data is not None and _valid_entry(data, spec)
-    if not from_cache:
-        data = _derive(spec)
-        if cache:
-            _cache.save_entry("chain", key, data)
+    data, from_cache = _cache.cached(
+        "chain", key, lambda: _derive(spec), enabled=cache, valid=lambda d: _valid_entry(d, spec)
+    )
     model = ChainModel(spec, data, key=key, from_cache=from_cache, cache=cache)
     model.load_seconds = time.perf_counter() - start
     return model
@@ -762,11 +759,13 @@ class ChainModel:
             Y = self._regressor_eval(cols, n)  # (n, nj, n_beta)
             return Y @ self.beta_jacobian(theta)
         if self._f_jacobian is None:
-            data = _cache.load_entry("jacobian", self.cache_key) if self._cache_enabled else None
-            if data is None or "source" not in data:
-                data = _derive_jacobian(self._spec)
-                if self._cache_enabled:
-                    _cache.save_entry("jacobian", self.cache_key, data)
+            data, _ = _cache.cached(
+                "jacobian",
+                self.cache_key,
+                lambda: _derive_jacobian(self._spec),
+                enabled=self._cache_enabled,
+                valid=lambda d: "source" in d,
+            )
             self._f_jacobian = source_to_function(data["source"], "jacobian")
         out = self._f_jacobian(*cols, theta.tolist(), n)
         return out.reshape(self.n_joints, len(self.parameter_names), n).transpose(2, 0, 1).copy()
@@ -901,16 +900,17 @@ class ChainModel:
         if isinstance(self._regressor, IdentifiabilityError):
             raise self._regressor
         if self._regressor is None:
-            key = self.cache_key
-            data = _cache.load_entry("regressor", key) if self._cache_enabled else None
-            if data is None or not {"monomials", "names", "keep", "source"} <= set(data):
-                try:
-                    data = _derive_regressor(self._spec)
-                except IdentifiabilityError as exc:
-                    self._regressor = exc
-                    raise
-                if self._cache_enabled:
-                    _cache.save_entry("regressor", key, data)
+            try:
+                data, _ = _cache.cached(
+                    "regressor",
+                    self.cache_key,
+                    lambda: _derive_regressor(self._spec),
+                    enabled=self._cache_enabled,
+                    valid=lambda d: {"monomials", "names", "keep", "source"} <= set(d),
+                )
+            except IdentifiabilityError as exc:
+                self._regressor = exc  # remembered: the derivation is not repeated
+                raise
             data = dict(data)
             data["function"] = source_to_function(data["source"], "regressor")
             keep = data["keep"]
