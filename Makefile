@@ -31,7 +31,8 @@ bench: $(VENV)/.full
 	MPLBACKEND=Agg $(BIN)/python benchmarks/run.py $(ARGS)
 
 lint: $(VENV)/.full
-	$(BIN)/ruff check src tests benchmarks examples
+	$(BIN)/ruff check src tests benchmarks examples tools
+	$(BIN)/ruff format --check src tests benchmarks examples tools
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .physid-cache build src/*.egg-info

@@ -60,14 +60,33 @@ def _speed_rows(n: int) -> list[dict]:
     )
     case = f"N={n}, p=2, λ={lam}"
     return [
-        dict(case=f"{case}: vectorised batch form", value=t_batch, unit="s",
-             baseline="per-sample loop of rls_update", baseline_value=t_loop,
-             ratio=t_loop / t_batch, goal=">= 200x", met=t_loop / t_batch >= 200),
-        dict(case=f"{case}: vectorised batch form", value=t_batch, unit="s",
-             baseline="StreamingRLS (Python-float kernel)", baseline_value=t_stream,
-             ratio=t_stream / t_batch, goal="-", met=None),
-        dict(case=f"{case}: max rel. difference batch vs recursion", value=diff, unit="-",
-             goal="<= 1e-9", met=diff <= 1e-9),
+        dict(
+            case=f"{case}: vectorised batch form",
+            value=t_batch,
+            unit="s",
+            baseline="per-sample loop of rls_update",
+            baseline_value=t_loop,
+            ratio=t_loop / t_batch,
+            goal=">= 200x",
+            met=t_loop / t_batch >= 200,
+        ),
+        dict(
+            case=f"{case}: vectorised batch form",
+            value=t_batch,
+            unit="s",
+            baseline="StreamingRLS (Python-float kernel)",
+            baseline_value=t_stream,
+            ratio=t_stream / t_batch,
+            goal="-",
+            met=None,
+        ),
+        dict(
+            case=f"{case}: max rel. difference batch vs recursion",
+            value=diff,
+            unit="-",
+            goal="<= 1e-9",
+            met=diff <= 1e-9,
+        ),
     ]
 
 
@@ -97,11 +116,23 @@ def _accuracy_rows(cases) -> list[dict]:
             ("first hit of 2 %", ours["first_hit"], "s", "first_hit"),
         ):
             b = peer[key] if peer else None
-            ratio_v = (b / value) if (b is not None and value and np.isfinite(value)
-                                      and np.isfinite(b)) else None
-            rows.append(dict(case=f"Z={ratio:g}, SNR={snr} dB: {label} (RLS, λ=1)", value=value,
-                             unit=unit, baseline=base, baseline_value=b, ratio=ratio_v,
-                             goal="-", met=None))
+            ratio_v = (
+                (b / value)
+                if (b is not None and value and np.isfinite(value) and np.isfinite(b))
+                else None
+            )
+            rows.append(
+                dict(
+                    case=f"Z={ratio:g}, SNR={snr} dB: {label} (RLS, λ=1)",
+                    value=value,
+                    unit=unit,
+                    baseline=base,
+                    baseline_value=b,
+                    ratio=ratio_v,
+                    goal="-",
+                    met=None,
+                )
+            )
     return rows
 
 

@@ -34,8 +34,16 @@ from physid.simulate.references import filtered_steps
 QUICK = os.environ.get("PHYSID_EXAMPLE_QUICK") == "1"
 DURATION = 3.0 if QUICK else 5.0  # [s] of recording
 DT = 1e-3  # [s]
-TRUTH = {"m1": 50.0, "m2": 25.0, "m3": 15.0, "m4": 5.0,
-         "l1": 0.4, "l2": 0.8, "l3": 0.6, "l4": 0.2}  # [kg], [m]
+TRUTH = {
+    "m1": 50.0,
+    "m2": 25.0,
+    "m3": 15.0,
+    "m4": 5.0,
+    "l1": 0.4,
+    "l2": 0.8,
+    "l3": 0.6,
+    "l4": 0.2,
+}  # [kg], [m]
 
 
 def make_csv(path: Path) -> None:
@@ -43,16 +51,28 @@ def make_csv(path: Path) -> None:
     model = physid.load_model("manipulator")
     # Smooth 0.5 rad steps of joints 1..4, one after the other, within the record.
     step_times = np.linspace(0.3, DURATION - 1.2, 4)
-    reference = filtered_steps(uniform_time(duration=DURATION, dt=DT), step_times, 0.5,
-                               half_width=100, cutoff=0.025, alignment="centred")
+    reference = filtered_steps(
+        uniform_time(duration=DURATION, dt=DT),
+        step_times,
+        0.5,
+        half_width=100,
+        cutoff=0.025,
+        alignment="centred",
+    )
     rec = simulate_closed_loop(
-        model, kp=PAPER_MANIPULATOR["kp"], kd=PAPER_MANIPULATOR["kd"], reference=reference,
-        duration=DURATION, dt=DT, params=TRUTH,
+        model,
+        kp=PAPER_MANIPULATOR["kp"],
+        kd=PAPER_MANIPULATOR["kd"],
+        reference=reference,
+        duration=DURATION,
+        dt=DT,
+        params=TRUTH,
     )
     # Keep only what a robot would log: angles and torques.
     columns = [f"q{i}" for i in range(1, 5)] + [f"tau{i}" for i in range(1, 5)]
-    logged = physid.Recording(rec.t, rec.select(columns), columns,
-                              units=[rec.unit(c) for c in columns])
+    logged = physid.Recording(
+        rec.t, rec.select(columns), columns, units=[rec.unit(c) for c in columns]
+    )
     save_recording(logged, path)
 
 
@@ -72,8 +92,9 @@ def main() -> None:
     # These data are noise-free, so a high cut-off costs nothing: M = 60, Ω_g = 0.8 rad/sample.
     # The paper's M = 100, Ω_g = 0.2 is shown second: physid warns that it is too low here.
     for half_width, cutoff in ((60, 0.8), (100, 0.2)):
-        estimator = InputErrorEstimator(model, half_width=half_width, cutoff=cutoff,
-                                        torque="measured")
+        estimator = InputErrorEstimator(
+            model, half_width=half_width, cutoff=cutoff, torque="measured"
+        )
         with warnings.catch_warnings(record=True) as caught:  # identifiability / filter notes
             warnings.simplefilter("always")
             result = estimator.fit(rec, initial=initial).result_
@@ -83,8 +104,10 @@ def main() -> None:
         print(result.summary())
         errors = compare_with_truth(result)
         worst = max(errors, key=errors.get)
-        print(f"largest error: {worst} {errors[worst]:.3f} %; J = {result.cost:.4g} N²·m², "
-              f"{result.nfev} evaluations")
+        print(
+            f"largest error: {worst} {errors[worst]:.3f} %; J = {result.cost:.4g} N²·m², "
+            f"{result.nfev} evaluations"
+        )
         ok = all(e < 1.0 for e in errors.values())
         print(f"all identifiable parameters within 1 % of the truth: {'yes' if ok else 'no'}")
 
@@ -95,15 +118,18 @@ def compare_with_truth(result) -> dict[str, float]:
     for expr, value in result.combinations.items():  # e.g. m1*l1**2
         true_value = eval(expr, {}, dict(TRUTH))
         errors[expr] = 100.0 * abs(value / true_value - 1.0)
-        print(f"identified {expr} = {value:.6g} (true {true_value:.6g}), "
-              f"error {errors[expr]:.3f} %")
-    in_combination = {name for expr in result.combinations for name in TRUTH
-                      if re.search(rf"\b{name}\b", expr)}
+        print(
+            f"identified {expr} = {value:.6g} (true {true_value:.6g}), error {errors[expr]:.3f} %"
+        )
+    in_combination = {
+        name for expr in result.combinations for name in TRUTH if re.search(rf"\b{name}\b", expr)
+    }
     for name in result.free:
         if name not in in_combination:  # m1 alone is meaningless once l1 is held
             errors[name] = 100.0 * abs(result.parameters[name] / TRUTH[name] - 1.0)
-    print(f"identified m2 = {result.parameters['m2']:.4f} kg (true 25 kg), "
-          f"error {errors['m2']:.3f} %")
+    print(
+        f"identified m2 = {result.parameters['m2']:.4f} kg (true 25 kg), error {errors['m2']:.3f} %"
+    )
     return errors
 
 

@@ -37,8 +37,16 @@ CHUNK = 50  # samples per chunk delivered by the "acquisition loop"
 def main() -> None:
     # Force 20 N at 1.5 times the initial natural frequency (ω0 = sqrt(400/2) = 14.1 rad/s).
     rec = simulate_msd(
-        mass=MASS, stiffness=K_BEFORE, damping=4.0, force_amplitude=20.0, ratio=1.5,
-        duration=DURATION, dt=DT, jumps=[(T_JUMP, K_AFTER)], snr_db=50.0, rng=7,
+        mass=MASS,
+        stiffness=K_BEFORE,
+        damping=4.0,
+        force_amplitude=20.0,
+        ratio=1.5,
+        duration=DURATION,
+        dt=DT,
+        jumps=[(T_JUMP, K_AFTER)],
+        snr_db=50.0,
+        rng=7,
     )
     u, x, t = rec["u"], rec["x"], rec.t
     k_true = np.where(t < T_JUMP, K_BEFORE, K_AFTER)
@@ -65,7 +73,7 @@ def main() -> None:
     for when in np.arange(1.0, DURATION, 0.5):
         i = int(round(when / DT))
         # the median over the last 100 ms smooths the window-to-window scatter of the estimate
-        recent = k_alg[max(i - 100, 0):i + 1]
+        recent = k_alg[max(i - 100, 0) : i + 1]
         k_a = np.nanmedian(recent) if np.isfinite(recent).any() else np.nan
         print(f"{t[i]:6.2f} {k_true[i]:8.1f} {k_a:10.1f} {k_rls[i]:8.1f}")
 
@@ -78,8 +86,10 @@ def main() -> None:
         text = f"{last_bad - T_JUMP:.2f} s" if settled else "not within the record"
         print(f"{name}: within 2 % of the new stiffness {text} after the jump")
     final = np.nanmedian(k_alg[-500:])
-    print(f"final stiffness: algebraic {final:.1f} N/m, RLS {k_rls[-1]:.1f} N/m "
-          f"(true {K_AFTER:g} N/m)")
+    print(
+        f"final stiffness: algebraic {final:.1f} N/m, RLS {k_rls[-1]:.1f} N/m "
+        f"(true {K_AFTER:g} N/m)"
+    )
 
 
 if __name__ == "__main__":

@@ -12,8 +12,19 @@ from physid.cli import main
 
 
 def test_json_has_optimal_ratio_per_lambda_and_the_curve(capsys):
-    code = main(["design-input", "msd", "--forgetting", "0.95,1", "--points", "30",
-                 "--horizons", "100,3000", "--json"])
+    code = main(
+        [
+            "design-input",
+            "msd",
+            "--forgetting",
+            "0.95,1",
+            "--points",
+            "30",
+            "--horizons",
+            "100,3000",
+            "--json",
+        ]
+    )
     assert code == 0
     out = json.loads(capsys.readouterr().out)
     assert set(out["optimal_ratio"]) == {"0.95", "1"}
@@ -32,14 +43,43 @@ def test_json_has_optimal_ratio_per_lambda_and_the_curve(capsys):
 
 def test_options_reach_the_analysis(capsys, tmp_path):
     fig = tmp_path / "k.png"
-    code = main(["design-input", "msd", "--samples", "2000", "--init-samples", "5",
-                 "--forgetting", "1", "--ratio-range", "0.5", "1.5", "--sample-period", "0.002",
-                 "--natural-frequency", "5", "--points", "20", "--horizons", "500",
-                 "--plot", str(fig)])
+    code = main(
+        [
+            "design-input",
+            "msd",
+            "--samples",
+            "2000",
+            "--init-samples",
+            "5",
+            "--forgetting",
+            "1",
+            "--ratio-range",
+            "0.5",
+            "1.5",
+            "--sample-period",
+            "0.002",
+            "--natural-frequency",
+            "5",
+            "--points",
+            "20",
+            "--horizons",
+            "500",
+            "--plot",
+            str(fig),
+        ]
+    )
     assert code == 0 and fig.stat().st_size > 1000
     text = capsys.readouterr().out
-    expected = float(optimal_ratio(1.0, ratio_range=(0.5, 1.5), natural_frequency=5.0,
-                                   sample_period=0.002, init_samples=5, samples=2000)[0])
+    expected = float(
+        optimal_ratio(
+            1.0,
+            ratio_range=(0.5, 1.5),
+            natural_frequency=5.0,
+            sample_period=0.002,
+            init_samples=5,
+            samples=2000,
+        )[0]
+    )
     assert f"{expected:10.6f}" in text and "k = 2000, m = 5" in text
 
 

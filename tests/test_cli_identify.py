@@ -167,8 +167,18 @@ def test_default_consistent_filters_meet_the_target_and_shrink_J(files, capsys):
     """Default filters: every identifiable quantity within 0.1 %, J far below the paper's."""
     code, out, _ = run_json(
         capsys,
-        ["identify", str(files[0]), "--model", "manipulator", "--kinetic", "paper",
-         "--torque", "pd", "--initial", PAPER_INITIAL],
+        [
+            "identify",
+            str(files[0]),
+            "--model",
+            "manipulator",
+            "--kinetic",
+            "paper",
+            "--torque",
+            "pd",
+            "--initial",
+            PAPER_INITIAL,
+        ],
     )
     assert code == 0 and out["derivatives"] == "consistent"
     for name in ("m2", "m3", "m4", "l2", "l3", "l4"):

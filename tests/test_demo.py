@@ -39,6 +39,7 @@ checks = _load_checks()
 # ---------------------------------------------------------------------------------------------
 # The real quick demo, run once through the command line
 
+
 @pytest.fixture(scope="module")
 def demo(tmp_path_factory):
     out = tmp_path_factory.mktemp("demo") / "out"
@@ -46,8 +47,7 @@ def demo(tmp_path_factory):
     with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
         status = main(["demo", "--quick", "--out", str(out)])
     plt.close("all")
-    return {"status": status, "out": out, "stdout": stdout.getvalue(),
-            "stderr": stderr.getvalue()}
+    return {"status": status, "out": out, "stdout": stdout.getvalue(), "stderr": stderr.getvalue()}
 
 
 @pytest.fixture(scope="module")
@@ -122,6 +122,7 @@ def test_report_renders_in_chromium(demo, tmp_path):
 # ---------------------------------------------------------------------------------------------
 # The demo's own sections, on stand-in experiments
 
+
 def _fig():
     fig, ax = plt.subplots(figsize=(2, 2))
     ax.plot([0, 1], [1, 0])
@@ -131,46 +132,73 @@ def _fig():
 def _stand_in_manipulator(quick=False, progress=None):
     if progress:
         progress("stand-in manipulator")
-    return [ReportSection(
-        "Arm",
-        tables=(Table("fit", ("what", "value"), (("nfev", 37), ("J", 0.0223))),),
-        figures=(FigureSpec("arm", _fig(), "arm"),),
-        results={"ours": {"nfev": 37}, "quick": quick,
-                 "ours_consistent_filters": {"errors_percent": {"m2": 0.2, "m3": -0.5,
-                                                                "m4": None}}},
-        errata=(Erratum("Paper A", "Eq. 1", "a", "b", "derivation"),
-                Erratum("Paper A", "Eq. 2", "c", "d", "figure arm")),
-    )]
+    return [
+        ReportSection(
+            "Arm",
+            tables=(Table("fit", ("what", "value"), (("nfev", 37), ("J", 0.0223))),),
+            figures=(FigureSpec("arm", _fig(), "arm"),),
+            results={
+                "ours": {"nfev": 37},
+                "quick": quick,
+                "ours_consistent_filters": {"errors_percent": {"m2": 0.2, "m3": -0.5, "m4": None}},
+            },
+            errata=(
+                Erratum("Paper A", "Eq. 1", "a", "b", "derivation"),
+                Erratum("Paper A", "Eq. 2", "c", "d", "figure arm"),
+            ),
+        )
+    ]
 
 
 def _stand_in_msd(quick=False, progress=None):
     return [
         ReportSection("MSD 1", results={"optimal_ratio": {"0.99": 1.7}}),  # not a number: skipped
-        ReportSection("MSD 2", results={"optimal_ratio": 2.5},
-                      errata=(Erratum("Paper B", "Eq. 20", "e", "f", "test"),)),
+        ReportSection(
+            "MSD 2",
+            results={"optimal_ratio": 2.5},
+            errata=(Erratum("Paper B", "Eq. 20", "e", "f", "test"),),
+        ),
     ]
 
 
 def test_run_demo_on_stand_ins(tmp_path):
     messages = []
-    paths = run_demo(tmp_path, quick=True, progress=messages.append,
-                     experiments=[_stand_in_manipulator, _stand_in_msd])
+    paths = run_demo(
+        tmp_path,
+        quick=True,
+        progress=messages.append,
+        experiments=[_stand_in_manipulator, _stand_in_msd],
+    )
     payload = json.loads(paths.json.read_text())
-    assert list(payload["results"]) == [INTRO_TITLE, "Arm", "MSD 1", "MSD 2", ERRATA_TITLE,
-                                        ADDS_TITLE]
+    assert list(payload["results"]) == [
+        INTRO_TITLE,
+        "Arm",
+        "MSD 1",
+        "MSD 2",
+        ERRATA_TITLE,
+        ADDS_TITLE,
+    ]
     assert payload["results"]["Arm"]["ours"] == {"nfev": 37}
-    assert payload["results"][ERRATA_TITLE] == {"total": 3,
-                                                "per_paper": {"Paper A": 2, "Paper B": 1}}
+    assert payload["results"][ERRATA_TITLE] == {
+        "total": 3,
+        "per_paper": {"Paper A": 2, "Paper B": 1},
+    }
     # "what physid adds" pulls its numbers from the sections' results.
     adds = payload["results"][ADDS_TITLE]
-    assert {k: v["value"] for k, v in adds.items()} == {"evaluations": 37, "input_design": 2.5,
-                                                        "filters": 0.5}
+    assert {k: v["value"] for k, v in adds.items()} == {
+        "evaluations": 37,
+        "input_design": 2.5,
+        "filters": 0.5,
+    }
     assert adds["input_design"]["source"] == "optimal_ratio"
     intro_tables = payload["tables"][INTRO_TITLE]
     versions = dict(map(tuple, intro_tables[0]["rows"]))
     assert versions["physid"] == physid.__version__
     assert [r[:2] for r in intro_tables[1]["rows"]] == [
-        ["test_demo._stand_in_manipulator", 1], ["test_demo._stand_in_msd", 2], ["total", 3]]
+        ["test_demo._stand_in_manipulator", 1],
+        ["test_demo._stand_in_msd", 2],
+        ["total", 3],
+    ]
     assert "stand-in manipulator" in messages
     assert any(m.startswith("demo: writing the report") for m in messages)
     parsed = checks.parse_report(paths.html.read_text())
@@ -196,8 +224,16 @@ def test_what_physid_adds_finds_its_numbers_in_the_real_sections(payload):
     """Every row of "what physid adds" found its number in the paper sections' results (if a
     paper module renames a results key, this fails instead of the row silently showing '—')."""
     adds = payload["results"][ADDS_TITLE]
-    assert set(adds) == {"evaluations", "kinetic_energy", "identifiability", "filters",
-                         "algebraic", "rls", "input_design", "sweeps"}
+    assert set(adds) == {
+        "evaluations",
+        "kinetic_energy",
+        "identifiability",
+        "filters",
+        "algebraic",
+        "rls",
+        "input_design",
+        "sweeps",
+    }
     assert 1 <= adds["evaluations"]["value"] < 1450  # the paper needed about 1450
     assert adds["identifiability"]["value"] == 7  # 8 parameters, m1 and l1 only as m1*l1**2
     assert adds["sweeps"]["value"] >= 1

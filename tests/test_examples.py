@@ -46,7 +46,11 @@ def test_the_examples_exist():
 def test_example_runs(script, tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg", PHYSID_EXAMPLE_QUICK="1")
     proc = subprocess.run(
-        [sys.executable, str(script)], cwd=tmp_path, env=env, capture_output=True, text=True,
+        [sys.executable, str(script)],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
         timeout=300,
     )
     assert proc.returncode == 0, (
@@ -70,8 +74,9 @@ def _long_options(parser, prefix=()):
             for name, sub in action.choices.items():
                 out.extend(_long_options(sub, (*prefix, name)))
         else:
-            out.extend((prefix, o) for o in action.option_strings
-                       if o.startswith("--") and o != "--help")
+            out.extend(
+                (prefix, o) for o in action.option_strings if o.startswith("--") and o != "--help"
+            )
     return out
 
 

@@ -42,7 +42,10 @@ def test_stable_form_equals_eq8_and_is_continuous_through_resonance():
     np.testing.assert_allclose(resonant_response(1.0, t, W0), resonant, rtol=1e-13, atol=1e-18)
     for eps in (1e-6, 1e-9, -1e-12):  # eq. 8 loses all digits here; the stable form does not
         np.testing.assert_allclose(
-            resonant_response(1 + eps, t, W0), resonant, rtol=0, atol=10 * abs(eps) * 3 * t.max()**2
+            resonant_response(1 + eps, t, W0),
+            resonant,
+            rtol=0,
+            atol=10 * abs(eps) * 3 * t.max() ** 2,
         )
 
 

@@ -246,9 +246,7 @@ def test_general_linear_ode_unknown_input_gain_and_known_damping():
     rec = msd_recording(6.0, 100.0, 7.0)
     res = RecursiveLeastSquares("msd", unknown=("theta1", "theta2", "b0")).fit(rec).result_
     assert res.names == ("theta1", "theta2", "b0")
-    np.testing.assert_allclose(
-        [res.parameters[k] for k in res.names], [6.0, 100.0, 1.0], rtol=1e-6
-    )
+    np.testing.assert_allclose([res.parameters[k] for k in res.names], [6.0, 100.0, 1.0], rtol=1e-6)
     only = RecursiveLeastSquares("msd", unknown=("theta2",), known={"theta1": 6.0}).fit(rec).result_
     assert only.parameters["theta2"] == pytest.approx(100.0, rel=1e-6)
     assert only.parameters["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
@@ -348,21 +346,28 @@ def test_third_order_model_with_input_derivative():
 
     a0, a1, a2, b0, b1 = 60.0, 47.0, 12.0, 60.0, 5.0  # (s + 3)(s + 4)(s + 5), b0 known
     model = LinearODEModel(
-        "order3", ("a0", "a1", "a2"), ("b0", "b1"),
+        "order3",
+        ("a0", "a1", "a2"),
+        ("b0", "b1"),
         {"a0": 1.0, "a1": 1.0, "a2": 1.0, "b0": b0, "b1": 1.0},
-        unknown=("a0", "a1", "a2", "b1"), output_name="y",
+        unknown=("a0", "a1", "a2", "b1"),
+        output_name="y",
     )
 
     def u(t, d=0):
-        return (np.sin(3 * t) + 0.5 * np.sin(7.3 * t)) if d == 0 else (
-            3 * np.cos(3 * t) + 3.65 * np.cos(7.3 * t))
+        return (
+            (np.sin(3 * t) + 0.5 * np.sin(7.3 * t))
+            if d == 0
+            else (3 * np.cos(3 * t) + 3.65 * np.cos(7.3 * t))
+        )
 
     def rhs(t, s):  # s = (y, y', y'')
         return [s[1], s[2], -a0 * s[0] - a1 * s[1] - a2 * s[2] + b1 * u(t, 1) + b0 * u(t)]
 
     t = np.arange(6000) * 1e-3
-    sol = solve_ivp(rhs, (0, t[-1]), [0.0, 0.0, 0.0], t_eval=t, rtol=1e-12, atol=1e-14,
-                    method="DOP853")
+    sol = solve_ivp(
+        rhs, (0, t[-1]), [0.0, 0.0, 0.0], t_eval=t, rtol=1e-12, atol=1e-14, method="DOP853"
+    )
     rec = Recording(t, np.column_stack([u(t), sol.y[0]]), ["u", "y"])
     res = RecursiveLeastSquares(model, prefilter_cutoff=10.0).fit(rec).result_
     assert res.names == ("a0", "a1", "a2", "b1") and res.natural_frequency is None
@@ -383,8 +388,9 @@ def test_stderr_is_the_textbook_ols_formula_at_lambda_one():
     res = est.result_
     final = [res.parameters["theta1"], res.parameters["theta2"]]
     np.testing.assert_allclose(final, theta, rtol=1e-9)
-    np.testing.assert_allclose([res.stderr["theta1"], res.stderr["theta2"]],
-                               np.sqrt(np.diag(cov)), rtol=1e-8)
+    np.testing.assert_allclose(
+        [res.stderr["theta1"], res.stderr["theta2"]], np.sqrt(np.diag(cov)), rtol=1e-8
+    )
 
 
 # ------------------------------------------------------------------------------- online form
@@ -442,8 +448,13 @@ def test_channels_follow_the_model_input_and_output_names(two_tone_record):
     from physid.models import LinearODEModel
 
     spec = LinearODEModel(
-        "msd_fq", ("k_m", "c_m"), ("g",), {"k_m": 90.0, "c_m": 1.0, "g": 1.0},
-        unknown=("c_m", "k_m"), input_name="F", output_name="q",
+        "msd_fq",
+        ("k_m", "c_m"),
+        ("g",),
+        {"k_m": 90.0, "c_m": 1.0, "g": 1.0},
+        unknown=("c_m", "k_m"),
+        input_name="F",
+        output_name="q",
     )
     rec = two_tone_record
     renamed = Recording(rec.t, np.column_stack([rec["u"], rec["x"]]), ["F", "q"])

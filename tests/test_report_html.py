@@ -44,6 +44,7 @@ VOID = {"meta", "img", "br", "hr", "link", "input", "col", "source", "wbr"}
 # ---------------------------------------------------------------------------------------------
 # Independent checkers (html.parser and Chromium)
 
+
 class _ReportParser(HTMLParser):
     """Collects tags, images, tables and problems from a report page."""
 
@@ -282,18 +283,28 @@ def render_in_chromium(report: Path, workdir: Path) -> tuple[dict, str]:
     page.write_text(text.replace("<head>", "<head>" + _CHECK_SCRIPT, 1), encoding="utf-8")
     profile = workdir / "chromium-profile"
     cmd = [
-        chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-        "--no-first-run", "--disable-background-networking", "--disable-component-update",
-        "--disable-sync", f"--user-data-dir={profile}", "--enable-logging=stderr", "--v=0",
-        "--window-size=1280,900", "--virtual-time-budget=5000", "--dump-dom",
+        chromium,
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-quic",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={profile}",
+        "--enable-logging=stderr",
+        "--v=0",
+        "--window-size=1280,900",
+        "--virtual-time-budget=5000",
+        "--dump-dom",
         page.resolve().as_uri(),
     ]
     env = dict(os.environ, DBUS_SESSION_BUS_ADDRESS="disabled:")
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0, f"chromium exited {proc.returncode}: {proc.stderr[-2000:]}"
     console = [
-        line for line in proc.stderr.splitlines()
-        if ":CONSOLE" in line or "Uncaught" in line
+        line for line in proc.stderr.splitlines() if ":CONSOLE" in line or "Uncaught" in line
     ]
     parsed = _ReportParser()
     parsed.feed(proc.stdout)
@@ -306,6 +317,7 @@ def render_in_chromium(report: Path, workdir: Path) -> tuple[dict, str]:
 
 # ---------------------------------------------------------------------------------------------
 # Fixtures
+
 
 def _tiny_figure(label: str):
     fig, ax = plt.subplots(figsize=(3, 2))
@@ -327,8 +339,11 @@ def _sections():
             Table(
                 "Estimates <beside> the paper",
                 ("parameter", "estimate", "paper", "evaluations"),
-                (("m1", 50.123456789, 50.1, 1450), ("l1 & l2", 0.4, None, 12), ("k", stiffness,
-                 float("nan"), 0)),
+                (
+                    ("m1", 50.123456789, 50.1, 1450),
+                    ("l1 & l2", 0.4, None, 12),
+                    ("k", stiffness, float("nan"), 0),
+                ),
             ),
         ),
         figures=(FigureSpec("fig_line", _tiny_figure("a"), "A <line> & more."),),
@@ -338,8 +353,13 @@ def _sections():
     b = ReportSection(
         "MSD: stand-in",
         paragraphs=("Second section.",),
-        tables=(Table("Small numbers", ("what", "value"), (("tiny", 1.23456789e-9),
-                                                           ("huge", -9.87654321e12))),),
+        tables=(
+            Table(
+                "Small numbers",
+                ("what", "value"),
+                (("tiny", 1.23456789e-9), ("huge", -9.87654321e12)),
+            ),
+        ),
         figures=(FigureSpec("fig-two", _tiny_figure("b"), "Second figure."),),
         results={"tiny": 1.23456789e-9},
         errata=(
@@ -360,6 +380,7 @@ def report(tmp_path_factory):
 # ---------------------------------------------------------------------------------------------
 # Tests
 
+
 def test_outputs_exist_and_no_temporaries(report):
     assert report.html.name == "report.html" and report.html.is_file()
     assert report.json.name == "results.json" and report.json.is_file()
@@ -371,8 +392,9 @@ def test_outputs_exist_and_no_temporaries(report):
 def test_files_get_permissions_from_the_umask(tmp_path):
     old = os.umask(0o022)
     try:
-        paths = write_report([ReportSection("S", figures=(FigureSpec("f", _tiny_figure("p")),))],
-                             tmp_path)
+        paths = write_report(
+            [ReportSection("S", figures=(FigureSpec("f", _tiny_figure("p")),))], tmp_path
+        )
     finally:
         os.umask(old)
     for path in (paths.html, paths.json, *paths.figures):
@@ -466,8 +488,12 @@ def test_numeric_columns_are_right_aligned(report):
     text = report.html.read_text(encoding="utf-8")
     caption = "<caption>Estimates &lt;beside&gt; the paper</caption>"
     head = re.search(re.escape(caption) + r"\s*<thead>(.*?)</thead>", text).group(1)
-    assert re.findall(r'<th scope="col"( class="num")?>', head) == ["", ' class="num"',
-                                                                    ' class="num"', ' class="num"']
+    assert re.findall(r'<th scope="col"( class="num")?>', head) == [
+        "",
+        ' class="num"',
+        ' class="num"',
+        ' class="num"',
+    ]
 
 
 def test_wide_tables_use_the_page_width_and_words_are_not_split(report, tmp_path):
@@ -537,8 +563,10 @@ def test_other_bad_inputs_raise(tmp_path):
     f1, f2 = _tiny_figure("e"), _tiny_figure("f")
     with pytest.raises(InputError, match=r"two figures are named 'f'"):
         write_report(
-            [ReportSection("A", figures=(FigureSpec("f", f1),)),
-             ReportSection("B", figures=(FigureSpec("f", f2),))],
+            [
+                ReportSection("A", figures=(FigureSpec("f", f1),)),
+                ReportSection("B", figures=(FigureSpec("f", f2),)),
+            ],
             tmp_path,
         )
     plt.close(f1)

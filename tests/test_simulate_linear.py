@@ -433,8 +433,12 @@ def test_badly_scaled_fourth_order_model_is_accepted_and_matches_lsim():
 def test_simulate_msd_rejects_phase_with_an_explicit_input():
     with pytest.raises(InputError, match="phase=0.3 applies only to the built-in sinusoid"):
         simulate_msd(
-            natural_frequency=2.0, damping_ratio=0.1, input=np.zeros(11), phase=0.3,
-            duration=1.0, dt=0.1,
+            natural_frequency=2.0,
+            damping_ratio=0.1,
+            input=np.zeros(11),
+            phase=0.3,
+            duration=1.0,
+            dt=0.1,
         )
 
 

@@ -194,9 +194,14 @@ def variance_factor(
     return out.reshape(lam.shape + Z.shape)
 
 
-def variance_factor_printed(ratio, *, natural_frequency: float = PAPER_NATURAL_FREQUENCY,
-                            sample_period: float = 1e-3, init_samples: int = 3,
-                            samples: int = 100) -> np.ndarray:
+def variance_factor_printed(
+    ratio,
+    *,
+    natural_frequency: float = PAPER_NATURAL_FREQUENCY,
+    sample_period: float = 1e-3,
+    init_samples: int = 3,
+    samples: int = 100,
+) -> np.ndarray:
     """Eq. 12 *as printed* at λ = 1 (spurious ω0: ``Z sin ω0t − ω0 sin Zω0t``), for comparison.
 
     ``K_printed = (ω0² (Z² − 1))² / Σ_{i=m+1}^{k} h_i²`` with
@@ -296,8 +301,12 @@ def optimal_ratio(
         beats = (hi - lo) * natural_frequency * samples * sample_period / (2 * np.pi)
         n_grid = max(400, math.ceil(16 * beats))
     grid = np.linspace(lo, hi, int(n_grid))
-    kw = dict(natural_frequency=natural_frequency, sample_period=sample_period,
-              init_samples=init_samples, samples=samples)
+    kw = dict(
+        natural_frequency=natural_frequency,
+        sample_period=sample_period,
+        init_samples=init_samples,
+        samples=samples,
+    )
     K = variance_factor(grid, lam.ravel(), **kw)  # (nl, n_grid)
     best = np.argmin(K, axis=1)
     z_opt = np.empty(lam.size)
@@ -307,12 +316,17 @@ def optimal_ratio(
         a_, b_ = grid[max(b - 1, 0)], grid[min(b + 1, grid.size - 1)]
         res = optimize.minimize_scalar(
             lambda z, lam_j=lam_j: float(np.log(variance_factor(z, lam_j, **kw))),
-            bounds=(a_, b_), method="bounded", options={"xatol": 1e-10},
+            bounds=(a_, b_),
+            method="bounded",
+            options={"xatol": 1e-10},
         )
-        z_opt[j], k_opt[j] = (res.x, math.exp(res.fun)) if math.exp(res.fun) <= K[j, b] else (
-            grid[b], K[j, b])
-        edge[j] = bool(np.isclose(z_opt[j], lo, rtol=0, atol=1e-6 * (hi - lo)) or np.isclose(
-            z_opt[j], hi, rtol=0, atol=1e-6 * (hi - lo)))
+        z_opt[j], k_opt[j] = (
+            (res.x, math.exp(res.fun)) if math.exp(res.fun) <= K[j, b] else (grid[b], K[j, b])
+        )
+        edge[j] = bool(
+            np.isclose(z_opt[j], lo, rtol=0, atol=1e-6 * (hi - lo))
+            or np.isclose(z_opt[j], hi, rtol=0, atol=1e-6 * (hi - lo))
+        )
     return z_opt.reshape(lam.shape), k_opt.reshape(lam.shape), edge.reshape(lam.shape)
 
 
@@ -443,10 +457,19 @@ def design_input(
             + ": K keeps decreasing beyond it; widen --ratio-range to locate the minimum."
         )
     return InputDesignResult(
-        ratio=Z, forgetting=tuple(float(v) for v in lam), variance_factor=K,
+        ratio=Z,
+        forgetting=tuple(float(v) for v in lam),
+        variance_factor=K,
         optimal_ratio=tuple(float(v) for v in z_opt),
         optimal_variance_factor=tuple(float(v) for v in k_opt),
-        at_boundary=tuple(bool(v) for v in edge), horizons=horizons,
-        horizon_variance_factor=H, horizon_optimal_ratio=tuple(hz), natural_frequency=w0,
-        sample_period=ts, init_samples=m, samples=k, success=True, message=" ".join(notes),
+        at_boundary=tuple(bool(v) for v in edge),
+        horizons=horizons,
+        horizon_variance_factor=H,
+        horizon_optimal_ratio=tuple(hz),
+        natural_frequency=w0,
+        sample_period=ts,
+        init_samples=m,
+        samples=k,
+        success=True,
+        message=" ".join(notes),
     )

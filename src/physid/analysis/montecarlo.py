@@ -1084,8 +1084,6 @@ def _msd_truth(rec, default: float) -> float:
     return default
 
 
-
-
 def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
     """One trial of the MSD study: simulate the paper's scenario, estimate ω0, measure convergence.
 

@@ -22,10 +22,17 @@ def register(subparsers) -> None:
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
-    parser.add_argument("--out", metavar="DIR", default="demo-out",
-                        help="output folder (created if missing; files in it are replaced)")
-    parser.add_argument("--quick", action="store_true",
-                        help="short records and small grids: under a minute on two cores")
+    parser.add_argument(
+        "--out",
+        metavar="DIR",
+        default="demo-out",
+        help="output folder (created if missing; files in it are replaced)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="short records and small grids: under a minute on two cores",
+    )
     parser.set_defaults(func=run)
 
 

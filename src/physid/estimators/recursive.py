@@ -143,8 +143,10 @@ def default_prefilter_cutoff(dt: float, characteristic_frequency: float | None =
     50.0
     """
     fs = 1.0 / dt
-    if characteristic_frequency is None or not np.isfinite(characteristic_frequency) or (
-        characteristic_frequency <= 0
+    if (
+        characteristic_frequency is None
+        or not np.isfinite(characteristic_frequency)
+        or (characteristic_frequency <= 0)
     ):
         return fs / 20.0
     return float(min(10.0 * characteristic_frequency, fs / 10.0))
@@ -322,8 +324,15 @@ class StreamingStateVariableFilter:
     True
     """
 
-    def __init__(self, dt: float, cutoff: float, n_derivatives: int, *, n_channels: int = 1,
-                 filter_order: int | None = None):
+    def __init__(
+        self,
+        dt: float,
+        cutoff: float,
+        n_derivatives: int,
+        *,
+        n_channels: int = 1,
+        filter_order: int | None = None,
+    ):
         self._sos = _svf_design(dt, cutoff, n_derivatives, filter_order)
         self.n_channels = int(n_channels)
         if self.n_channels < 1:
@@ -346,9 +355,7 @@ class StreamingStateVariableFilter:
         if arr.ndim == 1:
             arr = arr[:, None]
         if arr.ndim != 2 or arr.shape[1] != self.n_channels:
-            raise ShapeError(
-                f"chunk must have shape (n_new, {self.n_channels}); got {arr.shape}."
-            )
+            raise ShapeError(f"chunk must have shape (n_new, {self.n_channels}); got {arr.shape}.")
         outs = []
         for i, sos in enumerate(self._sos):
             out, self._zi[i] = signal.sosfilt(sos, arr, axis=0, zi=self._zi[i])
@@ -386,9 +393,7 @@ def _prefilter_settings(spec, dt, prefilter_cutoff, prefilter_order, discard):
     if discard is not None and (
         isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
     ):
-        raise InputError(
-            f"transient_samples (discard) must be an integer >= 0; got {discard!r}."
-        )
+        raise InputError(f"transient_samples (discard) must be an integer >= 0; got {discard!r}.")
     highest = max(spec.order, spec.input_order)
     cutoff = (
         default_prefilter_cutoff(dt, _model_frequency(spec))
@@ -726,8 +731,16 @@ def weighted_ls_path(
 
 
 # =============================================================================== streaming form
-def rls_update(theta, P, x, y, forgetting: float = 1.0, weight: float = 1.0, *,
-               covariance_limit: float = math.inf):
+def rls_update(
+    theta,
+    P,
+    x,
+    y,
+    forgetting: float = 1.0,
+    weight: float = 1.0,
+    *,
+    covariance_limit: float = math.inf,
+):
     """One step of the recursion (eq. 3) with a Joseph-form covariance update; pure function.
 
     Parameters
@@ -876,8 +889,15 @@ class StreamingRLS:
     True
     """
 
-    def __init__(self, n_parameters: int, *, forgetting: float = 1.0, weight: float = 1.0,
-                 init_samples: int | None = None, covariance_limit: float | None = None):
+    def __init__(
+        self,
+        n_parameters: int,
+        *,
+        forgetting: float = 1.0,
+        weight: float = 1.0,
+        init_samples: int | None = None,
+        covariance_limit: float | None = None,
+    ):
         self.n_parameters = int(n_parameters)
         if self.n_parameters < 1:
             raise InputError(f"n_parameters must be >= 1; got {n_parameters!r}.")
@@ -948,8 +968,15 @@ class StreamingRLS:
             th_rows: list = []
             P_rows: list = []
             self._theta, self._P = _rls_rows(
-                self._theta, self._P, X[start:].tolist(), Y[start:].tolist(), self.forgetting,
-                self.weight, self._limit, th_rows, P_rows,
+                self._theta,
+                self._P,
+                X[start:].tolist(),
+                Y[start:].tolist(),
+                self.forgetting,
+                self.weight,
+                self._limit,
+                th_rows,
+                P_rows,
             )
             out_theta[start:] = np.array(th_rows)
             out_P[start:] = np.array(P_rows).reshape(-1, p, p)
@@ -1126,11 +1153,21 @@ class RecursiveLeastSquares:
     10.0
     """
 
-    def __init__(self, model="msd", *, forgetting: float = 1.0, weight: float = 1.0,
-                 prefilter: str = "butterworth", prefilter_cutoff: float | None = None,
-                 init_samples: int | None = None, unknown: Sequence[str] | None = None,
-                 known: Mapping[str, float] | None = None, prefilter_order: int | None = None,
-                 covariance: str = "full", transient_samples: int | None = None):
+    def __init__(
+        self,
+        model="msd",
+        *,
+        forgetting: float = 1.0,
+        weight: float = 1.0,
+        prefilter: str = "butterworth",
+        prefilter_cutoff: float | None = None,
+        init_samples: int | None = None,
+        unknown: Sequence[str] | None = None,
+        known: Mapping[str, float] | None = None,
+        prefilter_order: int | None = None,
+        covariance: str = "full",
+        transient_samples: int | None = None,
+    ):
         self.model = model
         self.forgetting = forgetting
         self.weight = weight
@@ -1160,10 +1197,16 @@ class RecursiveLeastSquares:
         in_name, out_name = spec.recording_channels(names)
         dt = recording.dt
         reg = build_regression(
-            spec, recording[out_name], recording[in_name], dt, unknown=self.unknown,
+            spec,
+            recording[out_name],
+            recording[in_name],
+            dt,
+            unknown=self.unknown,
             known=self.known,
-            prefilter=self.prefilter, prefilter_cutoff=self.prefilter_cutoff,
-            prefilter_order=self.prefilter_order, discard=self.transient_samples,
+            prefilter=self.prefilter,
+            prefilter_cutoff=self.prefilter_cutoff,
+            prefilter_order=self.prefilter_order,
+            discard=self.transient_samples,
         )
         p = len(reg.names)
         init = _check_init_samples(self.init_samples, p)
@@ -1192,18 +1235,22 @@ class RecursiveLeastSquares:
         last = valid_rows[-1]
         theta_final = theta_rows[last]
         sigma2, cov_final = _final_covariance(reg.X, reg.Y, theta_final, M, last, lam)
-        stderr = {
-            nm: float(np.sqrt(max(cov_final[i, i], 0.0))) for i, nm in enumerate(reg.names)
-        }
+        stderr = {nm: float(np.sqrt(max(cov_final[i, i], 0.0))) for i, nm in enumerate(reg.names)}
         parameters = {nm: float(theta_final[i]) for i, nm in enumerate(reg.names)}
         omega0 = zeta = None
         if spec.is_msd:
             values = dict(spec.parameters)
             values.update(self.known or {})
-            th1 = estimates[:, reg.names.index("theta1")] if "theta1" in reg.names else np.where(
-                np.isnan(estimates[:, 0]), np.nan, values["theta1"])
-            th2 = estimates[:, reg.names.index("theta2")] if "theta2" in reg.names else np.where(
-                np.isnan(estimates[:, 0]), np.nan, values["theta2"])
+            th1 = (
+                estimates[:, reg.names.index("theta1")]
+                if "theta1" in reg.names
+                else np.where(np.isnan(estimates[:, 0]), np.nan, values["theta1"])
+            )
+            th2 = (
+                estimates[:, reg.names.index("theta2")]
+                if "theta2" in reg.names
+                else np.where(np.isnan(estimates[:, 0]), np.nan, values["theta2"])
+            )
             omega0, zeta = natural_frequency_damping(th1, th2)
             w_final, z_final = natural_frequency_damping(
                 parameters.get("theta1", values.get("theta1")),
@@ -1215,24 +1262,42 @@ class RecursiveLeastSquares:
         finite = all(np.isfinite(v) for v in parameters.values())
         lost = int(np.count_nonzero(~ok_rows[M:]))
         if not finite:
-            success, message = False, (
-                "the final estimate is not finite (for the MSD: θ2 ≤ 0 gives no natural "
-                "frequency); check the excitation and the sign conventions of u and x."
+            success, message = (
+                False,
+                (
+                    "the final estimate is not finite (for the MSD: θ2 ≤ 0 gives no natural "
+                    "frequency); check the excitation and the sign conventions of u and x."
+                ),
             )
         elif lost:
-            success, message = True, (
-                f"{lost} sample(s) after the start had no usable information (λ < 1 without "
-                "excitation); their estimates are NaN. Raise forgetting or keep exciting the "
-                "system."
+            success, message = (
+                True,
+                (
+                    f"{lost} sample(s) after the start had no usable information (λ < 1 without "
+                    "excitation); their estimates are NaN. Raise forgetting or keep exciting the "
+                    "system."
+                ),
             )
         else:
             success, message = True, ""
         self.result_ = RecursiveResult(
-            t=np.array(recording.t), estimates=estimates, covariance=cov, names=reg.names,
-            parameters=parameters, stderr=stderr, natural_frequency=omega0, damping_ratio=zeta,
-            valid_fraction=valid_fraction, forgetting=lam, weight=r, prefilter=self.prefilter,
-            prefilter_cutoff=reg.cutoff, discarded=reg.discarded,
-            init_end=int(reg.sample_index[M]), success=success, message=message,
+            t=np.array(recording.t),
+            estimates=estimates,
+            covariance=cov,
+            names=reg.names,
+            parameters=parameters,
+            stderr=stderr,
+            natural_frequency=omega0,
+            damping_ratio=zeta,
+            valid_fraction=valid_fraction,
+            forgetting=lam,
+            weight=r,
+            prefilter=self.prefilter,
+            prefilter_cutoff=reg.cutoff,
+            discarded=reg.discarded,
+            init_end=int(reg.sample_index[M]),
+            success=success,
+            message=message,
             metadata={"rows": int(n_rows), "residual_variance": sigma2},
         )
         self.regression_ = reg
@@ -1339,7 +1404,9 @@ class StreamingRecursiveEstimator:
             self.dt, cutoff, highest, n_channels=2, filter_order=order
         )
         self._rls = StreamingRLS(
-            len(self._unknown), forgetting=est.forgetting, weight=est.weight,
+            len(self._unknown),
+            forgetting=est.forgetting,
+            weight=est.weight,
             init_samples=est.init_samples,
         )
         self.n_samples = 0
@@ -1371,7 +1438,10 @@ class StreamingRecursiveEstimator:
             keep = index >= self.discarded  # rows after the start-up transient (as in fit)
             if keep.any():
                 X, Y = _regression_rows(
-                    self._spec, self._unknown, self._values, derivs[keep, 0, :],
+                    self._spec,
+                    self._unknown,
+                    self._values,
+                    derivs[keep, 0, :],
                     derivs[keep, 1, :],
                 )
                 estimates[keep] = self._rls.update(X, Y)
@@ -1386,8 +1456,12 @@ class StreamingRecursiveEstimator:
             omega0, zeta = natural_frequency_damping(np.asarray(th1), np.asarray(th2))
             omega0, zeta = np.atleast_1d(omega0), np.atleast_1d(zeta)
         return StreamingRecursiveUpdate(
-            t=self.t_start + self.dt * index, estimates=estimates, valid=valid,
-            names=self._unknown, natural_frequency=omega0, damping_ratio=zeta,
+            t=self.t_start + self.dt * index,
+            estimates=estimates,
+            valid=valid,
+            names=self._unknown,
+            natural_frequency=omega0,
+            damping_ratio=zeta,
         )
 
 
@@ -1459,8 +1533,10 @@ def _check_excitation(
     if Y is not None:
         y_norm = float(np.linalg.norm(Y))
         col_norm = np.sqrt(diag)
-        theta = np.abs(np.asarray(nominal, dtype=float)) if nominal is not None else np.full(
-            len(names), np.nan
+        theta = (
+            np.abs(np.asarray(nominal, dtype=float))
+            if nominal is not None
+            else np.full(len(names), np.nan)
         )
         missing = ~np.isfinite(theta) | (theta == 0)
         if missing.any():

@@ -48,9 +48,9 @@ ADDS_TITLE = "What physid adds beyond the papers"
 
 _PAPERS = {
     "manipulator": "L. Cedro and D. Janecki, “Identification of a manipulator model using the "
-                   "input error method in the Mathematica program”",
+    "input error method in the Mathematica program”",
     "msd": "M. Oueslati, S. Thiery, O. Gibaru, R. Béarée and G. Moraru, “On algebraic approach "
-           "for MSD parametric estimation” (2011)",
+    "for MSD parametric estimation” (2011)",
 }
 _VERSIONED = ("numpy", "scipy", "sympy", "matplotlib", "dask", "distributed", "pin", "pysindy")
 
@@ -86,8 +86,9 @@ def _versions() -> list[tuple[str, str]]:
     return rows
 
 
-def _intro_section(quick: bool, timings: list[tuple[str, int, float]], total_s: float,
-                   out_dir: Path) -> ReportSection:
+def _intro_section(
+    quick: bool, timings: list[tuple[str, int, float]], total_s: float, out_dir: Path
+) -> ReportSection:
     command = "physid demo --quick" if quick else "physid demo"
     kind = "quick run: short records and small grids, for a fast check" if quick else "full run"
     paragraphs = [
@@ -209,8 +210,9 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
     rows: list[tuple[str, str, str, Any, str]] = []
     picked: dict[str, Any] = {}
 
-    def add(key: str, capability: str, paper: str, physid: str,
-            candidates: Sequence[tuple[str, str]]) -> None:
+    def add(
+        key: str, capability: str, paper: str, physid: str, candidates: Sequence[tuple[str, str]]
+    ) -> None:
         """One row; its number is the first of ``candidates`` (dotted path, meaning) found."""
         for path, what in candidates:
             value = _lookup_number(results, path)
@@ -225,16 +227,25 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "Input-error fit",
         "derivative-free search, about 1450 evaluations",
         "least squares with the analytic Jacobian of the generated equations of motion",
-        [("ours.nfev", "residual evaluations physid needed from the paper's initial values "
-                       "(paper: about 1450)")],
+        [
+            (
+                "ours.nfev",
+                "residual evaluations physid needed from the paper's initial values "
+                "(paper: about 1450)",
+            )
+        ],
     )
     add(
         "kinetic_energy",
         "Kinetic energy",
         "keeps only the squared term of each joint rate (no cross terms)",
         "exact ½ m|v|² with all cross terms (default), and the paper's form to reproduce it",
-        [("paper_model_fitted_to_exact_data.m2",
-          "m2 [kg] found when the paper's model is fitted to data of the exact arm (true 25 kg)")],
+        [
+            (
+                "paper_model_fitted_to_exact_data.m2",
+                "m2 [kg] found when the paper's model is fitted to data of the exact arm (true 25 kg)",
+            )
+        ],
     )
     add(
         "identifiability",
@@ -250,9 +261,13 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "fixed M = 100, Ω_g = 0.2; second-derivative filter normalised on t² only",
         "checks the pass band against the motion's spectrum and warns; derivative filters "
         "consistent with the low-pass remove the m1·l1² bias",
-        [("maxabs:ours_consistent_filters.errors_percent",
-          "largest error [%] of the identifiable quantities with consistent filters, on the "
-          "paper's data and model")],
+        [
+            (
+                "maxabs:ours_consistent_filters.errors_percent",
+                "largest error [%] of the identifiable quantities with consistent filters, on the "
+                "paper's data and model",
+            )
+        ],
     )
     add(
         "algebraic",
@@ -260,8 +275,12 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "printed for order 2 only, with the window run backwards and Simpson's rule",
         "any order, kernels derived and generated automatically; exact integration rule; "
         "determinant guard; streaming in chunks with constant memory, equal to batch",
-        [("window_search.clean.shortest_window_s",
-          "shortest window [s] with 95 % of windows within 2 % on clean data (exact rule)")],
+        [
+            (
+                "window_search.clean.shortest_window_s",
+                "shortest window [s] with 95 % of windows within 2 % on clean data (exact rule)",
+            )
+        ],
     )
     add(
         "rls",
@@ -269,8 +288,12 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "covariance update that loses symmetry and overflows with λ < 1 without excitation",
         "Joseph-form update, symmetric and bounded; a vectorised batch form equal to the "
         "streaming one",
-        [("errata_evidence.eq3.printed_rows_to_overflow",
-          "rows after which the printed update overflows (λ = 0.99, no excitation)")],
+        [
+            (
+                "errata_evidence.eq3.printed_rows_to_overflow",
+                "rows after which the printed update overflows (λ = 0.99, no excitation)",
+            )
+        ],
     )
     add(
         "input_design",
@@ -278,9 +301,13 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "optimum at Z = 1, from a variance formula with a spurious ω0",
         "the variance factor derived again; the optimum found numerically for each forgetting "
         "factor and horizon",
-        [("optimal_ratio_wide_range",
-          "optimal Z = ω1/ω0 for the paper's k = 100, m = 3, λ = 1 (searched over [0.01, 20])"),
-         ("optimal_ratio", "optimal Z = ω1/ω0 for the paper's k = 100, λ = 1")],
+        [
+            (
+                "optimal_ratio_wide_range",
+                "optimal Z = ω1/ω0 for the paper's k = 100, m = 3, λ = 1 (searched over [0.01, 20])",
+            ),
+            ("optimal_ratio", "optimal Z = ω1/ω0 for the paper's k = 100, λ = 1"),
+        ],
     )
     add(
         "sweeps",
@@ -290,13 +317,15 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
         "backend); local process pool or a Dask cluster",
         [("sweep.n_trials", "trials behind this report's convergence maps")],
     )
-    rows.append((
-        "Your own system",
-        "—",
-        "model files (TOML), recordings from CSV / NPZ / MAT / HDF5, and the physid command",
-        None,
-        "",
-    ))
+    rows.append(
+        (
+            "Your own system",
+            "—",
+            "model files (TOML), recordings from CSV / NPZ / MAT / HDF5, and the physid command",
+            None,
+            "",
+        )
+    )
     table = Table(
         "What physid does beyond the two papers (numbers from this report where available)",
         ("capability", "the papers", "physid", "number", "what the number is"),
@@ -382,8 +411,10 @@ def run_demo(
         title="physid: two papers reproduced",
         quick=quick,
         errata_after=1,  # right after "About this report", before the papers' sections
-        metadata={"command": "physid demo" + (" --quick" if quick else ""),
-                  "python": sys.version.split()[0]},
+        metadata={
+            "command": "physid demo" + (" --quick" if quick else ""),
+            "python": sys.version.split()[0],
+        },
         progress=say,
     )
     say(f"demo: done in {time.perf_counter() - start:.1f} s")

@@ -302,7 +302,6 @@ def normalised_coefficients(a, b, where: str) -> tuple[np.ndarray, np.ndarray]:
     return a / lead, b / lead
 
 
-
 def linear_ode_state_space(a, b) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Controllable canonical realisation of ``Σ_i a_i y^(i) = Σ_j b_j u^(j)``.
 

@@ -261,6 +261,7 @@ def format_cell(cell: Cell) -> str:
 # --------------------------------------------------------------------------------------------
 # Writing files
 
+
 def _figure_png(figure: Any) -> bytes:
     buf = io.BytesIO()
     figure.savefig(buf, format="png", dpi=FIGURE_DPI, bbox_inches="tight")
@@ -499,8 +500,10 @@ def write_report(
 
     sections = list(sections)
     _check_sections(sections)
-    if isinstance(errata_after, bool) or not isinstance(errata_after, int) or not (
-        0 <= errata_after <= len(sections)
+    if (
+        isinstance(errata_after, bool)
+        or not isinstance(errata_after, int)
+        or not (0 <= errata_after <= len(sections))
     ):
         raise InputError(
             f"errata_after must be an int between 0 and the number of sections "
@@ -542,8 +545,14 @@ def write_report(
         "metadata": meta,
         "results": {s.title: dict(s.results) for s in sections},
         "tables": {
-            s.title: [{"caption": t.caption, "columns": list(t.columns),
-                       "rows": [list(r) for r in t.rows]} for t in s.tables]
+            s.title: [
+                {
+                    "caption": t.caption,
+                    "columns": list(t.columns),
+                    "rows": [list(r) for r in t.rows],
+                }
+                for t in s.tables
+            ]
             for s in sections
         },
         "errata": [e for e in all_errata],

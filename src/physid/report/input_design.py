@@ -42,7 +42,9 @@ def plot_input_design(result, ax=None) -> Figure:
     if len(axes) > 1:
         panel = axes[1]
         for h, curve, z_opt in zip(
-            result.horizons, result.horizon_variance_factor, result.horizon_optimal_ratio,
+            result.horizons,
+            result.horizon_variance_factor,
+            result.horizon_optimal_ratio,
             strict=True,
         ):
             (line,) = panel.plot(Z, np.log10(curve), lw=1.2, label=f"k = {h}")
