@@ -14,6 +14,7 @@ __all__ = [
     "SamplingError",
     "DataFileError",
     "ModelFileError",
+    "ExpressionError",
     "IdentifiabilityError",
     "EstimationError",
     "SimulationError",
@@ -43,6 +44,34 @@ class DataFileError(PhysidError, ValueError):
 
 class ModelFileError(PhysidError, ValueError):
     """A model file (TOML) is malformed: unknown symbol, bad transform, missing value."""
+
+
+class ExpressionError(PhysidError, ValueError):
+    """User-written arithmetic (a model expression, a channel map) is refused by the parser.
+
+    Raised by `physid.expressions`. Besides the message, ``reason`` says why in one word
+    (``"syntax"``, ``"forbidden"``, ``"too_large"``, ``"unknown_name"``, ``"unknown_function"``,
+    ``"not_callable"``, ``"arguments"``, ``"not_finite"``, ``"invalid"``, ``"type"``,
+    ``"argument"``), ``names`` holds the offending names, ``text`` the expression and ``source``
+    where it was written, so that callers can reword the message for their context.
+    """
+
+    def __init__(self, message: str, *, reason: str = "invalid", names=(), text="", source=""):
+        super().__init__(message)
+        self.reason = reason
+        self.names = tuple(names)
+        self.text = text
+        self.source = source
+
+    def __reduce__(self):  # keep the keywords through pickling (process pools)
+        return (
+            _rebuild_expression_error,
+            (str(self), self.reason, self.names, self.text, self.source),
+        )
+
+
+def _rebuild_expression_error(message, reason, names, text, source):
+    return ExpressionError(message, reason=reason, names=names, text=text, source=source)
 
 
 class IdentifiabilityError(PhysidError, ValueError):

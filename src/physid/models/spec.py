@@ -676,38 +676,6 @@ def dh_transform(a, alpha, d, theta):
     )
 
 
-def _parse_functions():
-    import sympy as sp
-
-    funcs = {
-        "sin": sp.sin,
-        "cos": sp.cos,
-        "tan": sp.tan,
-        "asin": sp.asin,
-        "acos": sp.acos,
-        "atan": sp.atan,
-        "atan2": sp.atan2,
-        "sinh": sp.sinh,
-        "cosh": sp.cosh,
-        "tanh": sp.tanh,
-        "sqrt": sp.sqrt,
-        "exp": sp.exp,
-        "log": sp.log,
-        "Abs": sp.Abs,
-        "abs": sp.Abs,
-        "sign": sp.sign,
-        "pi": sp.pi,
-    }
-    base = {
-        "Integer": sp.Integer,
-        "Float": sp.Float,
-        "Rational": sp.Rational,
-        "Symbol": sp.Symbol,
-        "Function": sp.Function,
-    }
-    return funcs, base
-
-
 def parse_expression(
     text: str,
     symbols: dict,
@@ -718,6 +686,9 @@ def parse_expression(
     variable_hint: str = "",
 ):
     """Parse one expression string with only ``symbols`` and the standard functions allowed.
+
+    The parsing is `physid.expressions.parse_expression` (a whitelist over Python's syntax tree;
+    nothing is evaluated); this wrapper words its errors for model files.
 
     Parameters
     ----------
@@ -744,70 +715,48 @@ def parse_expression(
     Raises
     ------
     ModelFileError
-        The text does not parse, uses an unknown symbol or function, or is not finite and real.
+        The text does not parse, uses a forbidden construct (strings, attributes, ...), an
+        unknown symbol or function, is too large, or is not finite and real.
 
     Examples
     --------
     >>> import sympy as sp
     >>> m, l = sp.symbols("m l")
-    >>> parse_expression("m*l**2/12", {"m1": m, "l1": l}, "demo")
+    >>> parse_expression("m1*l1**2/12", {"m1": m, "l1": l}, "demo")
     l**2*m/12
     """
-    import sympy as sp
-    from sympy.core.function import AppliedUndef
-    from sympy.parsing.sympy_parser import (
-        auto_number,
-        auto_symbol,
-        convert_xor,
-        factorial_notation,
-        repeated_decimals,
-    )
-    from sympy.parsing.sympy_parser import parse_expr as _parse
+    from ..errors import ExpressionError
+    from ..expressions import _clip, _clip_names
+    from ..expressions import parse_expression as _parse
 
-    funcs, base = _parse_functions()
-    global_dict = {**base, **funcs}
-    transformations = (auto_symbol, repeated_decimals, auto_number, factorial_notation, convert_xor)
     try:
-        expr = _parse(
-            text,
-            local_dict=dict(symbols),
-            global_dict=global_dict,
-            transformations=transformations,
-            evaluate=True,
-        )
-    except Exception as exc:  # noqa: BLE001 - any parse failure becomes one clear message
-        raise ModelFileError(
-            f"{where}: cannot parse the expression {text!r} ({type(exc).__name__}: {exc}). "
-            "Write it "
-            f'in Python syntax, e.g. "m1*l1**2/12" or "cos(q1)".'
-        ) from None
-    if not isinstance(expr, sp.Basic):
-        expr = sp.sympify(expr)
-    known = set(symbols.values())
-    unknown = sorted(str(s) for s in expr.free_symbols if s not in known)
-    undefined = sorted({type(f).__name__ for f in expr.atoms(AppliedUndef)})
-    if undefined:
-        raise ModelFileError(
-            f"{where}: unknown function(s) {undefined} in {text!r}; allowed functions: "
-            f"{', '.join(n for n in FUNCTION_NAMES if n != 'pi')}."
-        )
+        return _parse(text, symbols, source=where)
+    except ExpressionError as exc:
+        shown = _clip(text)
+        if exc.reason == "unknown_function":
+            raise ModelFileError(
+                f"{where}: unknown function(s) {_clip_names(exc.names)} in {shown}; allowed "
+                f"functions: {', '.join(n for n in FUNCTION_NAMES if n != 'pi')}."
+            ) from None
+        if exc.reason != "unknown_name":
+            raise ModelFileError(str(exc)) from None
+        unknown = list(exc.names)
     reserved = [u for u in unknown if u in RESERVED_NAMES or _RESERVED_PATTERN.match(u)]
     if reserved:
         fix = variable_hint or (
             "these are reserved names (joint variables q<k>, qd<k>, qdd<k>, tau<k>, functions), "
             "not parameters"
         )
-        raise ModelFileError(f"{where}: symbol(s) {reserved} may not appear in {text!r}: {fix}.")
-    if unknown:
-        # the key's unit fits the symbol only when the symbol is the whole expression
-        unit_text = f', unit = "{unit}"' if unit and text.strip() == unknown[0] else ""
         raise ModelFileError(
-            f"{where}: unknown symbol(s) {unknown} in {text!r}; declare each under [parameters] "
-            f"(e.g. {unknown[0]} = {{ value = 1.0{unit_text} }}){allowed_hint}."
+            f"{where}: symbol(s) {_clip_names(reserved)} may not appear in {shown}: {fix}."
         )
-    if expr.has(sp.I) or expr.has(sp.zoo) or expr.has(sp.nan) or expr.has(sp.oo):
-        raise ModelFileError(f"{where}: the expression {text!r} is not a finite real expression.")
-    return expr
+    # the key's unit fits the symbol only when the symbol is the whole expression
+    unit_text = f', unit = "{unit}"' if unit and text.strip() == unknown[0] else ""
+    hint = allowed_hint if len(allowed_hint) <= 300 else allowed_hint[:280] + " ..."
+    raise ModelFileError(
+        f"{where}: unknown symbol(s) {_clip_names(unknown)} in {shown}; declare each under "
+        f"[parameters] (e.g. {unknown[0][:40]} = {{ value = 1.0{unit_text} }}){hint}."
+    )
 
 
 def check_transform(
@@ -849,6 +798,57 @@ def check_transform(
                 f"signs and sin/cos placement; a rotation about z is [[cos(q), -sin(q), 0], "
                 f"[sin(q), cos(q), 0], [0, 0, 1]]."
             )
+
+
+def check_nominal_values(spec: ChainSpec) -> None:
+    """Refuse a chain whose constant expressions are not finite and real at the nominal values.
+
+    Evaluates every DH entry, mass, rotor inertia and friction coefficient numerically
+    (`physid.expressions.evaluate_expression`, no sympy, so a warm-cache load checks too) with
+    the parameters at their nominal values: ``mass = "m1/(l1 - 0.5)"`` with l1 = 0.5 or
+    ``rotor_inertia = "sqrt(-m1)"`` is an error naming its line, not a model full of NaN.
+    Transforms (functions of q) are checked by `check_transform` during the derivation.
+
+    Parameters
+    ----------
+    spec : ChainSpec
+
+    Raises
+    ------
+    ModelFileError
+        An expression that does not parse, uses an unknown name, or has no finite real value.
+    """
+    import numpy as np
+
+    from ..errors import ExpressionError
+    from ..expressions import _clip, evaluate_expression
+
+    values = {p.name: p.value for p in spec.parameters}
+    shown = ", ".join(f"{k}={v:.6g}" for k, v in list(values.items())[:12])
+    for k, joint in enumerate(spec.joints):
+        jt_where = joint.where or f"{spec.source} (joints[{k + 1}])"
+        items = [(f"{jt_where} dh.{key}", txt) for key, txt in (joint.dh or ())]
+        items += [
+            (joint.location(attr) if attr in dict(joint.locations) else f"{jt_where} {attr}", txt)
+            for attr, txt in (
+                ("mass", joint.mass),
+                ("rotor_inertia", joint.rotor_inertia),
+                ("viscous", joint.viscous),
+                ("coulomb", joint.coulomb),
+            )
+        ]
+        for where, txt in items:
+            try:
+                value = evaluate_expression(txt, values, source=where)
+            except ExpressionError:
+                continue  # unknown names etc.: parse_expression words these with the model's hints
+            if value.ndim != 0 or not np.isfinite(value):
+                raise ModelFileError(
+                    f"{where}: the expression {_clip(txt)} has no finite real value at the nominal "
+                    f"parameter values ({shown}): got {float(value) if value.ndim == 0 else value}. "
+                    "Check divisions by a parameter that is zero and square roots or logarithms of "
+                    "negative values; give the parameters nominal values where the model is valid."
+                )
 
 
 def symbolic_chain(spec: ChainSpec):
@@ -1019,6 +1019,8 @@ def model_from_spec(spec, **options):
 
     if isinstance(spec, ChainSpec):
         from .chain import build_chain_model
+
+        check_nominal_values(spec)
 
         allowed = {"kinetic", "cache"}
         bad = set(options) - allowed
