@@ -11,6 +11,7 @@ from .algebraic import (
     StreamingAlgebraicEstimator,
     algebraic_estimates,
 )
+from .idim import ConditionWarning, IDIMEstimator, IDIMResult
 from .input_error import BoundWarning, FilterWarning, InputErrorEstimator, InputErrorResult
 from .recursive import (
     RecursiveLeastSquares,
@@ -40,4 +41,7 @@ __all__ = [
     "rls_update",
     "build_regression",
     "ResultMixin",
+    "IDIMEstimator",
+    "IDIMResult",
+    "ConditionWarning",
 ]
