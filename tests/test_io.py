@@ -205,7 +205,7 @@ def test_non_uniform_sampling_reports_worst_deviation(tmp_path):
         match=r"not uniformly sampled: the interval from data row 3 \(line 4\) to data row 4 "
         r"\(line 5\) is 0\.15 s against a mean period of 0\.1 s \(worst relative deviation 0\.5, "
         r"tolerance 0\.001\)\. "
-        r"Pass resample=True \(CLI: --resample\) to interpolate onto a uniform grid",
+        r"Pass resample=True to interpolate onto a uniform grid",
     ):
         load_recording(_write(tmp_path, text))
 

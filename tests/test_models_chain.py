@@ -378,7 +378,7 @@ def test_bad_parameters_and_shapes_raise(arm):
         load_model("manipulator", kinetic="approx")
     with pytest.raises(InputError, match=r"unknown option\(s\) \['mass'\]"):
         load_model("manipulator", mass=3)
-    with pytest.raises(ShapeError, match="kp must hold 4 gains"):
+    with pytest.raises(ShapeError, match=r"kp must hold one value per joint \(4\)"):
         arm.make_pd_rhs(kp=[1, 2], kd=[1, 2, 3, 4], reference=[0, 0, 0, 0])
 
 

@@ -43,7 +43,7 @@ def test_recording_rejects_bad_input(t, data, names, match):
 def test_non_uniform_sampling_reports_worst_deviation_and_resample_fixes_it():
     t = np.array([0.0, 0.1, 0.2, 0.35, 0.4])
     rec = Recording(t, t**2, ["x"])
-    with pytest.raises(SamplingError, match=r"not uniformly sampled.*after sample 2"):
+    with pytest.raises(SamplingError, match=r"not uniformly sampled.*after sample 3"):
         _ = rec.dt
     uni = rec.resample(0.1)
     assert uni.dt == pytest.approx(0.1)

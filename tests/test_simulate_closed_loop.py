@@ -175,7 +175,7 @@ def test_reference_trajectory_spline_and_hold():
 
 
 def test_closed_loop_error_paths(arm):
-    with pytest.raises(ShapeError, match="kp must hold one gain per joint"):
+    with pytest.raises(ShapeError, match=r"kp must hold one value per joint"):
         simulate_closed_loop(
             arm, kp=[1.0, 2.0], kd=KD, reference=np.zeros(4), duration=0.1, dt=0.01
         )

@@ -454,7 +454,7 @@ def design_input(
         notes.append(
             "the optimum lies on an end of the ratio range for λ = "
             + ", ".join(f"{v:g}" for v in lam[edge])
-            + ": K keeps decreasing beyond it; widen --ratio-range to locate the minimum."
+            + ": K keeps decreasing beyond it; widen the ratio range to locate the minimum."
         )
     return InputDesignResult(
         ratio=Z,

@@ -63,7 +63,7 @@ from typing import Any
 import numpy as np
 
 from .._paths import atomic_write
-from .._validate import check_positive
+from .._validate import check_int, check_positive
 from ..errors import InputError, MissingDependencyError
 from ..estimators.results import ResultMixin, jsonable
 from ..models.linear_ode import MSD_NATURAL_FREQUENCY
@@ -197,8 +197,7 @@ def trial_specs(
     (12, {'snr_db': 25, 'ratio': 10}, 2, (0, 1, 2))
     """
     axes = _check_grid(grid)
-    if isinstance(trials, bool) or not isinstance(trials, (int, np.integer)) or trials < 1:
-        raise InputError(f"trials must be an integer >= 1; got {trials!r}.")
+    trials = check_int(trials, "trials", minimum=1)
     root = _check_seed(seed)
     unknown = set(shared_seed_axes) - set(axes)
     if unknown:
@@ -778,18 +777,9 @@ def run_sweep(
     """
     if not callable(trial):
         raise InputError(f"trial must be a callable trial(settings, seed) -> dict; got {trial!r}.")
-    if isinstance(retries, bool) or not isinstance(retries, (int, np.integer)) or retries < 0:
-        raise InputError(f"retries must be an integer >= 0; got {retries!r}.")
-    if workers is not None and (
-        isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1
-    ):
-        raise InputError(
-            f"workers must be an integer >= 1 (or None for every CPU); got {workers!r}."
-        )
-    if chunksize is not None and (
-        isinstance(chunksize, bool) or not isinstance(chunksize, (int, np.integer)) or chunksize < 1
-    ):
-        raise InputError(f"chunksize must be an integer >= 1 (or None); got {chunksize!r}.")
+    retries = check_int(retries, "retries", minimum=0)
+    workers = check_int(workers, "workers", minimum=1, allow_none=True, fix="None uses every CPU.")
+    chunksize = check_int(chunksize, "chunksize", minimum=1, allow_none=True)
     kind, arg = parse_scheduler(scheduler)
     if workers is not None and kind != "local":
         raise InputError(

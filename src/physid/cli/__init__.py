@@ -8,6 +8,14 @@ Each verb lives in its own module ``physid/cli/verb_<name>.py`` exposing::
 
 Verbs are discovered by module name, so adding one never touches this file. Bad input raises a
 `physid.PhysidError`; `main` prints it as ``physid: error: <message>`` and exits with status 2.
+
+Library errors name Python arguments (``kp=[...]``), marked with `physid.errors.arg`; `main`
+shows them with this verb's flags instead (``--kp a,b,...``): the mapping keyword → flag is
+every option's ``dest`` → its first long option string, updated by the verb module's optional
+
+    ARGUMENT_FLAGS: dict[str, str | None]       # keyword -> flag, e.g. {"fixed": "--fix"}
+
+for keywords whose flag has another name (None: the verb has no flag for it).
 """
 
 from __future__ import annotations
@@ -20,7 +28,7 @@ import sys
 from .. import __version__
 from ..errors import PhysidError
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "argument_flags"]
 
 
 def _verb_modules():
@@ -62,6 +70,37 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def argument_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict:
+    """Python keyword → command-line flag for the verb that ``args`` ran.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The full parser from `build_parser`.
+    args : argparse.Namespace
+        Parsed arguments (``args.verb`` names the verb, ``args.func`` its ``run``).
+
+    Returns
+    -------
+    dict
+        ``{dest: "--option"}`` for each option of the verb, updated by the verb module's
+        ``ARGUMENT_FLAGS``; used with `physid.errors.PhysidError.render`.
+    """
+    flags: dict[str, str | None] = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            verb_parser = action.choices.get(getattr(args, "verb", None))
+            if verb_parser is None:
+                break
+            for option in verb_parser._actions:
+                longs = [o for o in option.option_strings if o.startswith("--")]
+                if longs and option.dest not in ("help", argparse.SUPPRESS):
+                    flags.setdefault(option.dest, longs[0])
+    module = sys.modules.get(getattr(getattr(args, "func", None), "__module__", "") or "")
+    flags.update(getattr(module, "ARGUMENT_FLAGS", {}) or {})
+    return flags
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``physid`` command; returns the exit status."""
     parser = build_parser()
@@ -72,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except PhysidError as exc:
-        print(f"physid: error: {exc}", file=sys.stderr)
+        print(f"physid: error: {exc.render(argument_flags(parser, args))}", file=sys.stderr)
         return 2
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         print(f"physid: error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)

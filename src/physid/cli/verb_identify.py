@@ -9,6 +9,9 @@ from ._common import add_resample_option, assignments, float_list, print_json, p
 ORDER = 30
 
 
+ARGUMENT_FLAGS = {"fixed": "--fix"}  # InputErrorEstimator(fixed=...) is --fix here
+
+
 def register(subparsers) -> None:
     """Add the ``identify`` verb."""
     p = subparsers.add_parser(

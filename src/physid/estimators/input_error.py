@@ -42,8 +42,8 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from .._validate import check_length, check_positive
-from ..errors import DataFileError, IdentifiabilityError, InputError, ShapeError
+from .._validate import check_int, check_length, check_positive, per_joint
+from ..errors import DataFileError, IdentifiabilityError, InputError, ShapeError, arg
 from ..filters import design_filter, filter_derivatives
 from ..models.identifiability import (
     NUMERIC_RTOL,
@@ -369,28 +369,11 @@ def _gains(value, name: str, n_joints: int, metadata: Mapping[str, Any]) -> np.n
                 value = gains.get(name, gains.get(name.capitalize()))
             if value is None:
                 raise InputError(
-                    f"torque='pd' needs the {name} gains: pass {name}=[...] ({n_joints} values; "
-                    f"CLI --{name} a,b,...) or use a recording whose metadata holds '{name}'. "
-                    f"Recording metadata keys: {sorted(metadata)}."
+                    f"{arg('torque', repr('pd'), cli='pd')} needs the {name} gains: pass "
+                    f"{arg(name, '[...]', cli='a,b,...')} ({n_joints} values) or use a recording "
+                    f"whose metadata holds '{name}'. Recording metadata keys: {sorted(metadata)}."
                 )
-    if isinstance(value, Mapping):
-        try:
-            value = [
-                value[f"{name}{i + 1}"] if f"{name}{i + 1}" in value else value[str(i + 1)]
-                for i in range(n_joints)
-            ]
-        except KeyError:
-            raise InputError(
-                f"{name} gains given as a mapping must name every joint; got {dict(value)}."
-            ) from None
-    arr = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
-    if arr.size == 1:
-        arr = np.full(n_joints, arr[0])
-    if arr.size != n_joints or not np.all(np.isfinite(arr)):
-        raise InputError(
-            f"{name} must hold {n_joints} finite gains (one per joint); got {value!r}."
-        )
-    return arr
+    return per_joint(value, name, n_joints)
 
 
 def _check_names(given: Mapping[str, float], names: Sequence[str], what: str) -> dict[str, float]:
@@ -555,10 +538,11 @@ class InputErrorEstimator:
         if self.torque != "pd" and (self.kp is not None or self.kd is not None):
             given = [n for n in ("kp", "kd") if getattr(self, n) is not None]
             raise InputError(
-                f"--kp/--kd are used only with --torque pd; got {'/'.join(given)} with "
-                f"torque={self.torque!r} (the measured tau1..taun need no gains). Use "
-                "torque='pd' (CLI --torque pd) to rebuild the torque from the PD law, or drop "
-                "kp/kd."
+                f"{arg('kp')}/{arg('kd')} are used only with {arg('torque', repr('pd'), cli='pd')}; "
+                f"got {'/'.join(arg(n) for n in given)} with "
+                f"{arg('torque', repr(self.torque), cli=self.torque)} (the measured tau1..taun "
+                f"need no gains). Use {arg('torque', repr('pd'), cli='pd')} to rebuild the torque "
+                f"from the PD law, or drop {arg('kp')}/{arg('kd')}."
             )
         if self.derivatives not in ("paper", "consistent"):
             raise InputError(
@@ -566,12 +550,7 @@ class InputErrorEstimator:
             )
         if self.start not in ("initial", "linear"):
             raise InputError(f"start must be 'initial' or 'linear'; got {self.start!r}.")
-        if (
-            isinstance(self.max_nfev, bool)
-            or not isinstance(self.max_nfev, (int, np.integer))
-            or self.max_nfev < 1
-        ):
-            raise InputError(f"max_nfev must be a positive integer; got {self.max_nfev!r}.")
+        check_int(self.max_nfev, "max_nfev", minimum=1)
         for attr in ("xtol", "ftol", "gtol"):
             check_positive(getattr(self, attr), attr)
         for attr in (
@@ -630,19 +609,17 @@ class InputErrorEstimator:
         missing = [n for n in needed if n not in recording.names]
         if missing:
             hint = (
-                "Record the joint torques, or use torque='pd' (CLI --torque pd) with references "
-                "r1..rn and the PD gains."
+                f"Record the joint torques, or use {arg('torque', repr('pd'), cli='pd')} with "
+                "references r1..rn and the PD gains."
                 if self.torque == "measured"
-                else "Record the references, or use torque='measured' (CLI --torque measured) "
-                "with tau1..taun."
+                else "Record the references, or use "
+                f"{arg('torque', repr('measured'), cli='measured')} with tau1..taun."
             )
             raise DataFileError(
                 f"torque={self.torque!r} needs channels {needed}; the recording lacks {missing} "
                 f"(it has {list(recording.names)}). {hint}"
             )
-        m = self.half_width
-        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
-            raise InputError(f"half_width (M) must be an integer >= 1; got {m!r}.")
+        m = check_int(self.half_width, "half_width", minimum=1)
         check_length(
             recording.n_samples,
             2 * int(m) + 1,
@@ -716,8 +693,8 @@ class InputErrorEstimator:
                 raise IdentifiabilityError(
                     "; ".join(c.text for c in unresolved)
                     + ": the data cannot separate them. Fix one of each, e.g. "
-                    f"fixed={{'{first}': VALUE}} (CLI --fix {first}=VALUE), or allow "
-                    "hold_unidentifiable=True."
+                    f"{arg('fixed', f'{{{first!r}: VALUE}}', cli=f'{first}=VALUE')}, or allow "
+                    f"{arg('hold_unidentifiable', 'True')}."
                 )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -834,7 +811,7 @@ class InputErrorEstimator:
             bound_text = (
                 f"the fit ended on a bound: {where}. The data push these parameters out of the "
                 "physical region, which usually means the model does not match the system (e.g. "
-                "kinetic='paper' / --kinetic paper fitted to data of the exact kinetic energy, "
+                "kinetic='paper' fitted to data of the exact kinetic energy, "
                 "wrong gains, or a missing friction term); their standard errors are not "
                 "meaningful (NaN). Check the model, or set bounds= if the bound was too tight."
             )

@@ -66,10 +66,11 @@ from .._validate import (
     as_2d,
     check_finite,
     check_in_range,
+    check_int,
     check_positive,
     check_signal_pair,
 )
-from ..errors import EstimationError, IdentifiabilityError, InputError, ShapeError
+from ..errors import EstimationError, IdentifiabilityError, InputError, ShapeError, arg
 from ..models.linear_ode import (
     LinearODEModel,
     as_linear_ode_model,
@@ -390,10 +391,7 @@ def _prefilter_settings(spec, dt, prefilter_cutoff, prefilter_order, discard):
     """The pre-filter's settings, shared by `build_regression` and the streaming estimator so that
     both filter alike: (highest derivative order, cut-off [Hz], Butterworth order, samples to
     discard or None for the filter's own transient)."""
-    if discard is not None and (
-        isinstance(discard, bool) or int(discard) != discard or int(discard) < 0
-    ):
-        raise InputError(f"transient_samples (discard) must be an integer >= 0; got {discard!r}.")
+    check_int(discard, "transient_samples", minimum=0, allow_none=True)
     highest = max(spec.order, spec.input_order)
     cutoff = (
         default_prefilter_cutoff(dt, _model_frequency(spec))
@@ -1019,7 +1017,7 @@ def _check_forgetting(forgetting) -> float:
         return check_in_range(forgetting, "forgetting", 0.0, 1.0, low_open=True)
     except InputError:
         raise InputError(
-            f"forgetting must lie in (0, 1] (λ, --forgetting); got {forgetting!r}. Use 0.95–1: "
+            f"{arg('forgetting')} must lie in (0, 1] (λ); got {forgetting!r}. Use 0.95–1: "
             "1 keeps all data (constant parameters), λ < 1 forgets with a memory of about "
             "1 / (1 − λ) samples (0.998: 500 samples) to track changing parameters."
         ) from None
@@ -1028,16 +1026,12 @@ def _check_forgetting(forgetting) -> float:
 def _check_init_samples(init_samples, p: int) -> int:
     if init_samples is None:
         return 10 * p
-    try:
-        value = int(init_samples)
-    except (TypeError, ValueError):
-        raise InputError(f"init_samples must be an integer; got {init_samples!r}.") from None
-    if value != init_samples or value < p:
-        raise InputError(
-            f"init_samples must be an integer >= the number of unknowns ({p}) so the OLS start "
-            f"(eq. 4) is defined; got {init_samples!r}."
-        )
-    return value
+    return check_int(
+        init_samples,
+        "init_samples",
+        minimum=p,
+        fix=f"It must be >= the number of unknowns ({p}) so the OLS start (eq. 4) is defined.",
+    )
 
 
 # =============================================================================== estimator
@@ -1214,9 +1208,9 @@ class RecursiveLeastSquares:
         if n_rows < max(init, p):
             raise EstimationError(
                 f"the regression has {n_rows} rows after the {reg.discarded}-sample pre-filter "
-                f"transient but needs at least {max(init, p)} (init_samples, >= {p} unknowns). Use "
-                f"a longer record, fewer init_samples (>= {p}; --init-samples N) or a higher "
-                "prefilter_cutoff (--prefilter-cutoff HZ: a shorter transient)."
+                f"transient but needs at least {max(init, p)} ({arg('init_samples')}, >= {p} "
+                f"unknowns). Use a longer record, fewer {arg('init_samples')} (>= {p}) or a higher "
+                f"{arg('prefilter_cutoff')} [Hz] (a shorter transient)."
             )
         _check_excitation(reg.X, reg.names, reg.Y, _nominal_of(spec, reg.names))
         M = _first_invertible_row(reg.X, r, init)
@@ -1556,8 +1550,8 @@ def _check_excitation(
                     f"{MIN_RELATIVE_CONTRIBUTION:g} of the regression's left-hand side, so the "
                     "estimate would be fitted to filter transients or rounding (a settled or "
                     "constant record). Excite the system with a varying input (e.g. a sinusoid "
-                    "near its natural frequency) or give those parameters with known=... "
-                    "(--known NAME=VALUE)."
+                    "near its natural frequency) or give those parameters with "
+                    f"{arg('known', '{NAME: VALUE}', cli='NAME=VALUE')}."
                 )
     d = 1.0 / np.sqrt(diag)
     w, V = np.linalg.eigh(S * d[:, None] * d[None, :])

@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import signal, special
 
-from .._validate import as_1d, check_finite, check_length, check_time, sample_period
+from .._validate import as_1d, check_finite, check_int, check_length, check_time, sample_period
 from ..errors import InputError, SamplingError, ShapeError
 
 __all__ = [
@@ -696,17 +696,12 @@ def _check_kind(kind) -> int:
 
 
 def _check_half_width(half_width) -> int:
-    if isinstance(half_width, bool) or not isinstance(half_width, numbers.Integral):
-        raise InputError(
-            f"half_width (M) must be an integer >= 1; got {half_width!r} of type "
-            f"{type(half_width).__name__}. Pass e.g. half_width=100 (201 taps)."
-        )
-    if half_width < 1:
-        raise InputError(
-            f"half_width (M) must be an integer >= 1; got {half_width}. The filter has 2M + 1 "
-            "taps; the paper uses M = 100."
-        )
-    return int(half_width)
+    return check_int(
+        half_width,
+        "half_width",
+        minimum=1,
+        fix="It is M: the filter has 2M + 1 taps; the paper uses M = 100.",
+    )
 
 
 def _check_cutoff(cutoff) -> float:

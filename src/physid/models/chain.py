@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._validate import as_1d, as_2d, check_finite
+from .._validate import as_1d, as_2d, check_finite, parameter_vector, per_joint
 from ..errors import IdentifiabilityError, InputError, ShapeError
 from . import _cache
 from .codegen import cholesky_solve_lines, source_to_function
@@ -513,36 +513,7 @@ class ChainModel:
         ShapeError
             An array of the wrong length.
         """
-        if params is None:
-            return self._nominal.copy()
-        if isinstance(params, dict):
-            bad = [k for k in params if k not in self.parameter_names]
-            if bad:
-                raise InputError(
-                    f"params has unknown name(s) {bad} for model {self.name!r}; known parameters: "
-                    f"{list(self.parameter_names)}."
-                )
-            theta = self._nominal.copy()
-            for k, v in params.items():
-                try:
-                    theta[self.parameter_names.index(k)] = float(v)
-                except (TypeError, ValueError):
-                    raise InputError(f"params[{k!r}] must be a number; got {v!r}.") from None
-        else:
-            theta = as_1d(params, "params")
-            if theta.size != len(self.parameter_names):
-                raise ShapeError(
-                    f"params as an array must have {len(self.parameter_names)} entries ordered "
-                    "like "
-                    f"{list(self.parameter_names)}; got {theta.size}. Pass a dict to override "
-                    "only some."
-                )
-        if not np.all(np.isfinite(theta)):
-            raise InputError(
-                f"params must be finite; got "
-                f"{dict(zip(self.parameter_names, theta, strict=False))}."
-            )
-        return theta
+        return parameter_vector(params, self.parameter_names, self._nominal, model=self.name)
 
     def _states(self, *pairs):
         n_j = self.n_joints
@@ -870,11 +841,8 @@ class ChainModel:
             ``f(t, y)`` returning ẏ as a list of 2·n_joints floats, for ``solve_ivp(f, ...)``.
         """
         nj = self.n_joints
-        kp_l = as_1d(kp, "kp").tolist()
-        kd_l = as_1d(kd, "kd").tolist()
-        for name, v in (("kp", kp_l), ("kd", kd_l)):
-            if len(v) != nj:
-                raise ShapeError(f"{name} must hold {nj} gains (one per joint); got {len(v)}.")
+        kp_l = per_joint(kp, "kp", nj).tolist()
+        kd_l = per_joint(kd, "kd", nj).tolist()
         core = self._scalar["pd"](self.parameter_vector(params).tolist(), kp_l, kd_l)
         if callable(reference):
             ref = reference

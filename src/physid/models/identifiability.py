@@ -32,7 +32,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import IdentifiabilityError, InputError
+from ..errors import IdentifiabilityError, InputError, arg
 
 __all__ = [
     "IdentifiabilityWarning",
@@ -434,7 +434,7 @@ def hold_plan(
             warnings.warn(
                 f"{combo.text}: the data cannot separate them, so {hold} is held at its initial "
                 f"value {plan[hold]:g} and only {combo.expression} is meaningful. Pass "
-                f"fixed={{'{hold}': VALUE}} (CLI: --fix {hold}=VALUE) with a measured value to "
+                f"fixed={{'{hold}': VALUE}} with a measured value to "
                 "choose, or fix another parameter of the combination.",
                 IdentifiabilityWarning,
                 stacklevel=3,
@@ -555,20 +555,22 @@ def raise_if_not_excited(analysis: NumericIdentifiability, where: str) -> None:
     ------
     IdentifiabilityError
         Naming the unexcited parameters, or each weak combination in words, and the fix
-        (``fixed={NAME: VALUE}`` / CLI ``--fix NAME=VALUE``, or a richer motion).
+        (``fixed={NAME: VALUE}``, or a richer motion); the argument is marked with
+        `physid.errors.arg`, so the command line shows its flag instead.
     """
     if analysis.not_excited:
         raise IdentifiabilityError(
             f"{where}: the data do not excite {_join_words(analysis.not_excited)} at all (the "
             "residuals' sensitivity to it is zero on every sample, e.g. a joint that never "
-            "moves). Fix it with fixed={NAME: VALUE} (CLI --fix NAME=VALUE) or record a "
-            "motion that moves it."
+            f"moves). Fix it with {arg('fixed', '{NAME: VALUE}', cli='NAME=VALUE')} or record "
+            "a motion that moves it."
         )
     if analysis.weak_directions:
         texts = "; ".join(c.text for c in analysis.weak_directions)
         first = analysis.weak_directions[0].parameters[-1]
         raise IdentifiabilityError(
             f"{where}: the Jacobian is (numerically) singular: {texts} (relative singular value "
-            f"below {analysis.rtol:g}). Hold one parameter of each, e.g. fixed={{'{first}': "
-            f"VALUE}} (CLI --fix {first}=VALUE), or excite the system more."
+            f"below {analysis.rtol:g}). Hold one parameter of each, e.g. "
+            f"{arg('fixed', f'{{{first!r}: VALUE}}', cli=f'{first}=VALUE')}, or excite the "
+            "system more."
         )

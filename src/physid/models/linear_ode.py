@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import as_1d, check_finite, check_positive
-from ..errors import InputError, ShapeError
+from .._validate import as_1d, check_finite, check_positive, parameter_vector
+from ..errors import InputError, arg
 from .spec import LinearODESpec
 
 __all__ = [
@@ -182,9 +182,10 @@ class LinearODEModel:
             unknown = tuple(u for u in self.unknown if u not in known_names)
             if not unknown:
                 raise InputError(
-                    f"known gives values for all of the model's unknowns {list(self.unknown)}, "
-                    "so nothing is left to estimate; pass unknown=... (--unknown) or drop one "
-                    "from known."
+                    f"{arg('known')} gives values for all of the model's unknowns "
+                    f"{list(self.unknown)}, so nothing is left to estimate; pass "
+                    f"{arg('unknown', '[NAME, ...]', cli='NAME,...')} or drop one from "
+                    f"{arg('known')}."
                 )
         unknown = (unknown,) if isinstance(unknown, str) else tuple(unknown)
         bad = [u for u in unknown if u not in names]
@@ -225,34 +226,10 @@ class LinearODEModel:
 
     def parameter_values(self, params=None) -> dict:
         """Nominal values overridden by ``params`` (dict, or array like `parameter_names`)."""
-        values = dict(self._nominal)
-        if params is None:
-            return values
-        if isinstance(params, dict):
-            bad = [k for k in params if k not in values]
-            if bad:
-                raise InputError(
-                    f"params has unknown name(s) {bad} for model {self.name!r}; known: "
-                    f"{list(self.parameter_names)}."
-                )
-            for k, v in params.items():
-                try:
-                    values[k] = float(v)
-                except (TypeError, ValueError):
-                    raise InputError(f"params[{k!r}] must be a number; got {v!r}.") from None
-        else:
-            arr = as_1d(params, "params")
-            if arr.size != len(self.parameter_names):
-                raise ShapeError(
-                    f"params as an array must have {len(self.parameter_names)} entries ordered "
-                    "like "
-                    f"{list(self.parameter_names)}; got {arr.size}."
-                )
-            values = dict(zip(self.parameter_names, arr.tolist(), strict=False))
-        bad = {k: v for k, v in values.items() if not np.isfinite(v)}
-        if bad:
-            raise InputError(f"params must be finite; got {bad}.")
-        return values
+        names = list(self.parameter_names)
+        nominal = [self._nominal[k] for k in names]
+        theta = parameter_vector(params, names, nominal, model=self.name)
+        return dict(zip(names, theta.tolist(), strict=True))
 
     def coefficients(self, params=None) -> tuple[np.ndarray, np.ndarray]:
         """(a, b): a of shape (n + 1,) with a[n] = 1 (ascending powers), b of shape (m + 1,)."""

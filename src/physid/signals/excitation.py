@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import as_1d, check_finite
+from .._validate import as_1d, check_finite, check_int
 from ..errors import InputError, ShapeError
 
 __all__ = [
@@ -90,8 +90,7 @@ def schroeder_phases(n_components: int) -> np.ndarray:
     M. R. Schroeder, "Synthesis of low-peak-factor signals and binary sequences with low
     autocorrelation", IEEE Trans. Inf. Theory 16 (1970) 85-89, for equal amplitudes.
     """
-    if not isinstance(n_components, (int, np.integer)) or n_components < 1:
-        raise InputError(f"n_components must be a positive integer; got {n_components!r}.")
+    n_components = check_int(n_components, "n_components", minimum=1)
     k = np.arange(1, int(n_components) + 1)
     return -np.pi * k * (k - 1) / n_components
 

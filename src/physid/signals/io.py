@@ -33,7 +33,7 @@ import numpy as np
 
 from .._paths import atomic_write
 from .._validate import UNIFORM_RTOL
-from ..errors import DataFileError, InputError, MissingDependencyError, PhysidError
+from ..errors import DataFileError, InputError, MissingDependencyError, PhysidError, arg
 from .recording import Recording
 
 __all__ = ["load_recording", "save_recording", "DEFAULT_UNIFORM_RTOL", "SUPPORTED_SUFFIXES"]
@@ -267,7 +267,7 @@ def _build(
                 f"{path}: time is not uniformly sampled: the interval from {row_label(i)} to "
                 f"{row_label(i + 1)} is {steps[i]:.6g} s against a mean period of "
                 f"{period:.6g} s (worst relative deviation {worst:.3g}, tolerance "
-                f"{uniform_rtol:g}). Pass resample=True (CLI: --resample) to interpolate onto a "
+                f"{uniform_rtol:g}). Pass {arg('resample', 'True', cli='')} to interpolate onto a "
                 "uniform grid with the mean period, or uniform_rtol=None to keep the time "
                 "vector as it is."
             )

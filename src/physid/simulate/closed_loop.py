@@ -26,7 +26,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from .._validate import as_1d, as_2d, check_finite, check_positive, sample_period
+from .._validate import as_1d, as_2d, check_finite, check_positive, per_joint, sample_period
 from ..errors import InputError, ShapeError, SimulationError
 from ..signals.noise import add_white_noise
 from .linear import uniform_time
@@ -237,16 +237,6 @@ def paper_reference(paper: bool = True, *, dt: float = PAPER_MANIPULATOR["dt"]) 
 
 
 # --------------------------------------------------------------------------- right-hand side
-def _gains(value, name: str, n: int) -> np.ndarray:
-    g = as_1d(value, name)
-    if g.size == 1:
-        g = np.full(n, g[0])
-    if g.size != n:
-        raise ShapeError(f"{name} must hold one gain per joint ({n}); got {g.size}.")
-    check_finite(g[:, None], name)
-    return g
-
-
 def closed_loop_rhs(model, *, kp, kd, reference: Callable, params=None, backend: str = "auto"):
     """The closed-loop right-hand side ``f(t, y) -> ẏ``, y = [q, q̇] (length 2 n_joints).
 
@@ -270,8 +260,8 @@ def closed_loop_rhs(model, *, kp, kd, reference: Callable, params=None, backend:
         ``f(t, y)``; its attribute ``backend`` names the implementation used.
     """
     n = int(model.n_joints)
-    kp_a = _gains(kp, "kp", n)
-    kd_a = _gains(kd, "kd", n)
+    kp_a = per_joint(kp, "kp", n)
+    kd_a = per_joint(kd, "kd", n)
     if backend not in ("auto", "compiled", "generated", "pinocchio"):
         raise InputError(
             f"backend must be 'auto', 'compiled', 'generated' or 'pinocchio'; got {backend!r}."
@@ -402,8 +392,8 @@ def simulate_closed_loop(
     n = int(model.n_joints)
     t = uniform_time(t, duration=duration, dt=dt)
     period = sample_period(t, "t")
-    kp_a = _gains(kp, "kp", n)
-    kd_a = _gains(kd, "kd", n)
+    kp_a = per_joint(kp, "kp", n)
+    kd_a = per_joint(kd, "kd", n)
     ref_grid = t if reference_grid is None else as_1d(reference_grid, "reference_grid")
     ref = make_reference(reference, n, ref_grid)
     y0 = np.zeros(2 * n)
