@@ -90,8 +90,8 @@ def test_options_reach_the_analysis(capsys, tmp_path):
         (["--forgetting", "0"], r"forgetting must lie in \(0, 1\]"),
         (["--forgetting", "a,b"], "--forgetting expects comma-separated numbers"),
         (["--ratio-range", "2", "1"], "LO < HI"),
-        (["--samples", "2", "--init-samples", "3"], "init_samples < samples"),
-        (["--natural-frequency", "-1"], "natural_frequency must be finite and > 0"),
+        (["--samples", "2", "--init-samples", "3"], "--init-samples < --samples"),
+        (["--natural-frequency", "-1"], "--natural-frequency must be finite and > 0"),
     ],
 )
 def test_errors_exit_2_with_a_message(capsys, argv, match):

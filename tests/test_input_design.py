@@ -114,7 +114,7 @@ def test_design_input_result_json_and_plot():
     res = design_input(forgetting=[0.95, 1.0], n_ratios=50, horizons=[100, 1000])
     assert res.variance_factor.shape == (2, 50) and res.horizon_variance_factor.shape == (2, 50)
     assert res.optimal_ratio == pytest.approx((2.0, 2.0))
-    assert "widen --ratio-range" in res.message and res.success
+    assert "widen the ratio range" in res.message and res.success
     d = res.to_dict()
     json.dumps(d, allow_nan=False)
     assert res.optimal_ratio_by_forgetting() == {"0.95": res.optimal_ratio[0], "1": 2.0}

@@ -50,8 +50,8 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from .._validate import as_1d, check_positive
-from ..errors import InputError
+from .._validate import as_1d, check_int, check_positive
+from ..errors import InputError, arg
 from ..estimators.results import ResultMixin
 from ..models.linear_ode import MSD_NATURAL_FREQUENCY
 
@@ -107,17 +107,14 @@ def resonant_response(ratio, t, natural_frequency: float) -> np.ndarray:
 def _check_design_args(natural_frequency, sample_period, init_samples, samples):
     w0 = check_positive(natural_frequency, "natural_frequency")
     ts = check_positive(sample_period, "sample_period")
-    try:
-        m, k = int(init_samples), int(samples)
-    except (TypeError, ValueError):
+    m = check_int(init_samples, "init_samples", minimum=0)
+    k = check_int(samples, "samples", minimum=1)
+    if k <= m:
         raise InputError(
-            f"init_samples and samples must be integers; got {init_samples!r} and {samples!r}."
-        ) from None
-    if m != init_samples or k != samples or m < 0 or k <= m:
-        raise InputError(
-            "need integers 0 <= init_samples < samples (rows m+1..k); got "
-            f"init_samples={init_samples!r}, samples={samples!r}. Raise samples or lower "
-            "init_samples."
+            f"need {arg('init_samples')} < {arg('samples')} (rows m+1..k); got "
+            f"{arg('init_samples', repr(init_samples), cli=str(init_samples))}, "
+            f"{arg('samples', repr(samples), cli=str(samples))}. Raise {arg('samples')} or lower "
+            f"{arg('init_samples')}."
         )
     return w0, ts, m, k
 
