@@ -25,6 +25,7 @@ demo: $(VENV)/.core
 
 test: $(VENV)/.full
 	$(BIN)/python tools/ensure_chromium.py || true
+	$(BIN)/lint-imports --no-cache
 	MPLBACKEND=Agg $(BIN)/python -m pytest $(ARGS)
 
 bench: $(VENV)/.full

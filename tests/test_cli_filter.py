@@ -91,7 +91,7 @@ def test_first_derivative_units(tmp_path, csv_file):
     ("extra", "pattern"),
     [
         (["--half-width", "300"], r"in\.csv: .*needs at least 601 samples but the record has 400"),
-        (["--half-width", "0"], r"half_width \(M\) must be an integer >= 1"),
+        (["--half-width", "0"], r"--half-width must be an integer >= 1"),
         (["--cutoff", "4"], r"cutoff \(Ω_g, rad/sample\) must lie in \(0, π\]"),
         (["--channels", "q9"], r"lacks channel\(s\) \['q9'\]"),
         (["--channels", ","], r"--channels expects names"),
@@ -122,7 +122,7 @@ def test_resample_option_interpolates_non_uniform_file(tmp_path, capsys):
     out = tmp_path / "o.csv"
     argv = ["filter", str(src), "--kind", "first", "--half-width", "20", "--out", str(out)]
     assert main(argv) == 2
-    assert "Pass resample=True (CLI: --resample)" in capsys.readouterr().err
+    assert "Pass --resample to interpolate" in capsys.readouterr().err
     assert main([*argv, "--resample"]) == 0
     res = load_recording(out)
     # linear data: interpolation onto the uniform grid is exact, and the slope is 3
