@@ -46,7 +46,7 @@ import numpy as np
 from scipy import linalg, signal
 
 from .._validate import check_positive, sample_period
-from ..errors import IdentifiabilityError, InputError, SamplingError, ShapeError
+from ..errors import IdentifiabilityError, InputError, SamplingError, ShapeError, arg
 from .results import ResultMixin
 
 __all__ = [
@@ -294,8 +294,8 @@ def _recording_arrays(recording, n_joints: int):
     if missing:
         raise InputError(
             f"the recording lacks channel(s) {missing}; IDIM needs q1..q{n_joints} [rad] and "
-            f"tau1..tau{n_joints} [N·m] (it has {names}). Map them with channels= "
-            "(CLI --map q1=...)."
+            f"tau1..tau{n_joints} [N·m] (it has {names}). Map them with "
+            f"{arg('channels', '{NAME: COLUMN}', cli='q1=COLUMN,...')}."
         )
     extra = [
         c
@@ -415,8 +415,8 @@ def idim_rows(
         if not math.isclose(dt, dts[0], rel_tol=1e-6):
             raise SamplingError(
                 f"recording {k + 1} has sample period {dt:.9g} s, recording 1 has {dts[0]:.9g} s; "
-                "stacked recordings must share one period. Resample them "
-                "(Recording.resample / CLI --resample) to a common period first."
+                "stacked recordings must share one period. Resample them to a common period "
+                f"first (Recording.resample, or {arg('resample', 'True', cli='')} when loading)."
             )
     names0 = [c for c in recordings[0].names if re.fullmatch(r"(q|tau)\d+", c)]
     for k, r in enumerate(recordings[1:], start=1):
@@ -1110,15 +1110,17 @@ class IDIMEstimator:
             if kp is None or kd is None or missing:
                 what = []
                 if kp is None:
-                    what.append("the proportional gains (kp=, CLI --kp)")
+                    what.append(f"the proportional gains ({arg('kp', '[...]', cli='LIST')})")
                 if kd is None:
-                    what.append("the derivative gains (kd=, CLI --kd)")
+                    what.append(f"the derivative gains ({arg('kd', '[...]', cli='LIST')})")
                 if missing:
                     what.append(f"the reference channels {missing}")
                 raise InputError(
                     f"IDIM-IV simulates the closed loop, so it needs the controller; recording "
-                    f"{k + 1} lacks {' and '.join(what)}. Give kp= and kd= (CLI --kp LIST --kd "
-                    "LIST) and a recording with r1..rn, or use method='ols'/'wls'."
+                    f"{k + 1} lacks {' and '.join(what)}. Give {arg('kp', '[...]', cli='LIST')} "
+                    f"and {arg('kd', '[...]', cli='LIST')} and a recording with r1..rn, or use "
+                    f"{arg('method', repr('ols'), cli='idim-ols')}/"
+                    f"{arg('method', repr('wls'), cli='idim-wls')}."
                 )
             out.append((kp, kd, rec.select(refs)))
         return out
