@@ -24,7 +24,6 @@ from .errors import (
     ShapeError,
     SimulationError,
 )
-from .signals.recording import Recording
 
 __version__ = "0.1.0"
 
@@ -63,3 +62,13 @@ def load_recording(path, **options):
     from .signals import load_recording as _load_recording
 
     return _load_recording(path, **options)
+
+
+def __getattr__(name):
+    # `Recording` is imported on first use, so that `import physid` (and `physid --version`,
+    # `physid --help`) loads no numpy: see docs/architecture.md, "Start-up time".
+    if name == "Recording":
+        from .signals.recording import Recording
+
+        return Recording
+    raise AttributeError(f"module 'physid' has no attribute {name!r}")

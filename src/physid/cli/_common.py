@@ -7,7 +7,6 @@ import sys
 from typing import Any
 
 from ..errors import InputError
-from ..estimators.results import jsonable
 
 __all__ = ["float_list", "assignments", "print_json", "progress", "add_resample_option"]
 
@@ -46,6 +45,8 @@ def assignments(text: str | None, option: str) -> dict[str, float]:
 
 def print_json(obj: Any) -> None:
     """Print one JSON object on stdout."""
+    from ..estimators.results import jsonable  # lazy: `physid --help` imports no numpy
+
     json.dump(jsonable(obj), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
 
