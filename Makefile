@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 OUT    ?= demo-out
 ARGS   ?=
 
-.PHONY: demo test bench lint clean venv
+.PHONY: demo test bench lint clean venv fuzz
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -27,6 +27,11 @@ test: $(VENV)/.full
 	$(BIN)/python tools/ensure_chromium.py || true
 	$(BIN)/lint-imports --no-cache
 	MPLBACKEND=Agg $(BIN)/python -m pytest $(ARGS)
+
+# Property tests of every loader and the expression parser at >= 20000 examples each (slow).
+fuzz: $(VENV)/.full
+	MPLBACKEND=Agg $(BIN)/python -m pytest tests/fuzz -p no:randomly --hypothesis-profile=fuzz \
+		--hypothesis-show-statistics -q $(ARGS)
 
 bench: $(VENV)/.full
 	MPLBACKEND=Agg $(BIN)/python benchmarks/run.py $(ARGS)

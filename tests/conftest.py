@@ -1,4 +1,5 @@
-"""Shared test configuration: no GUI backend, a fresh model cache per session."""
+"""Shared test configuration: no GUI backend, a fresh model cache per session, and the
+hypothesis profiles of the property tests (``ci``: the default, modest; ``fuzz``: ``make fuzz``)."""
 
 from __future__ import annotations
 
@@ -6,8 +7,30 @@ import os
 
 import matplotlib
 import pytest
+from hypothesis import HealthCheck, settings
 
 matplotlib.use("Agg")
+
+# Property tests (tests/fuzz/, and any @given test) use these profiles. "ci" keeps `make test`
+# quick; "fuzz" is `make fuzz` (pytest tests/fuzz --hypothesis-profile=fuzz). No deadline:
+# the machine is shared, and time limits belong in benchmarks, not in tests.
+settings.register_profile(
+    "ci",
+    max_examples=50,
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+)
+settings.register_profile(
+    "fuzz",
+    max_examples=20_000,
+    deadline=None,
+    suppress_health_check=[
+        HealthCheck.too_slow,
+        HealthCheck.function_scoped_fixture,
+        HealthCheck.data_too_large,
+    ],
+)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 
 @pytest.fixture(scope="session", autouse=True)
