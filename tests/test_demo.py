@@ -7,6 +7,7 @@ headless Chromium rendering) are the independent ones from tests/test_report_htm
 from __future__ import annotations
 
 import contextlib
+import html
 import importlib.util
 import io
 import json
@@ -16,12 +17,20 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 import physid  # noqa: E402
 from physid.cli import main  # noqa: E402
 from physid.errors import InputError  # noqa: E402
-from physid.experiments.demo import ADDS_TITLE, ERRATA_TITLE, INTRO_TITLE, run_demo  # noqa: E402
+from physid.report.demo import (  # noqa: E402
+    ADDS_TITLE,
+    ERRATA_TITLE,
+    HEADLINE_TITLE,
+    INTRO_TITLE,
+    YOUR_DATA_TITLE,
+    run_demo,
+)
 from physid.report.html import Erratum, FigureSpec, ReportSection, Table  # noqa: E402
 
 
@@ -90,12 +99,44 @@ def test_results_json_covers_both_papers_and_the_demo_sections(payload):
     meta = payload["metadata"]
     assert meta["quick"] is True and meta["physid_version"] == physid.__version__
     titles = list(payload["results"])
-    assert titles[0] == INTRO_TITLE and titles[-2:] == [ERRATA_TITLE, ADDS_TITLE]
+    assert titles[0] == HEADLINE_TITLE
+    assert titles[-4:] == [YOUR_DATA_TITLE, ADDS_TITLE, ERRATA_TITLE, INTRO_TITLE]
     parts = payload["results"][INTRO_TITLE]["wall_time_s"]
-    assert set(parts) == {"manipulator_paper", "msd_paper"}
+    assert set(parts) == {"manipulator_paper", "msd_paper", "arm6"}
     rows = {row[0]: row[1] for row in payload["tables"][INTRO_TITLE][1]["rows"]}
-    assert rows["manipulator_paper"] >= 1 and rows["msd_paper"] >= 1
-    assert len(titles) == 3 + rows["manipulator_paper"] + rows["msd_paper"]
+    assert all(rows[name] >= 1 for name in parts)
+    assert len(titles) == 5 + sum(rows[name] for name in parts)
+
+
+def test_every_number_in_a_paragraph_comes_from_results_json(payload):
+    problems, checked = checks.paragraph_number_problems(payload)
+    assert problems == []
+    assert checked >= 150  # the paragraphs do quote numbers
+
+
+def test_every_figure_has_title_caption_alt_text_and_units(payload, page):
+    assert checks.figure_problems(payload) == []
+    info = payload["metadata"]["figure_info"]
+    for name, fig in info.items():
+        assert f'alt="{html.escape(fig["alt"], quote=True)}"' in page, name
+
+
+def test_no_paper_is_called_by_a_seed_and_no_sweep_is_suggested_for_user_data(page):
+    assert "Seed 000" not in page and "Seed 003" not in page
+    your_data = page.split('id="your-data-three-commands"')[1].split("</section>")[0]
+    assert "physid sweep" not in your_data and "physid validate" in your_data
+    assert "not installed" not in page
+
+
+def test_long_tables_are_collapsed_behind_a_summary(payload, page):
+    long = [
+        t
+        for tables in payload["tables"].values()
+        for t in tables
+        if len(t["rows"]) > 20 and not t["caption"].startswith("Errata")
+    ]
+    for t in long:
+        assert f"<summary>{html.escape(t['caption'])} — all {len(t['rows'])} rows</summary>" in page
 
 
 def test_errata_from_both_papers_are_reported(payload, page):
@@ -117,6 +158,17 @@ def test_report_renders_in_chromium(demo, tmp_path):
     assert check["loaded"] == check["images"], check["not_loaded"]
     assert all(width > 0 for width in check["widths"])
     assert check["scroll_width"] <= check["client_width"], check
+    assert check["too_wide"] == [], check["too_wide"]
+    for part in check["parts"]:
+        assert part["right"] <= check["client_width"] + 1, part
+
+
+def test_each_part_fits_1280_px_in_a_screenshot(demo, tmp_path):
+    shots = checks.screenshot_parts(demo["out"] / "report.html", tmp_path)
+    assert len(shots) >= 4  # parts I-III and the reference part
+    for part, png in shots.items():
+        width, height = checks.png_size(png.read_bytes())
+        assert width == 1280 and height > 200, part
 
 
 # ---------------------------------------------------------------------------------------------
@@ -164,19 +216,21 @@ def _stand_in_msd(quick=False, progress=None):
 def test_run_demo_on_stand_ins(tmp_path):
     messages = []
     paths = run_demo(
-        tmp_path,
+        tmp_path / "out",
         quick=True,
         progress=messages.append,
         experiments=[_stand_in_manipulator, _stand_in_msd],
     )
     payload = json.loads(paths.json.read_text())
     assert list(payload["results"]) == [
-        INTRO_TITLE,
+        HEADLINE_TITLE,
         "Arm",
         "MSD 1",
         "MSD 2",
-        ERRATA_TITLE,
+        YOUR_DATA_TITLE,
         ADDS_TITLE,
+        ERRATA_TITLE,
+        INTRO_TITLE,
     ]
     assert payload["results"]["Arm"]["ours"] == {"nfev": 37}
     assert payload["results"][ERRATA_TITLE] == {
@@ -204,13 +258,68 @@ def test_run_demo_on_stand_ins(tmp_path):
     parsed = checks.parse_report(paths.html.read_text())
     assert checks.assert_tables_match_json(parsed, payload) >= 8
     assert set(parsed["images"]) == {"arm"}
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no staging folder left behind
+
+
+def test_versions_list_only_what_the_run_imported(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.delitem(sys.modules, "pysindy", raising=False)
+    paths = run_demo(tmp_path / "out", quick=True, experiments=[_stand_in_msd])
+    payload = json.loads(paths.json.read_text())
+    intro = payload["results"][INTRO_TITLE]
+    assert "pysindy" not in intro["versions"] and "pysindy" in intro["not_imported"]
+    assert "not installed" not in json.dumps(payload["tables"][INTRO_TITLE])
+    assert intro["versions"]["numpy"] == np.__version__
+
+
+def _interrupted(quick=False, progress=None):
+    raise KeyboardInterrupt
+
+
+def test_an_interrupted_demo_leaves_no_partial_folder(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_demo(out, quick=True, experiments=[_stand_in_msd, _interrupted])
+    assert list(tmp_path.iterdir()) == []  # neither the folder nor a staging folder
+    first = run_demo(out, quick=True, experiments=[_stand_in_manipulator])
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    with pytest.raises(KeyboardInterrupt):
+        run_demo(out, quick=True, experiments=[_stand_in_msd, _interrupted])
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # the old run, whole
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+    assert first.html.exists()
+
+
+def test_a_rerun_replaces_the_old_run_without_mixing(tmp_path):
+    out = tmp_path / "out"
+    run_demo(out, quick=True, experiments=[_stand_in_manipulator])
+    (out / "notes.txt").write_text("mine")
+    assert (out / "arm.png").exists()
+    run_demo(out, quick=True, experiments=[_stand_in_msd])
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["notes.txt", "report.html", "results.json"]  # arm.png of the old run gone
+
+
+def test_demo_out_existing_file_is_refused_before_any_work(tmp_path, capsys):
+    target = tmp_path / "taken.txt"
+    target.write_text("keep me")
+    status = main(["demo", "--quick", "--out", str(target)])
+    err = capsys.readouterr().err
+    assert status == 2
+    assert "physid: error: --out " in err and "is an existing file, not a folder" in err
+    assert "demo: running" not in err  # refused before the experiments ran
+    assert target.read_text() == "keep me"
+    with pytest.raises(InputError, match=r"out_dir='.*taken.txt' is an existing file"):
+        run_demo(target, experiments=[_interrupted])  # the library checks first, too
 
 
 def test_run_demo_rejects_bad_experiments(tmp_path):
     with pytest.raises(InputError, match=r"experiments must hold callables"):
-        run_demo(tmp_path, experiments=[42])
+        run_demo(tmp_path / "a", experiments=[42])
     with pytest.raises(InputError, match=r"returned a dict; it must return a list"):
-        run_demo(tmp_path, experiments=[lambda quick, progress: [{"title": "x"}]])
+        run_demo(tmp_path / "b", experiments=[lambda quick, progress: [{"title": "x"}]])
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_demo_bad_option_exits_2(capsys):

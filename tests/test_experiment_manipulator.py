@@ -1,4 +1,8 @@
-"""The manipulator paper reproduction (physid.experiments.manipulator_paper), quick mode."""
+"""The manipulator paper reproduction (physid.experiments.manipulator_paper), quick mode.
+
+The experiment returns data (`SectionData`); the report renders it (`physid.report.parts`). The
+tests read the numbers from the data and the text from the rendered sections.
+"""
 
 from __future__ import annotations
 
@@ -9,13 +13,17 @@ import pytest
 
 import physid
 from physid.experiments import manipulator_paper as exp
+from physid.experiments.data import SectionData
 from physid.report.html import ReportSection, write_report
+from physid.report.parts import render
 
 
 @pytest.fixture(scope="module")
 def run_quick():
     messages: list[str] = []
-    sections = exp.run(quick=True, progress=messages.append)
+    data = exp.run(quick=True, progress=messages.append)
+    assert all(isinstance(s, SectionData) for s in data)
+    sections = [render(s) for s in data]
     return {s.title: s for s in sections}, messages
 
 
@@ -24,6 +32,21 @@ def test_sections_and_progress(run_quick):
     assert list(sections) == list(exp.TITLES.values())
     assert all(isinstance(s, ReportSection) for s in sections.values())
     assert messages and all(m.startswith("manipulator: ") for m in messages)
+
+
+def test_experiments_do_not_import_the_report():
+    """Layering: experiments return data; only physid.report renders it."""
+    import ast
+    from pathlib import Path
+
+    root = Path(exp.__file__).parent.parent
+    for path in root.rglob("*.py"):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                assert "report" not in node.module.split("."), f"{path}: imports {node.module}"
+            elif isinstance(node, ast.Import):
+                assert not any("physid.report" in a.name for a in node.names), path
 
 
 def test_identification_against_the_paper(run_quick):
@@ -83,6 +106,7 @@ def test_report_writes(run_quick, tmp_path):
     paths = write_report(list(run_quick[0].values()), tmp_path, "manipulator")
     assert paths.html.exists()
     assert len(paths.figures) == 5
+    assert len(list(exp.TITLES)) == 7  # overview, five sections, the errata list
     data = json.loads(paths.json.read_text())
     assert exp.TITLES["identification"] in json.dumps(data)
 

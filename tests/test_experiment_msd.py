@@ -10,14 +10,18 @@ import pytest
 
 from physid.estimators.results import jsonable
 from physid.experiments import msd_paper
+from physid.experiments.data import SectionData
 from physid.report.html import ReportSection
+from physid.report.parts import render
 
 W0 = math.sqrt(400.0 / 3.0)
 
 
 @pytest.fixture(scope="module")
 def sections():
-    return msd_paper.run(quick=True)
+    data = msd_paper.run(quick=True)
+    assert all(isinstance(s, SectionData) for s in data)
+    return [render(s) for s in data]
 
 
 def _section(sections, key):

@@ -8,6 +8,7 @@ tests/test_demo.py on the real demo report.
 from __future__ import annotations
 
 import base64
+import html
 import json
 import math
 import os
@@ -187,7 +188,22 @@ def assert_tables_match_json(parsed: dict, payload: dict) -> int:
     """
     json_tables = [t for tables in payload["tables"].values() for t in tables]
     # The page may also hold the aggregated errata table; it is checked against payload["errata"].
-    page = [t for t in parsed["tables"] if not t["caption"].startswith("Errata found")]
+    # A long table's visible summary row ("Summary: CAPTION") is checked against its "summary".
+    summaries = {
+        t["caption"].removeprefix("Summary: "): t
+        for t in parsed["tables"]
+        if t["caption"].startswith("Summary: ")
+    }
+    for stored in json_tables:
+        if "summary" in stored:
+            shown = summaries.pop(stored["caption"])
+            assert shown["rows"] == [[format_cell(c) for c in stored["summary"]]], stored["caption"]
+    assert not summaries, f"summary tables without a long table: {list(summaries)}"
+    page = [
+        t
+        for t in parsed["tables"]
+        if not t["caption"].startswith(("Errata found", "Summary: "))
+    ]
     assert [t["caption"] for t in page] == [t["caption"] for t in json_tables]
     n_numbers = 0
     for shown, stored in zip(page, json_tables, strict=True):
@@ -221,6 +237,91 @@ def assert_tables_match_json(parsed: dict, payload: dict) -> int:
     return n_numbers
 
 
+_TAG = re.compile(r"<[^>]+>")
+#: References to numbered things of the papers and years: not measurements.
+_REFERENCE = re.compile(
+    r"(Figs?\.|Eqs?\.|eqs?\.|[Ss]ections?|Part|Table|§|\(\d{4}\))\s*\(?[\d.–\-,A-Z ]*(and \d+)?"
+)
+_TEXT_NUMBER = re.compile(r"(?<![\w.^_/])[-+−]?\d+(?:\.\d+)?(?:[eE][-+−]?\d+)?(?![\w])")
+#: A number in the text may be a results value as is, in percent, or in milli-units.
+_SCALES = (1.0, 100.0, 1e3, 1e-3)
+
+
+def _numbers(value, out: list[float]) -> list[float]:
+    if isinstance(value, bool) or value is None:
+        return out
+    if isinstance(value, (int, float)):
+        if math.isfinite(value):
+            out.append(float(value))
+    elif isinstance(value, dict):
+        for v in value.values():
+            _numbers(v, out)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            _numbers(v, out)
+    return out
+
+
+def _shown_matches(token: str, values: list[float]) -> bool:
+    """``token`` (as printed) is one of ``values`` rounded to the digits it shows."""
+    text = token.replace("−", "-").lstrip("+").lower()
+    mantissa, _, exponent = text.partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    half_step = 0.5 * 10.0 ** (int(exponent or 0) - decimals)
+    shown = abs(float(text))
+    return any(
+        abs(abs(v) * scale - shown) <= half_step * (1 + 1e-9) + 1e-12 * shown
+        for v in values
+        for scale in _SCALES
+    )
+
+
+def paragraph_number_problems(payload: dict) -> tuple[list[str], int]:
+    """Numbers written in paragraphs that are not numbers of their section in results.json.
+
+    Every number token in a section's paragraphs (tags stripped; code blocks, figure/equation/
+    section references and years excluded) must equal, at the precision shown, a number of that
+    section's ``results`` or tables (as is, ×100 for percent or ×1000 for milli-units).
+    Returns the problems and the number of tokens checked.
+    """
+    problems, checked = [], 0
+    for title, paragraphs in payload["paragraphs"].items():
+        values = _numbers(payload["results"].get(title, {}), [])
+        for table in payload["tables"].get(title, []):
+            values = _numbers(table["rows"], values)
+        for p in paragraphs:
+            text = re.sub(r"<pre>.*?</pre>", " ", p, flags=re.S)  # commands, not numbers
+            text = _REFERENCE.sub(" ", html.unescape(_TAG.sub(" ", text)))
+            for m in _TEXT_NUMBER.finditer(text):
+                checked += 1
+                if not _shown_matches(m.group(0), values):
+                    around = text[max(0, m.start() - 50) : m.end() + 20]
+                    problems.append(f"{title}: {m.group(0)!r} in ...{around}...")
+    return problems, checked
+
+
+def figure_problems(payload: dict) -> list[str]:
+    """Figures without a title, a caption, alt text, or axis labels with units."""
+    problems = []
+    info = payload["metadata"].get("figure_info", {})
+    for name in payload["metadata"]["figures"]:
+        fig = info.get(name[:-4] if name.endswith(".png") else name)
+        if fig is None:
+            problems.append(f"{name}: no figure_info")
+            continue
+        if not fig["caption"].strip():
+            problems.append(f"{name}: no caption")
+        if not fig["alt"].strip() or fig["alt"] == fig["caption"]:
+            problems.append(f"{name}: no alt text of its own")
+        if not fig["title"] and not all(a["title"] for a in fig["axes"]):
+            problems.append(f"{name}: no title")
+        for i, a in enumerate(fig["axes"]):
+            for key in ("xlabel", "ylabel"):
+                if "[" not in a[key]:
+                    problems.append(f"{name}: axes {i} {key} {a[key]!r} has no unit in brackets")
+    return problems
+
+
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
 
 _CHECK_SCRIPT = """<script>
@@ -236,6 +337,24 @@ _CHECK_SCRIPT = """<script>
     errors.push('console.error: ' + Array.prototype.join.call(arguments, ' '));
     return original.apply(console, arguments);
   };
+  function scrolls(el) {
+    for (var e = el.parentElement; e; e = e.parentElement) {
+      var o = getComputedStyle(e).overflowX;
+      if (o === 'auto' || o === 'scroll' || o === 'hidden') { return true; }
+    }
+    return false;
+  }
+  function tooWide() {
+    var width = document.documentElement.clientWidth, out = [];
+    document.querySelectorAll('main *').forEach(function (el) {
+      var r = el.getBoundingClientRect();
+      if (r.width > 0 && (r.right > width + 1 || r.left < -1) && !scrolls(el)) {
+        out.push(el.tagName + (el.id ? '#' + el.id : '') + ' ' + Math.round(r.left) + '..' +
+                 Math.round(r.right));
+      }
+    });
+    return out.slice(0, 20);
+  }
   window.addEventListener('load', function () {
     var imgs = Array.prototype.slice.call(document.images);
     var loaded = imgs.filter(function (i) { return i.complete && i.naturalWidth > 0; });
@@ -249,12 +368,52 @@ _CHECK_SCRIPT = """<script>
                       .map(function (i) { return i.getAttribute('data-name'); }),
       errors: errors,
       scroll_width: document.documentElement.scrollWidth,
-      client_width: document.documentElement.clientWidth
+      client_width: document.documentElement.clientWidth,
+      too_wide: tooWide(),
+      parts: Array.prototype.map.call(document.querySelectorAll('main > .part, main > section'),
+        function (p) { var r = p.getBoundingClientRect();
+                       return {id: p.id, left: r.left, right: r.right, width: p.scrollWidth}; })
     });
     document.body.appendChild(pre);
   });
 })();
 </script>"""
+
+
+def screenshot_parts(report: Path, workdir: Path, width: int = 1280) -> dict[str, Path]:
+    """A PNG screenshot of each part of the report at ``width`` px (one Chromium run per part).
+
+    Each part (``div.part`` and top-level sections) is shown alone in a copy of the page.
+    """
+    chromium = find_chromium()
+    if chromium is None:
+        pytest.skip("Chromium is not installed; `make test` installs it (tools/ensure_chromium.py).")
+    text = report.read_text(encoding="utf-8")
+    ids = re.findall(r'<div class="part" id="([^"]+)"', text)
+    shots = {}
+    for part in ids:
+        page = workdir / f"part-{part}.html"
+        hide = (
+            f"<style>main > *:not(header):not(#{part}) {{ display: none !important; }}</style>"
+        )
+        page.write_text(text.replace("</head>", hide + "</head>", 1), encoding="utf-8")
+        png = workdir / f"part-{part}.png"
+        cmd = [
+            chromium,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            f"--user-data-dir={workdir / 'chromium-profile'}",
+            f"--window-size={width},6000",
+            f"--screenshot={png}",
+            page.resolve().as_uri(),
+        ]
+        env = dict(os.environ, DBUS_SESSION_BUS_ADDRESS="disabled:")
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env)
+        assert proc.returncode == 0 and png.exists(), proc.stderr[-2000:]
+        shots[part] = png
+    return shots
 
 
 def find_chromium() -> str | None:

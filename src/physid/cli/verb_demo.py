@@ -1,4 +1,5 @@
-"""``physid demo [--out DIR] [--quick]``: reproduce both papers and write the HTML report."""
+"""``physid demo [--out DIR] [--quick]``: reproduce both papers, identify a 6-DOF arm, write the
+HTML report."""
 
 from __future__ import annotations
 
@@ -12,13 +13,15 @@ ORDER = 10
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "demo",
-        help="reproduce both papers on built-in data and write DIR/report.html",
+        help="reproduce both papers and identify a 6-DOF arm on built-in data; write DIR/report.html",
         description=(
-            "Reproduce both papers on built-in, simulated data (seed 000: input-error "
-            "identification of a 4-DOF manipulator; seed 003: algebraic vs recursive estimation "
-            "of a mass-spring-damper) and write one self-contained report: DIR/report.html "
-            "(figures embedded), DIR/results.json (every number) and the figures as PNG files. "
-            "Progress goes to stderr; the report's path is printed on stdout."
+            "Reproduce two papers on built-in, simulated data (Cedro & Janecki: input-error "
+            "identification of a 4-DOF manipulator; Oueslati et al.: algebraic vs recursive "
+            "estimation of a mass-spring-damper), identify a 6-DOF arm end to end, and write one "
+            "self-contained report: DIR/report.html (figures embedded), DIR/results.json (every "
+            "number) and the figures as PNG files. The outputs are staged beside DIR and moved "
+            "in at the end, so an interrupted demo leaves DIR as it was. Progress goes to "
+            "stderr; the report's path is printed on stdout."
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -26,19 +29,24 @@ def register(subparsers) -> None:
         "--out",
         metavar="DIR",
         default="demo-out",
-        help="output folder (created if missing; files in it are replaced)",
+        help="output folder (created if missing; the demo's files in it are replaced)",
     )
     parser.add_argument(
         "--quick",
         action="store_true",
-        help="short records and small grids: under a minute on two cores",
+        help="short records, small grids and fewer seeds: under a minute",
     )
     parser.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from ..experiments.demo import run_demo
+    from ..errors import InputError
+    from ..report.demo import check_out_dir, run_demo
 
+    try:  # before any work: a bad --out must not cost a whole demo
+        check_out_dir(args.out)
+    except InputError as exc:
+        raise InputError(str(exc).replace("out_dir=", "--out ", 1)) from None
     paths = run_demo(args.out, quick=args.quick, progress=progress)
     print(paths.html)
     return 0

@@ -33,7 +33,6 @@ from __future__ import annotations
 import base64
 import datetime as _dt
 import html as _html
-import io
 import json
 import math
 import os
@@ -43,11 +42,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .._paths import atomic_write
 from ..errors import InputError
 from ..estimators.results import jsonable
+from ..experiments.data import Cell, Erratum, Table
+from .style import DPI, describe_figure, figure_png
 
 __all__ = [
     "Html",
@@ -60,7 +59,9 @@ __all__ = [
     "write_report",
 ]
 
-FIGURE_DPI = 110
+FIGURE_DPI = DPI
+#: Tables with more rows than this are shown collapsed (``<details>``) behind a summary.
+LONG_TABLE_ROWS = 20
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
@@ -74,41 +75,6 @@ class Html(str):
     __slots__ = ()
 
 
-Cell = str | float | int | None
-
-
-@dataclass(frozen=True)
-class Table:
-    """A table shown in a report section.
-
-    Parameters
-    ----------
-    caption : str
-        One line saying what the table shows.
-    columns : sequence of str
-        Column headers.
-    rows : sequence of sequences of cells
-        Each row has one cell per column; a cell is a ``str``, ``int``, ``float`` or ``None``
-        (shown as an em dash). Floats are shown with 6 significant digits (`format_cell`).
-    """
-
-    caption: str
-    columns: Sequence[str]
-    rows: Sequence[Sequence[Cell]]
-
-    def __post_init__(self) -> None:
-        columns = tuple(str(c) for c in self.columns)
-        rows = tuple(tuple(_check_cell(c, self.caption) for c in r) for r in self.rows)
-        for i, row in enumerate(rows):
-            if len(row) != len(columns):
-                raise InputError(
-                    f"Table {self.caption!r}: row {i} has {len(row)} cell(s) but there are "
-                    f"{len(columns)} column(s) {columns}; give one cell per column."
-                )
-        object.__setattr__(self, "columns", columns)
-        object.__setattr__(self, "rows", rows)
-
-
 @dataclass(frozen=True)
 class FigureSpec:
     """A matplotlib figure to embed.
@@ -120,12 +86,16 @@ class FigureSpec:
     figure : matplotlib.figure.Figure
         The figure (closed after it is saved).
     caption : str
-        What the figure shows.
+        One line saying what to see in the figure.
+    alt : str
+        Alternative text for readers who cannot see the image (what it shows and its main
+        message); the caption is used when empty.
     """
 
     name: str
     figure: Any
     caption: str = ""
+    alt: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME_RE.match(self.name):
@@ -138,31 +108,6 @@ class FigureSpec:
                 f"FigureSpec {self.name!r}: figure must be a matplotlib Figure (something with "
                 f"savefig); got {type(self.figure).__name__}."
             )
-
-
-@dataclass(frozen=True)
-class Erratum:
-    """A misprint or error found in a paper.
-
-    Parameters
-    ----------
-    paper : str
-        Short citation, e.g. ``"Cedro & Janecki"``.
-    location : str
-        Where in the paper (``"Eq. (12)"``, ``"Table 2, row m1"``).
-    printed : str
-        What the paper prints.
-    correct : str
-        What it should be.
-    evidence : str
-        How we know: a number, a derivation, or the name of a figure in the report.
-    """
-
-    paper: str
-    location: str
-    printed: str
-    correct: str
-    evidence: str
 
 
 @dataclass(frozen=True)
@@ -180,6 +125,9 @@ class ReportSection:
     results : mapping
         The numbers of this section (JSON-ready after `physid.estimators.results.jsonable`).
     errata : sequence of Erratum
+    part : str
+        The part of the report the section belongs to (``"Part I — ..."``); consecutive
+        sections of one part are grouped under its heading. Empty: no part.
     """
 
     title: str
@@ -188,6 +136,7 @@ class ReportSection:
     figures: Sequence[FigureSpec] = ()
     results: Mapping[str, Any] = field(default_factory=dict)
     errata: Sequence[Erratum] = ()
+    part: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.title, str) or not self.title.strip():
@@ -223,21 +172,6 @@ class ReportPaths:
     figures: tuple[Path, ...]
 
 
-def _check_cell(cell: Any, caption: str) -> Cell:
-    if cell is None or isinstance(cell, str):
-        return cell
-    if isinstance(cell, (bool, np.bool_)):
-        return str(bool(cell))
-    if isinstance(cell, (int, np.integer)):
-        return int(cell)
-    if isinstance(cell, (float, np.floating)):
-        return float(cell)
-    raise InputError(
-        f"Table {caption!r}: a cell must be str, int, float or None; got {type(cell).__name__} "
-        f"({cell!r}). Convert it first, e.g. float(x) or str(x)."
-    )
-
-
 def format_cell(cell: Cell) -> str:
     """The text shown for a table cell.
 
@@ -263,15 +197,7 @@ def format_cell(cell: Cell) -> str:
 
 
 def _figure_png(figure: Any) -> bytes:
-    buf = io.BytesIO()
-    figure.savefig(buf, format="png", dpi=FIGURE_DPI, bbox_inches="tight")
-    try:  # free the memory of pyplot-managed figures; plain Figure objects need nothing
-        import matplotlib.pyplot as plt
-
-        plt.close(figure)
-    except Exception:  # pragma: no cover - a figure pyplot does not know is fine
-        pass
-    return buf.getvalue()
+    return figure_png(figure)
 
 
 def _slug(title: str, used: set[str]) -> str:
@@ -331,6 +257,16 @@ figure { margin: 1rem 0 1.5rem; }
 figure img { display: block; max-width: 100%; height: auto; margin: 0 auto;
              border: 1px solid var(--line); border-radius: 4px; }
 figcaption { color: var(--muted); font-size: 0.92rem; margin-top: 0.4rem; }
+.part > h2.part-title { font-size: 1.6rem; border-top: 4px solid var(--accent);
+                        margin-top: 3rem; }
+.part section > h3 { font-size: 1.2rem; margin: 2rem 0 0.6rem; padding-top: 0.5rem;
+                     border-top: 1px solid var(--line); }
+details.long-table { margin: 0.5rem 0 1.25rem; }
+details.long-table > summary { cursor: pointer; color: var(--accent); font-weight: 600; }
+table.summary caption { font-weight: 600; }
+figcaption .file { color: var(--muted); font-size: 0.85em; }
+.headline { border: 1px solid var(--line); border-radius: 6px; padding: 0.25rem 1rem;
+            background: var(--band); }
 footer { margin-top: 3rem; color: var(--muted); font-size: 0.85rem; }
 @media (max-width: 600px) { body { font-size: 15px; } main { padding: 1rem 0.75rem 3rem; } }
 @media print { nav.toc { display: none; } h2 { break-after: avoid; }
@@ -357,6 +293,30 @@ WIDE_TABLE_COLUMNS = 7
 
 
 def _table_html(table: Table, css_class: str = "") -> str:
+    if len(table.rows) > LONG_TABLE_ROWS and css_class != "errata":
+        return _long_table_html(table)
+    return _plain_table_html(table, css_class)
+
+
+def _long_table_html(table: Table) -> str:
+    """A long table collapsed behind its summary row (or its row count)."""
+    out = []
+    if table.summary is not None:
+        out.append(
+            _plain_table_html(
+                Table(f"Summary: {table.caption}", table.columns, (table.summary,)), "summary"
+            )
+        )
+    out.append(
+        f'<details class="long-table"><summary>{_esc(table.caption)} — all '
+        f"{len(table.rows)} rows</summary>"
+    )
+    out.append(_plain_table_html(table))
+    out.append("</details>")
+    return "\n".join(out)
+
+
+def _plain_table_html(table: Table, css_class: str = "") -> str:
     opening = f'<table class="{css_class}">' if css_class else "<table>"
     wide = len(table.columns) >= WIDE_TABLE_COLUMNS or css_class == "errata"
     wrap = '<div class="table-wrap wide">' if wide else '<div class="table-wrap">'
@@ -384,13 +344,14 @@ def _table_html(table: Table, css_class: str = "") -> str:
     return "\n".join(out)
 
 
-def _figure_html(name: str, png: bytes, caption: str) -> str:
+def _figure_html(name: str, png: bytes, caption: str, alt: str = "") -> str:
     data = base64.b64encode(png).decode("ascii")
-    alt = caption or name
+    alt = alt or caption or name
     return (
         f'<figure id="fig-{_esc(name)}"><img src="data:image/png;base64,{data}" '
         f'alt="{_esc(alt)}" data-name="{_esc(name)}" loading="eager">'
-        f"<figcaption><strong>{_esc(name)}.png</strong> — {_esc(caption)}</figcaption></figure>"
+        f'<figcaption>{_esc(caption)} <span class="file">({_esc(name)}.png)</span>'
+        "</figcaption></figure>"
     )
 
 
@@ -521,8 +482,15 @@ def write_report(
     # Figures first: PNG files and their bytes for embedding.
     figure_paths: list[Path] = []
     pngs: dict[str, bytes] = {}
+    figure_info: dict[str, dict[str, Any]] = {}
     for s in sections:
         for f in s.figures:
+            figure_info[f.name] = {
+                **describe_figure(f.figure),
+                "caption": f.caption,
+                "alt": f.alt or f.caption,
+                "section": s.title,
+            }
             png = _figure_png(f.figure)
             path = out / f"{f.name}.png"
             atomic_write(path, lambda fh, data=png: fh.write(data), binary=True)
@@ -538,6 +506,7 @@ def write_report(
         "quick": quick,
         "title": title,
         "figures": [p.name for p in figure_paths],
+        "figure_info": figure_info,
     }
     if metadata:
         meta.update(dict(metadata))
@@ -550,11 +519,13 @@ def write_report(
                     "caption": t.caption,
                     "columns": list(t.columns),
                     "rows": [list(r) for r in t.rows],
+                    **({} if t.summary is None else {"summary": list(t.summary)}),
                 }
                 for t in s.tables
             ]
             for s in sections
         },
+        "paragraphs": {s.title: [str(p) for p in s.paragraphs] for s in sections},
         "errata": [e for e in all_errata],
     }
     text = json.dumps(jsonable(payload), indent=2, allow_nan=False, ensure_ascii=False)
@@ -582,38 +553,66 @@ def write_report(
     if intro is not None:
         intros = [intro] if isinstance(intro, str) else list(intro)
         parts.extend(_paragraph(p) for p in intros)
+    part_slugs = {}
+    for s in sections:
+        if s.part and s.part not in part_slugs:
+            part_slugs[s.part] = _slug(s.part, used)
+
     errata_entry = '<li><a href="#errata">Errata found in the papers</a></li>'
     toc = ['<nav class="toc" id="toc"><h2>Contents</h2><ol>']
+    open_part = ""
     for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if s.part != open_part:
+            if open_part:
+                toc.append("</ol></li>")
+            if s.part:
+                toc.append(f'<li><a href="#{part_slugs[s.part]}">{_esc(s.part)}</a><ol>')
+            open_part = s.part
         if i == errata_after and errata_tab is not None:
             toc.append(errata_entry)
         toc.append(f'<li><a href="#{slug}">{_esc(s.title)}</a></li>')
+    if open_part:
+        toc.append("</ol></li>")
     if errata_after == len(sections) and errata_tab is not None:
         toc.append(errata_entry)
     toc.append("</ol></nav>")
     parts.extend(toc)
 
-    def errata_html() -> list[str]:
+    def errata_html(last: bool) -> list[str]:
         if errata_tab is None:
             return []
+        where = "above" if last else "below"
         return [
             '<section id="errata"><h2>Errata found in the papers</h2>',
             f"<p>{len(all_errata)} misprint(s) or error(s), each with the evidence; the "
-            "sections below show the details.</p>",
+            f"sections {where} show the details.</p>",
             _table_html(errata_tab, "errata"),
             "</section>",
         ]
 
+    open_part = ""
     for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if s.part != open_part:
+            if open_part:
+                parts.append("</div>")
+            if s.part:
+                parts.append(
+                    f'<div class="part" id="{part_slugs[s.part]}">'
+                    f'<h2 class="part-title">{_esc(s.part)}</h2>'
+                )
+            open_part = s.part
         if i == errata_after:
-            parts.extend(errata_html())
-        parts.append(f'<section id="{slug}"><h2>{_esc(s.title)}</h2>')
+            parts.extend(errata_html(last=False))
+        heading = "h3" if s.part else "h2"
+        parts.append(f'<section id="{slug}"><{heading}>{_esc(s.title)}</{heading}>')
         parts.extend(_paragraph(p) for p in s.paragraphs)
         parts.extend(_table_html(t) for t in s.tables)
-        parts.extend(_figure_html(f.name, pngs[f.name], f.caption) for f in s.figures)
+        parts.extend(_figure_html(f.name, pngs[f.name], f.caption, f.alt) for f in s.figures)
         parts.append("</section>")
+    if open_part:
+        parts.append("</div>")
     if errata_after == len(sections):
-        parts.extend(errata_html())
+        parts.extend(errata_html(last=True))
     parts.append(
         f"<footer>Written by physid {_esc(__version__)}. Figures: "
         f"{len(figure_paths)} PNG file(s) beside this page; all numbers: results.json.</footer>"

@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from .style import FULL_WIDTH, legend_outside, panel_height, styled
+
 __all__ = ["plot_input_design"]
 
 
+@styled
 def plot_input_design(result, ax=None) -> Figure:
     """log10 K(Z) for each forgetting factor (Fig. 2) and, at λ = 1, for each horizon k (Fig. 3).
 
@@ -26,7 +29,7 @@ def plot_input_design(result, ax=None) -> Figure:
     if ax is not None:
         fig, axes = ax.figure, [ax]
     else:
-        fig = Figure(figsize=(9.0, 3.6), layout="constrained")
+        fig = Figure(figsize=(FULL_WIDTH, panel_height(1, 3.0)), layout="constrained")
         axes = list(fig.subplots(1, 2))
     Z = result.ratio
     panel = axes[0]
@@ -35,10 +38,9 @@ def plot_input_design(result, ax=None) -> Figure:
         z_opt = result.optimal_ratio[j]
         panel.plot(z_opt, np.log10(result.optimal_variance_factor[j]), "o", color=line.get_color())
     panel.set_title(f"Forgetting factor (k = {result.samples}, m = {result.init_samples})")
-    panel.set_xlabel("Z = ω1 / ω0")
-    panel.set_ylabel("log10 K")
-    panel.grid(True, alpha=0.3)
-    panel.legend(fontsize="small")
+    panel.set_xlabel("Z = ω1 / ω0 [–]")
+    panel.set_ylabel("log10 K [log10 s⁻⁴]")
+    legend_outside(panel, where="below")
     if len(axes) > 1:
         panel = axes[1]
         for h, curve, z_opt in zip(
@@ -50,8 +52,7 @@ def plot_input_design(result, ax=None) -> Figure:
             (line,) = panel.plot(Z, np.log10(curve), lw=1.2, label=f"k = {h}")
             panel.axvline(z_opt, color=line.get_color(), lw=0.6, ls=":")
         panel.set_title(f"Horizon, λ = 1 (T_s = {result.sample_period * 1e3:g} ms)")
-        panel.set_xlabel("Z = ω1 / ω0")
-        panel.set_ylabel("log10 K")
-        panel.grid(True, alpha=0.3)
-        panel.legend(fontsize="small")
+        panel.set_xlabel("Z = ω1 / ω0 [–]")
+        panel.set_ylabel("log10 K [log10 s⁻⁴]")
+        legend_outside(panel, where="below")
     return fig

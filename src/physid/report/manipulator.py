@@ -18,24 +18,18 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
+from .style import COLORS, FULL_WIDTH, LINESTYLES, MARKERS, legend_outside, panel_height, styled
+
 __all__ = [
     "plot_parameter_histories",
     "plot_valley",
     "plot_residuals",
     "plot_input_error",
     "plot_filter_sweep",
+    "plot_histories_and_search",
 ]
 
-_COLORS = (
-    "tab:red",
-    "tab:green",
-    "tab:blue",
-    "gold",
-    "tab:purple",
-    "tab:brown",
-    "tab:pink",
-    "tab:gray",
-)
+_COLORS = COLORS
 
 
 def _reference(result, truth: Mapping[str, float] | None) -> np.ndarray:
@@ -45,6 +39,7 @@ def _reference(result, truth: Mapping[str, float] | None) -> np.ndarray:
     return np.array([truth.get(n, result.parameters[n]) for n in names], dtype=float)
 
 
+@styled
 def plot_parameter_histories(
     result,
     truth: Mapping[str, float] | None = None,
@@ -69,7 +64,7 @@ def plot_parameter_histories(
     matplotlib.figure.Figure
     """
     if ax is None:
-        fig = Figure(figsize=(7.0, 3.8), layout="constrained")
+        fig = Figure(figsize=(FULL_WIDTH, panel_height()), layout="constrained")
         ax = fig.add_subplot()
     else:
         fig = ax.figure
@@ -77,14 +72,14 @@ def plot_parameter_histories(
     hist = np.asarray(result.history, dtype=float)
     evals = np.arange(1, hist.shape[0] + 1)
     for i, name in enumerate(result.parameter_names):
-        style = "--" if name in result.fixed else "-"
         label = f"{name} (held)" if name in result.fixed else name
         ax.plot(
             evals,
             hist[:, i] / ref[i],
-            style,
-            color=_COLORS[i % len(_COLORS)],
-            marker=".",
+            color=COLORS[i % len(COLORS)],
+            linestyle=":" if name in result.fixed else LINESTYLES[i % len(LINESTYLES)],
+            marker=MARKERS[i % len(MARKERS)],
+            markersize=3,
             label=label,
         )
     if paper_evaluations:
@@ -96,18 +91,18 @@ def plot_parameter_histories(
             va="top",
             fontsize=8,
         )
-    ax.set_xlabel("residual evaluation")
-    ax.set_ylabel("estimate / " + ("true value" if truth is not None else "final value"))
+    ax.set_xlabel("residual evaluation [count]")
+    ax.set_ylabel("estimate / " + ("true value" if truth is not None else "final value") + " [–]")
     ax.set_title(f"Parameter histories ({hist.shape[0]} evaluations, {result.njev} Jacobians)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(ncol=4, fontsize=8)
+    legend_outside(ax)
     return fig
 
 
+@styled
 def plot_residuals(result, *, ax=None) -> Figure:
     """Equation residuals ``τ̂ − τ^f`` [N·m] per joint against time at the estimate."""
     if ax is None:
-        fig = Figure(figsize=(7.0, 3.2), layout="constrained")
+        fig = Figure(figsize=(FULL_WIDTH, panel_height()), layout="constrained")
         ax = fig.add_subplot()
     else:
         fig = ax.figure
@@ -117,27 +112,29 @@ def plot_residuals(result, *, ax=None) -> Figure:
         ax.plot(
             result.t,
             e[:, j],
-            color=_COLORS[j % len(_COLORS)],
-            lw=0.8,
+            color=COLORS[j % len(COLORS)],
+            linestyle=LINESTYLES[j % len(LINESTYLES)],
+            lw=0.9,
             label=f"joint {j + 1} (rms {rms:.3g})",
         )
     ax.set_xlabel("t [s]")
     ax.set_ylabel("τ̂ − τ$^f$ [N·m]")
     ax.set_title(f"Residuals at the estimate, J = {result.cost:.4g}")
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax)
     return fig
 
 
+@styled
 def plot_input_error(result, truth: Mapping[str, float] | None = None) -> Figure:
     """Parameter histories (top) and residuals (bottom) of an input-error fit."""
-    fig = Figure(figsize=(7.5, 6.5), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(2)), layout="constrained")
     top, bottom = fig.subplots(2, 1)
     plot_parameter_histories(result, truth, ax=top)
     plot_residuals(result, ax=bottom)
     return fig
 
 
+@styled
 def plot_valley(
     m1,
     l1,
@@ -147,6 +144,7 @@ def plot_valley(
     estimate: tuple[float, float] | None = None,
     paper_point: tuple[float, float] | None = None,
     start: tuple[float, float] | None = None,
+    nelder_mead: tuple[float, float] | None = None,
 ) -> Figure:
     """The quality factor J over (m1, l1) with the curve ``m1·l1² = product``.
 
@@ -158,8 +156,9 @@ def plot_valley(
         J at each grid point (other parameters held).
     product : float [kg·m²]
         The identified m1·l1²; its curve is drawn.
-    estimate, paper_point, start : (m1, l1), optional
-        Points to mark: our estimate, the paper's, the starting values.
+    estimate, paper_point, start, nelder_mead : (m1, l1), optional
+        Points to mark: our estimate, the paper's, the starting values, the end of a
+        derivative-free search.
 
     Returns
     -------
@@ -168,29 +167,32 @@ def plot_valley(
     m1 = np.asarray(m1, dtype=float)
     l1 = np.asarray(l1, dtype=float)
     cost = np.asarray(cost, dtype=float)
-    fig = Figure(figsize=(6.4, 4.6), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, 4.6), layout="constrained")
     ax = fig.add_subplot()
+    ax.grid(False)
     levels = np.log10(np.maximum(cost, np.finfo(float).tiny))
     cs = ax.contourf(m1, l1, levels, levels=30, cmap="viridis")
-    fig.colorbar(cs, ax=ax, label="log10 J")
+    fig.colorbar(cs, ax=ax, label="log10 J [log10 N²·m²]")
     ax.plot(m1, np.sqrt(product / m1), "w--", lw=1.5, label=f"m1·l1² = {product:.4g} kg·m²")
-    if start is not None:
-        ax.plot(*start, "s", color="orange", label="start")
-    if paper_point is not None:
-        ax.plot(*paper_point, "^", color="red", label="paper's estimate")
-    if estimate is not None:
-        ax.plot(*estimate, "o", color="white", mec="k", label="our estimate (l1 held)")
+    points = (
+        (start, "s", COLORS[4], "start"),
+        (paper_point, "^", COLORS[1], "paper's estimate"),
+        (estimate, "o", "white", "our estimate (l1 held)"),
+        (nelder_mead, "D", COLORS[5], "Nelder–Mead end"),
+    )
+    for point, marker, colour, label in points:
+        if point is not None:
+            ax.plot(*point, marker, color=colour, mec="k", ms=8, linestyle="none", label=label)
     ax.set_xlim(m1.min(), m1.max())
     ax.set_ylim(l1.min(), l1.max())
     ax.set_xlabel("m1 [kg]")
     ax.set_ylabel("l1 [m]")
-    ax.set_title(
-        "J is flat along m1·l1² = const: m1 and l1 are not separately identifiable", fontsize=10
-    )
-    ax.legend(fontsize=8, loc="upper right")
+    ax.set_title("J is flat along m1·l1² = const: m1 and l1 are not separately identifiable")
+    legend_outside(ax, where="below")
     return fig
 
 
+@styled
 def plot_filter_sweep(
     cutoffs: Sequence[float],
     errors: Mapping[str, Sequence[float]],
@@ -208,15 +210,16 @@ def plot_filter_sweep(
     target : float [%], optional
         Draw a dashed horizontal line at this error (e.g. the 0.05 % goal).
     """
-    fig = Figure(figsize=(6.4, 3.8), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(1, 3.0)), layout="constrained")
     ax = fig.add_subplot()
     x = np.asarray(cutoffs, dtype=float)
     for i, (label, values) in enumerate(errors.items()):
         ax.semilogy(
             x,
             np.abs(np.asarray(values, dtype=float)),
-            "o-",
-            color=_COLORS[i % len(_COLORS)],
+            color=COLORS[i % len(COLORS)],
+            linestyle=LINESTYLES[i % len(LINESTYLES)],
+            marker=MARKERS[i % len(MARKERS)],
             label=label,
         )
     if target is not None:
@@ -225,5 +228,61 @@ def plot_filter_sweep(
     ax.set_ylabel("max |relative error| [%]")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax)
+    return fig
+
+
+@styled
+def plot_histories_and_search(
+    result,
+    nm_history,
+    names: Sequence[str],
+    truth: Mapping[str, float],
+    paper_evaluations: int | None = None,
+) -> Figure:
+    """A derivative-free search (top) and an input-error fit (bottom) over their evaluations.
+
+    Parameters
+    ----------
+    result : InputErrorResult
+        Its parameter history is drawn in the bottom panel.
+    nm_history : array_like (n_evaluations, n_parameters)
+        Every point a derivative-free search evaluated, columns ordered like ``names``.
+    names : sequence of str
+    truth : mapping name -> value
+        Each parameter is divided by its true value.
+    paper_evaluations : int, optional
+        The paper's evaluation count, marked on the top panel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(2, 3.0)), layout="constrained")
+    top, bottom = fig.subplots(2, 1)
+    nm_history = np.asarray(nm_history, dtype=float)
+    ref = np.array([truth[n] for n in names])
+    evals = np.arange(1, nm_history.shape[0] + 1)
+    for i, n in enumerate(names):
+        top.plot(
+            evals,
+            nm_history[:, i] / ref[i],
+            color=COLORS[i % len(COLORS)],
+            linestyle=LINESTYLES[i % len(LINESTYLES)],
+            lw=1.0,
+            label=n,
+        )
+    if paper_evaluations:
+        top.axvline(
+            paper_evaluations, color="k", ls=":", lw=0.9, label=f"paper: ~{paper_evaluations}"
+        )
+    top.set_title(
+        f"Nelder–Mead, all {len(names)} parameters free ({nm_history.shape[0]} evaluations)"
+    )
+    top.set_xlabel("evaluation [count]")
+    top.set_ylabel("estimate / true value [–]")
+    legend_outside(top)
+    plot_parameter_histories(result, truth, ax=bottom)
+    bottom.set_title("physid: least squares with the analytic Jacobian (l1 held)")
+    fig.suptitle("How the parameter estimates evolve: derivative-free search vs least squares")
     return fig

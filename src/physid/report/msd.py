@@ -21,6 +21,15 @@ from matplotlib.colors import LogNorm
 from matplotlib.figure import Figure
 
 from ..errors import InputError
+from .style import (
+    BAND_COLOR,
+    COLORS,
+    FULL_WIDTH,
+    TRUTH_STYLE,
+    legend_outside,
+    panel_height,
+    styled,
+)
 
 __all__ = [
     "variant_label",
@@ -28,6 +37,8 @@ __all__ = [
     "plot_estimate_panels",
     "plot_measurement",
     "plot_tracking",
+    "plot_trace_grid",
+    "plot_tracking_panels",
 ]
 
 METRIC_LABELS = {
@@ -66,6 +77,7 @@ def _stat(entry, statistic: str) -> float:
     return math.nan if value is None else float(value)
 
 
+@styled
 def plot_convergence_maps(
     source,
     *,
@@ -147,9 +159,10 @@ def plot_convergence_maps(
                 )
         ax.set_xticks(range(len(ratios)), [f"{z:g}" for z in ratios])
         ax.set_yticks(range(len(snrs)), ["clean" if s is None else f"{s:g}" for s in snrs])
-        ax.set_xlabel("Z = ω1 / ω0")
+        ax.set_xlabel("Z = ω1 / ω0 [–]")
         ax.set_ylabel("SNR [dB]")
-        ax.set_title(label, fontsize=10)
+        ax.grid(False)
+        ax.set_title(label)
     if image is not None:
         fig.colorbar(image, ax=list(axes), label=f"time to 2 % [s] ({statistic.replace('_', ' ')})")
     fig.suptitle(title or f"Convergence time, {METRIC_LABELS.get(metric, metric)}", fontsize=11)
@@ -162,6 +175,7 @@ def _cmap():
     return colormaps["viridis_r"].with_extremes(bad="#d0d0d0")
 
 
+@styled
 def plot_estimate_panels(
     panels: Mapping[str, Sequence[tuple]],
     truth: float,
@@ -218,11 +232,10 @@ def plot_estimate_panels(
             ax.set_ylim(truth * (1 - ylim_relative), truth * (1 + ylim_relative))
         if xlim is not None:
             ax.set_xlim(*xlim)
-        ax.set_title(name, fontsize=10)
+        ax.set_title(name)
         ax.set_xlabel("t [s]")
         ax.set_ylabel("ω0 estimate [rad/s]")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper right")
+        legend_outside(ax, where="below")
     for ax in axes[n:]:
         ax.set_visible(False)
     if title:
@@ -230,6 +243,7 @@ def plot_estimate_panels(
     return fig
 
 
+@styled
 def plot_measurement(
     t, measured, true, *, t_max: float | None = None, title: str | None = None
 ) -> Figure:
@@ -245,19 +259,19 @@ def plot_measurement(
     """
     t = np.asarray(t, float)
     keep = slice(None) if t_max is None else t <= t_max
-    fig = Figure(figsize=(7.0, 3.0), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(1, 2.6)), layout="constrained")
     ax = fig.subplots()
-    ax.plot(t[keep], np.asarray(measured, float)[keep], lw=0.6, label="measured x̃")
-    ax.plot(t[keep], np.asarray(true, float)[keep], lw=1.2, color="black", label="true x")
+    ax.plot(t[keep], np.asarray(measured, float)[keep], lw=0.8, color=COLORS[0], label="measured x̃")
+    ax.plot(t[keep], np.asarray(true, float)[keep], lw=1.4, color="black", ls="--", label="true x")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("position [m]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    legend_outside(ax)
     if title:
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title)
     return fig
 
 
+@styled
 def plot_tracking(
     t,
     truth,
@@ -308,8 +322,138 @@ def plot_tracking(
     ax.set_ylim(lo - pad, hi + pad)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("ω0 [rad/s]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, ncols=2)
+    legend_outside(ax)
     if title:
-        ax.set_title(title, fontsize=10)
+        ax.set_title(title)
+    return fig
+
+
+def _masked(values, valid):
+    values = np.asarray(values, dtype=float)
+    if valid is not None:
+        values = np.where(np.asarray(valid, bool), values, np.nan)
+    return values
+
+
+@styled
+def plot_trace_grid(
+    rows: Sequence[tuple[str, Sequence[tuple]]],
+    truth: float,
+    *,
+    tolerance: float = 0.02,
+    ylim_relative: float | None = 0.2,
+    title: str | None = None,
+) -> Figure:
+    """Small multiples of ω0 estimates: one panel per curve, so no line hides another.
+
+    Parameters
+    ----------
+    rows : sequence of (row label, sequence of (panel title, t [s], ω0 [rad/s], valid or None))
+        One row of panels per entry (e.g. one SNR), one column per estimator.
+    truth : float [rad/s]
+        Drawn dashed in every panel with its ± tolerance band.
+    tolerance : float
+        Relative half-width of the band (0.02 = 2 %).
+    ylim_relative : float or None
+        Every panel shows truth × (1 ± ylim_relative); None: matplotlib's limits.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not rows:
+        raise InputError("plot_trace_grid needs at least one row of panels.")
+    nrows, ncols = len(rows), max(len(panels) for _, panels in rows)
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(nrows, 2.1, 1.2)), layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
+    for i, (row_label, panels) in enumerate(rows):
+        for j in range(ncols):
+            ax = axes[i, j]
+            if j >= len(panels):
+                ax.set_visible(False)
+                continue
+            name, t, values, valid = panels[j]
+            ax.axhspan(
+                truth * (1 - tolerance),
+                truth * (1 + tolerance),
+                color=BAND_COLOR,
+                alpha=0.18,
+                label=f"true ω0 ± {tolerance:.0%}",
+            )
+            ax.axhline(truth, **TRUTH_STYLE, label=f"true ω0 = {truth:.4g} rad/s")
+            ax.plot(
+                t, _masked(values, valid), color=COLORS[j % len(COLORS)], lw=1.0, label="estimate"
+            )
+            if ylim_relative is not None:
+                ax.set_ylim(truth * (1 - ylim_relative), truth * (1 + ylim_relative))
+            ax.set_title(f"{name}, {row_label}" if row_label else name)
+            if i == nrows - 1:
+                ax.set_xlabel("t [s]")
+            if j == 0:
+                ax.set_ylabel("ω0 [rad/s]")
+    legend_outside(axes[-1, 0], where="below", ncol=3)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+@styled
+def plot_tracking_panels(
+    t,
+    truth,
+    curves: Sequence[tuple],
+    jump_times: Sequence[float],
+    *,
+    tolerance: float = 0.02,
+    title: str | None = None,
+) -> Figure:
+    """A jumping ω0 and its estimates, one panel per estimator (small multiples).
+
+    Parameters
+    ----------
+    t : array_like (n_samples,) [s]
+    truth : array_like (n_samples,) [rad/s]
+        True ω0 at each sample (a staircase).
+    curves : sequence of tuples
+        ``(label, t, values)`` or ``(label, t, values, valid)``, one panel each.
+    jump_times : sequence of float [s]
+    tolerance : float
+        Relative half-width of the band around the truth.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(t, float)
+    truth = np.asarray(truth, float)
+    n = len(curves)
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(n, 1.5, 1.3)), layout="constrained")
+    axes = fig.subplots(n, 1, squeeze=False, sharex=True, sharey=True)[:, 0]
+    lo, hi = float(np.min(truth)), float(np.max(truth))
+    pad = 0.25 * (hi - lo) + 0.1 * hi
+    for k, (ax, curve) in enumerate(zip(axes, curves, strict=True)):
+        label, tc, values = curve[:3]
+        valid = curve[3] if len(curve) > 3 else None
+        ax.fill_between(
+            t,
+            truth * (1 - tolerance),
+            truth * (1 + tolerance),
+            color=BAND_COLOR,
+            alpha=0.2,
+            step="post",
+            label=f"true ω0 ± {tolerance:.0%}",
+        )
+        ax.plot(t, truth, **TRUTH_STYLE, label="true ω0")
+        ax.plot(tc, _masked(values, valid), color=COLORS[k % len(COLORS)], lw=1.0, label="estimate")
+        for tj in jump_times:
+            ax.axvline(tj, color="grey", lw=0.6, ls=":")
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_ylabel("ω0 [rad/s]")
+        ax.set_title(label, loc="left")
+    axes[-1].set_xlabel("t [s]")
+    legend_outside(axes[-1], where="below", ncol=3)
+    if title:
+        fig.suptitle(title)
     return fig

@@ -10,13 +10,18 @@ from __future__ import annotations
 from matplotlib.figure import Figure
 
 from ..errors import InputError
+from .style import COLORS, FULL_WIDTH, legend_outside, panel_height, styled
 
 __all__ = ["plot_joint_responses", "plot_msd_response"]
 
-_JOINT_COLOURS = ("tab:red", "tab:green", "tab:blue", "goldenrod", "tab:cyan", "tab:purple")
+_JOINT_COLOURS = COLORS
+_JOINT_DASHES = ("-", "-", "-", "-", "-", "-", "-", "-")
 
 
-def plot_joint_responses(recording, *, references: bool = True, torques: bool = False) -> Figure:
+@styled
+def plot_joint_responses(
+    recording, *, references: bool = True, torques: bool = False, title: str | None = None
+) -> Figure:
     """Joint angles against time, like the paper's Fig. 2 (φ1..φ4 in red, green, blue, yellow).
 
     Parameters
@@ -28,6 +33,8 @@ def plot_joint_responses(recording, *, references: bool = True, torques: bool = 
         Draw the references r_k dashed in the same colours.
     torques : bool
         Add a lower panel with the applied torques τ_k.
+    title : str, optional
+        The figure's title (default: a generic one).
 
     Returns
     -------
@@ -44,7 +51,7 @@ def plot_joint_responses(recording, *, references: bool = True, torques: bool = 
     if torques and not tau_names:
         raise InputError("torques=True needs channels tau1..taun in the recording.")
     n_panels = 2 if tau_names else 1
-    fig = Figure(figsize=(8, 3.6 * n_panels), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(n_panels, 3.2)), layout="constrained")
     axes = fig.subplots(n_panels, 1, sharex=True, squeeze=False)[:, 0]
     ax = axes[0]
     for k, name in enumerate(q_names):
@@ -57,14 +64,14 @@ def plot_joint_responses(recording, *, references: bool = True, torques: bool = 
                 recording.t,
                 recording[r_names[k]],
                 color=colour,
-                linewidth=0.8,
-                linestyle="--",
-                label=f"r{k + 1}",
+                linewidth=0.9,
+                linestyle=(0, (4, 2)),
+                label=f"r{k + 1} (reference)",
             )
     ax.set_ylabel("φ [rad]")
-    ax.set_title("Joint responses of the closed loop (cf. Cedro & Janecki, Fig. 2)")
-    ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize="small", ncol=2)
+    ax.set_xlabel("t [s]")
+    ax.set_title(title or "Joint responses of the closed loop (cf. Cedro & Janecki, Fig. 2)")
+    legend_outside(ax)
     if tau_names:
         tax = axes[1]
         for k, name in enumerate(tau_names):
@@ -76,8 +83,8 @@ def plot_joint_responses(recording, *, references: bool = True, torques: bool = 
                 label=name,
             )
         tax.set_ylabel("τ [N·m]")
-        tax.grid(True, alpha=0.3)
-        tax.legend(loc="best", fontsize="small", ncol=4)
+        tax.set_xlabel("t [s]")
+        legend_outside(tax)
     axes[-1].set_xlabel("t [s]")
     return fig
 
