@@ -116,7 +116,9 @@ def run(args) -> int:
         horizons=horizons,
     )
     if args.plot:
-        res.plot().savefig(args.plot, dpi=120)
+        from ..report.style import save_figure
+
+        save_figure(res.plot(), args.plot)
         progress(f"design-input: figure written to {args.plot}")
     keys = [f"{lam:g}" for lam in res.forgetting]
     if args.json:

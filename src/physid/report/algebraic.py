@@ -6,6 +6,19 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from .style import (
+    COLORS,
+    FINAL_STYLE,
+    FULL_WIDTH,
+    TRUTH_STYLE,
+    final_value,
+    legend_outside,
+    panel_height,
+    robust_limits,
+    styled,
+    unit_of,
+)
+
 __all__ = ["plot_algebraic"]
 
 
@@ -16,6 +29,7 @@ def _spans(mask: np.ndarray):
     return zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1) - 1, strict=True)
 
 
+@styled
 def plot_algebraic(
     result, names: Sequence[str] | None = None, truth: Mapping[str, float] | None = None
 ):
@@ -33,7 +47,7 @@ def plot_algebraic(
     -------
     matplotlib.figure.Figure
         One axis per series; grey bands mark windows that do not exist or failed the determinant
-        guard, the solid line the final estimate (``result.parameters``: pooled least squares
+        guard, the dotted line the final estimate (``result.parameters``: pooled least squares
         over the valid windows by default, or their median with ``final="median"``).
     """
     from matplotlib.figure import Figure
@@ -42,28 +56,30 @@ def plot_algebraic(
         names = list(result.names)
         if "natural_frequency" in result.parameters:
             names += ["natural_frequency", "damping_ratio"]
-    fig = Figure(figsize=(8, 1.9 * len(names) + 0.6), layout="constrained")
+    fig = Figure(figsize=(FULL_WIDTH, panel_height(len(names), 2.0)), layout="constrained")
     axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     t = result.t
     invalid = ~np.asarray(result.valid, dtype=bool)
     for ax, name in zip(axes, names, strict=True):
         series = result.series(name)
         shown = np.where(result.valid, series, np.nan)
-        ax.plot(t, shown, lw=0.9, label="valid windows")
-        finite = np.isfinite(shown)
-        if finite.any():
-            lo, hi = np.percentile(shown[finite], [1, 99])
-            pad = 0.5 * (hi - lo) + 1e-12 * max(abs(lo), abs(hi), 1.0)
-            ax.set_ylim(lo - pad, hi + pad)
+        ax.plot(t, shown, color=COLORS[0], lw=1.0, label="valid windows")
         for a, b in _spans(invalid):
             ax.axvspan(t[a], t[min(b + 1, t.size - 1)], color="0.85", lw=0)
-        final = result.parameters.get(name)
-        if final is not None and np.isfinite(final):
-            ax.axhline(final, color="C1", lw=1, label=f"final {final:.6g}")
-        if truth and name in truth:
-            ax.axhline(truth[name], color="k", ls="--", lw=0.8, label=f"true {truth[name]:.6g}")
-        ax.set_ylabel(name)
-        ax.legend(loc="upper right", fontsize="small")
+        final = final_value(result, name)
+        if final is not None:
+            ax.axhline(final, **FINAL_STYLE, label=f"final estimate {final:.6g}")
+        true = truth.get(name) if truth else None
+        if true is not None:
+            ax.axhline(true, **TRUTH_STYLE, label=f"true value {true:.6g}")
+        limits = robust_limits(
+            shown, truth=true, final=final, converged_fraction=1.0, percentiles=(5.0, 95.0)
+        )
+        if limits is not None:
+            ax.set_ylim(*limits)
+        unit = " [rad/s]" if name == "natural_frequency" else unit_of(result, name)
+        ax.set_ylabel(f"{name}{unit}")
+        legend_outside(ax)
     axes[-1].set_xlabel("window end t0 [s]")
     axes[0].set_title(
         f"Algebraic estimator (T = {result.window:g} s, μ = {result.mu}, {result.integration}, "

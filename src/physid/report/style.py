@@ -57,6 +57,8 @@ __all__ = [
     "figure_png",
     "save_figure",
     "describe_figure",
+    "final_value",
+    "unit_of",
 ]
 
 #: Resolution of every PNG physid writes [dots per inch].
@@ -210,6 +212,29 @@ def robust_limits(
     return float(low - pad * span), float(high + pad * span)
 
 
+def final_value(result, name: str, values=None) -> float | None:
+    """The final estimate of ``name`` in a result: ``parameters``, then ``derived``, then the
+    last finite value of ``values``."""
+    for where in ("parameters", "derived"):
+        mapping = getattr(result, where, None) or {}
+        value = mapping.get(name) if hasattr(mapping, "get") else None
+        if value is not None and np.isfinite(value):
+            return float(value)
+    if values is not None:
+        v = np.asarray(values, dtype=float)
+        v = v[np.isfinite(v)]
+        if v.size:
+            return float(v[-1])
+    return None
+
+
+def unit_of(result, name: str) -> str:
+    """``" [unit]"`` of ``name`` from ``result.units``; empty when the result gives none."""
+    units = getattr(result, "units", None) or {}
+    unit = units.get(name) if hasattr(units, "get") else None
+    return f" [{unit}]" if unit else ""
+
+
 def figure_png(fig) -> bytes:
     """The PNG bytes of ``fig`` at `DPI` with a tight bounding box; pyplot figures are closed."""
     buf = io.BytesIO()
@@ -230,7 +255,7 @@ def save_figure(fig, path: str | os.PathLike) -> Path:
     ----------
     fig : matplotlib.figure.Figure
     path : path
-        Destination; a missing ``.png`` suffix is added.
+        Destination (written as PNG whatever its suffix).
 
     Returns
     -------
@@ -240,21 +265,45 @@ def save_figure(fig, path: str | os.PathLike) -> Path:
     from .._paths import atomic_write
 
     path = Path(path)
-    if path.suffix.lower() != ".png":
-        path = path.with_name(path.name + ".png")
     data = figure_png(fig)
     atomic_write(path, lambda fh: fh.write(data), binary=True)
     return path
 
 
 def describe_figure(fig) -> dict[str, Any]:
-    """Title and axis labels of ``fig`` (for the report's checks): ``{"title", "axes": [...]}``."""
+    """Title and axis labels of ``fig`` (for the report's checks): ``{"title", "axes": [...]}``.
+
+    Colour bars are left out; an axes that shares its x (y) axis with labelled siblings (small
+    multiples) reports their label.
+    """
     title = fig._suptitle.get_text() if getattr(fig, "_suptitle", None) is not None else ""
-    axes = []
-    for ax in fig.axes:
-        if not ax.get_visible() or not (ax.lines or ax.collections or ax.images or ax.patches):
-            continue
-        axes.append({"title": ax.get_title(), "xlabel": ax.get_xlabel(), "ylabel": ax.get_ylabel()})
+    data_axes = [
+        ax
+        for ax in fig.axes
+        if ax.get_visible()
+        and not hasattr(ax, "_colorbar")
+        and (ax.lines or ax.collections or ax.images or ax.patches)
+    ]
+
+    def label(ax, which: str) -> str:
+        own = ax.get_xlabel() if which == "x" else ax.get_ylabel()
+        if own:
+            return own
+        group = ax.get_shared_x_axes() if which == "x" else ax.get_shared_y_axes()
+        for other in group.get_siblings(ax):
+            text = other.get_xlabel() if which == "x" else other.get_ylabel()
+            if text:
+                return text
+        return ""
+
+    axes = [
+        {
+            "title": ax.get_title() or ax.get_title("left"),
+            "xlabel": label(ax, "x"),
+            "ylabel": label(ax, "y"),
+        }
+        for ax in data_axes
+    ]
     return {"title": title, "axes": axes}
 
 
