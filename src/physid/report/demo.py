@@ -657,6 +657,7 @@ def run_demo(
             title="physid: what it finds, on two papers and a 6-DOF arm",
             quick=quick,
             errata_after=len(sections),  # the full errata table closes the report
+            lead=1,  # the one-screen summary comes before the table of contents
             metadata={
                 "command": "physid demo" + (" --quick" if quick else ""),
                 "python": sys.version.split()[0],

@@ -234,6 +234,9 @@ nav.toc { background: var(--band); border: 1px solid var(--line); border-radius:
           padding: 0.75rem 1.25rem; margin: 1rem 0 1.5rem; }
 nav.toc h2 { border: 0; margin: 0 0 0.25rem; padding: 0; font-size: 1.05rem; }
 nav.toc ol { margin: 0; padding-left: 1.4rem; }
+nav.toc ol.sections { list-style: none; padding-left: 0.5rem; font-size: 0.88rem; }
+nav.toc ol.sections li { display: inline; }
+nav.toc ol.sections li + li::before { content: " · "; color: var(--muted); }
 .table-wrap { overflow-x: auto; margin: 0.75rem 0 1.25rem; border: 1px solid var(--line);
               border-radius: 6px; }
 table { border-collapse: collapse; width: 100%; font-size: 0.92rem; }
@@ -265,8 +268,9 @@ details.long-table { margin: 0.5rem 0 1.25rem; }
 details.long-table > summary { cursor: pointer; color: var(--accent); font-weight: 600; }
 table.summary caption { font-weight: 600; }
 figcaption .file { color: var(--muted); font-size: 0.85em; }
-.headline { border: 1px solid var(--line); border-radius: 6px; padding: 0.25rem 1rem;
-            background: var(--band); }
+.headline { border: 1px solid var(--line); border-radius: 6px;
+            padding: 0.5rem 1rem 0.5rem 2.2rem; background: var(--band); }
+.headline li { margin: 0.3rem 0; }
 footer { margin-top: 3rem; color: var(--muted); font-size: 0.85rem; }
 @media (max-width: 600px) { body { font-size: 15px; } main { padding: 1rem 0.75rem 3rem; } }
 @media print { nav.toc { display: none; } h2 { break-after: avoid; }
@@ -415,6 +419,7 @@ def write_report(
     intro: str | Sequence[str] | None = None,
     *,
     errata_after: int = 0,
+    lead: int = 0,
     metadata: Mapping[str, Any] | None = None,
     quick: bool | None = None,
     progress: Callable[[str], None] | None = None,
@@ -434,6 +439,8 @@ def write_report(
     errata_after : int
         How many sections come before the aggregated errata section (0: right after the table
         of contents; 1: after an introductory section).
+    lead : int
+        How many sections are shown before the table of contents (e.g. a one-screen summary).
     metadata : mapping, optional
         Extra JSON-ready metadata merged into ``results.json["metadata"]``.
     quick : bool, optional
@@ -562,11 +569,15 @@ def write_report(
     toc = ['<nav class="toc" id="toc"><h2>Contents</h2><ol>']
     open_part = ""
     for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i < lead:
+            continue
         if s.part != open_part:
             if open_part:
                 toc.append("</ol></li>")
             if s.part:
-                toc.append(f'<li><a href="#{part_slugs[s.part]}">{_esc(s.part)}</a><ol>')
+                toc.append(
+                    f'<li><a href="#{part_slugs[s.part]}">{_esc(s.part)}</a><ol class="sections">'
+                )
             open_part = s.part
         if i == errata_after and errata_tab is not None:
             toc.append(errata_entry)
@@ -576,7 +587,6 @@ def write_report(
     if errata_after == len(sections) and errata_tab is not None:
         toc.append(errata_entry)
     toc.append("</ol></nav>")
-    parts.extend(toc)
 
     def errata_html(last: bool) -> list[str]:
         if errata_tab is None:
@@ -592,6 +602,8 @@ def write_report(
 
     open_part = ""
     for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i == lead:
+            parts.extend(toc)
         if s.part != open_part:
             if open_part:
                 parts.append("</div>")
@@ -611,6 +623,8 @@ def write_report(
         parts.append("</section>")
     if open_part:
         parts.append("</div>")
+    if lead >= len(sections):
+        parts.extend(toc)
     if errata_after == len(sections):
         parts.extend(errata_html(last=True))
     parts.append(

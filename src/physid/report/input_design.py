@@ -11,7 +11,7 @@ __all__ = ["plot_input_design"]
 
 
 @styled
-def plot_input_design(result, ax=None) -> Figure:
+def plot_input_design(result, ax=None, *, relative: bool = False) -> Figure:
     """log10 K(Z) for each forgetting factor (Fig. 2) and, at λ = 1, for each horizon k (Fig. 3).
 
     Parameters
@@ -20,6 +20,10 @@ def plot_input_design(result, ax=None) -> Figure:
         From `physid.analysis.input_design.design_input`.
     ax : matplotlib Axes, optional
         Draw only the λ panel there (its figure is returned).
+    relative : bool
+        Draw the λ panel as K(Z, λ) / K(Z, λ = 1) (or over the smallest K at each Z when λ = 1
+        is not among the forgetting factors): curves that lie on top of each other in log10 K
+        become separate lines, and which λ is best at each Z reads directly.
 
     Returns
     -------
@@ -33,13 +37,24 @@ def plot_input_design(result, ax=None) -> Figure:
         axes = list(fig.subplots(1, 2))
     Z = result.ratio
     panel = axes[0]
-    for j, lam in enumerate(result.forgetting):
-        (line,) = panel.plot(Z, np.log10(result.variance_factor[j]), lw=1.2, label=f"λ = {lam:g}")
-        z_opt = result.optimal_ratio[j]
-        panel.plot(z_opt, np.log10(result.optimal_variance_factor[j]), "o", color=line.get_color())
-    panel.set_title(f"Forgetting factor (k = {result.samples}, m = {result.init_samples})")
+    K = np.asarray(result.variance_factor, dtype=float)
+    if relative:
+        ref = K[list(result.forgetting).index(1.0)] if 1.0 in result.forgetting else K.min(0)
+        for j, lam in enumerate(result.forgetting):
+            panel.plot(Z, K[j] / ref, lw=1.3, label=f"λ = {lam:g}")
+        panel.set_yscale("log")
+        panel.set_ylabel("K(λ) / K(λ = 1) [–]")
+        panel.set_title(f"Forgetting factor, relative to λ = 1 (k = {result.samples})")
+    else:
+        for j, lam in enumerate(result.forgetting):
+            (line,) = panel.plot(Z, np.log10(K[j]), lw=1.2, label=f"λ = {lam:g}")
+            z_opt = result.optimal_ratio[j]
+            panel.plot(
+                z_opt, np.log10(result.optimal_variance_factor[j]), "o", color=line.get_color()
+            )
+        panel.set_title(f"Forgetting factor (k = {result.samples}, m = {result.init_samples})")
+        panel.set_ylabel("log10 K [log10 s⁻⁴]")
     panel.set_xlabel("Z = ω1 / ω0 [–]")
-    panel.set_ylabel("log10 K [log10 s⁻⁴]")
     legend_outside(panel, where="below")
     if len(axes) > 1:
         panel = axes[1]

@@ -26,6 +26,7 @@ from .style import (
     COLORS,
     FULL_WIDTH,
     TRUTH_STYLE,
+    figure_legend,
     legend_outside,
     panel_height,
     styled,
@@ -392,7 +393,7 @@ def plot_trace_grid(
                 ax.set_xlabel("t [s]")
             if j == 0:
                 ax.set_ylabel("ω0 [rad/s]")
-    legend_outside(axes[-1, 0], where="below", ncol=3)
+    figure_legend(fig, axes[-1, 0], ncol=3)
     if title:
         fig.suptitle(title)
     return fig
@@ -453,7 +454,7 @@ def plot_tracking_panels(
         ax.set_ylabel("ω0 [rad/s]")
         ax.set_title(label, loc="left")
     axes[-1].set_xlabel("t [s]")
-    legend_outside(axes[-1], where="below", ncol=3)
+    figure_legend(fig, axes[-1], ncol=3)
     if title:
         fig.suptitle(title)
     return fig

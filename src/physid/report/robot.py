@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .style import COLORS, FULL_WIDTH, legend_outside, panel_height, styled
+from .style import COLORS, FULL_WIDTH, figure_legend, legend_outside, panel_height, styled
 
 __all__ = ["plot_excitation", "plot_bias_bars", "plot_torque_prediction"]
 
@@ -174,7 +174,7 @@ def plot_torque_prediction(t, measured, predicted, *, title: str | None = None) 
         ax.set_title(f"joint {j + 1}")
         ax.set_ylabel(f"τ{j + 1} [N·m]")
         ax.set_xlabel("t [s]")
-    legend_outside(axes[-1, 0], where="below", ncol=2)
+    figure_legend(fig, axes[-1, 0], ncol=2)
     if title:
         fig.suptitle(title)
     return fig

@@ -57,7 +57,12 @@ def plot_joint_responses(
     for k, name in enumerate(q_names):
         colour = _JOINT_COLOURS[k % len(_JOINT_COLOURS)]
         ax.plot(
-            recording.t, recording[name], color=colour, linewidth=1.2, label=f"φ{k + 1} ({name})"
+            recording.t,
+            recording[name],
+            color=colour,
+            linestyle="-",
+            linewidth=1.4,
+            label=f"φ{k + 1} ({name})",
         )
         if k < len(r_names):
             ax.plot(

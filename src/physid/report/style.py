@@ -53,6 +53,7 @@ __all__ = [
     "series_style",
     "styled",
     "legend_outside",
+    "figure_legend",
     "robust_limits",
     "figure_png",
     "save_figure",
@@ -75,7 +76,7 @@ COLORS = (
     "#E69F00",  # orange
     "#56B4E9",  # sky blue
     "#000000",  # black
-    "#F0E442",  # yellow (last: weak on white)
+    "#882255",  # wine (Tol's muted palette; Okabe–Ito's yellow is too pale on white)
 )
 #: A second cue for grey printing: each curve also gets its own dash pattern ...
 LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1)), (0, (3, 1, 1, 1, 1, 1)), "-", "--")
@@ -166,6 +167,19 @@ def legend_outside(ax, *, where: str = "right", ncol: int | None = None, **kwarg
         ncol=ncol or 1,
         borderaxespad=0.0,
         **kwargs,
+    )
+
+
+def figure_legend(fig, ax, *, ncol: int | None = None, **kwargs):
+    """One legend for a grid of panels, below them (outside every data area).
+
+    Uses the labelled artists of ``ax`` (all panels draw the same kinds of line).
+    """
+    handles, labels = ax.get_legend_handles_labels()
+    if not handles:
+        return None
+    return fig.legend(
+        handles, labels, loc="outside lower center", ncol=ncol or min(4, len(labels)), **kwargs
     )
 
 

@@ -35,7 +35,11 @@ def _overview(setup, sections: dict[str, SectionData], seconds: float) -> Sectio
     ident = sections["identification"].results
     val = sections["validation"].results
     cons = sections["consistency"].results
-    results: dict[str, Any] = {"missing": list(setup.missing), "wall_time_s": seconds}
+    results: dict[str, Any] = {
+        "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
+        "wall_time_s": seconds,
+    }
     if setup.model is not None:
         results["n_joints"] = setup.model.n_joints
     if ident.get("available"):

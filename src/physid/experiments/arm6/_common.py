@@ -49,6 +49,8 @@ class Setup:
     excitation: Any = None
     validation: Any = None
     missing: list[str] = field(default_factory=list)
+    #: Why each missing piece is missing (the exception or the absent name), for the report.
+    reasons: list[str] = field(default_factory=list)
 
 
 def _optional(module: str, attr: str | None = None):
@@ -72,16 +74,20 @@ def available() -> Setup:
     except Exception as exc:  # report what failed, do not hide it
         s.model_error = f"physid.load_model({MODEL!r}) failed: {type(exc).__name__}: {exc}"
     if s.model is None:
-        s.missing.append(f"the built-in {MODEL} model ({s.model_error})")
+        s.missing.append(f"the built-in {MODEL} model")
+        s.reasons.append(s.model_error)
     s.idim = _optional("physid.estimators.idim", "IDIMEstimator")
     if s.idim is None:
-        s.missing.append("the IDIM estimators (physid.estimators.idim)")
+        s.missing.append("the IDIM estimators")
+        s.reasons.append("physid.estimators.idim is not in this build")
     s.excitation = _optional("physid.analysis.excitation", "design_excitation")
     if s.excitation is None:
-        s.missing.append("the excitation design (physid.analysis.excitation.design_excitation)")
+        s.missing.append("the excitation design")
+        s.reasons.append("physid.analysis.excitation.design_excitation is not in this build")
     s.validation = _optional("physid.analysis.validation")
     if s.validation is None:
-        s.missing.append("the validation (physid.analysis.validation)")
+        s.missing.append("the validation of physid validate")
+        s.reasons.append("physid.analysis.validation is not in this build")
     return s
 
 

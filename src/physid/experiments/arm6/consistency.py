@@ -16,7 +16,10 @@ def compute(setup, first, progress=None) -> SectionData:
     -------
     SectionData
     """
-    results: dict[str, Any] = {"missing": list(setup.missing)}
+    results: dict[str, Any] = {
+        "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
+    }
     rec = first.get("recording") if first else None
     if rec is None:
         results["available"] = False

@@ -44,6 +44,7 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
         "harmonics": harmonics,
         "n_random": n_random,
         "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
     }
     if setup.model is None or setup.idim is None:
         results["available"] = False

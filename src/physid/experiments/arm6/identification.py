@@ -39,6 +39,7 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
         "torque_noise_fraction": TORQUE_NOISE,
         "well_excited_spread": WELL_EXCITED,
         "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
     }
     if not trajectory:
         results["available"] = False

@@ -34,7 +34,11 @@ def compute(setup, first, period: float, harmonics: int, progress=None) -> Secti
     -------
     SectionData
     """
-    results: dict[str, Any] = {"missing": list(setup.missing), "lags": LAGS}
+    results: dict[str, Any] = {
+        "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
+        "lags": LAGS,
+    }
     if not first:
         results["available"] = False
         return SectionData(KEYS["validation"], TITLES["validation"], results=results)

@@ -28,9 +28,12 @@ def _section(sd, paragraphs, figures=()) -> ReportSection:
 def _missing(r) -> list[str]:
     if not r.get("missing"):
         return ["Not run: an earlier step of this part did not complete (see above)."]
+    why = "; ".join(r.get("missing_reasons", []))
     return [
-        "Not run in this build of physid. This section needs: " + "; ".join(r["missing"]) + ". "
-        "It shows no number until those pieces are in."
+        "Not run in this build of physid. This section needs "
+        + ", ".join(r["missing"])
+        + ", which are not all in yet, and shows no number until they are."
+        + (f" Details: {why}." if why else "")
     ]
 
 

@@ -108,12 +108,15 @@ def variance(sd, r) -> ReportSection:
     figures = [
         FigureSpec(
             "msd_fig2_3_variance_factor",
-            plot_input_design(sd.figure("msd_fig2_3_variance_factor").data["result"]),
-            "Figs. 2–3 re-made: λ = 1 has the lowest K everywhere (left); the best Z moves with "
-            "the horizon k (right, dotted lines).",
-            alt="Two panels of log10 K against the frequency ratio Z. Left: one curve per "
-            "forgetting factor; the λ = 1 curve lies lowest at every Z. Right: one curve per "
-            "horizon k at λ = 1, each with its minimum marked by a dotted vertical line.",
+            plot_input_design(
+                sd.figure("msd_fig2_3_variance_factor").data["result"], relative=True
+            ),
+            "Figs. 2–3 re-made: every λ < 1 has a larger K than λ = 1 at every Z (left, ratio "
+            "above 1); the best Z moves with the horizon k (right, dotted lines).",
+            alt="Two panels against the frequency ratio Z. Left: the variance factor of each "
+            "forgetting factor divided by that of λ = 1, all above 1 on a log scale. Right: "
+            "log10 K for each horizon k at λ = 1, each with its minimum marked by a dotted "
+            "vertical line.",
         )
     ]
     return _section(sd, paragraphs, figures)
