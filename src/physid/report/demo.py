@@ -491,7 +491,8 @@ def _your_data_section() -> ReportSection:
     commands = (
         "# 1. an arm: your log, your channel names and units, your URDF\n"
         "physid identify log.csv --model my_arm.urdf --method idim-iv \\\n"
-        "    --map t=time,q1=pos1,tau1=gain*volt1 --kp 100 --kd 10 --json > arm-fit.json\n"
+        "    --map t=time,q1=pos1,tau1=gain*volt1 --kp 400,400,200,50,50,20 \\\n"
+        "    --kd 40,40,20,5,5,2 --json > arm-fit.json\n"
         "# 2. a linear system (e.g. a mass-spring-damper with a force sensor)\n"
         "physid estimate msd.csv --model my_msd.toml --method algebraic --json > msd-fit.json\n"
         "# 3. check the fit on data it has not seen\n"

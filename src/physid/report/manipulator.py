@@ -18,7 +18,17 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .style import COLORS, FULL_WIDTH, LINESTYLES, MARKERS, legend_outside, panel_height, styled
+from .style import (
+    COLORS,
+    FULL_WIDTH,
+    LINESTYLES,
+    MARKERS,
+    TRUTH_STYLE,
+    legend_outside,
+    panel_height,
+    robust_limits,
+    styled,
+)
 
 __all__ = [
     "plot_parameter_histories",
@@ -32,8 +42,12 @@ __all__ = [
 _COLORS = COLORS
 
 
+def _names(result) -> tuple[str, ...]:
+    return tuple(getattr(result, "parameter_names", None) or result.names)
+
+
 def _reference(result, truth: Mapping[str, float] | None) -> np.ndarray:
-    names = result.parameter_names
+    names = _names(result)
     if truth is None:
         return np.array([result.parameters[n] for n in names], dtype=float)
     return np.array([truth.get(n, result.parameters[n]) for n in names], dtype=float)
@@ -71,7 +85,7 @@ def plot_parameter_histories(
     ref = _reference(result, truth)
     hist = np.asarray(result.history, dtype=float)
     evals = np.arange(1, hist.shape[0] + 1)
-    for i, name in enumerate(result.parameter_names):
+    for i, name in enumerate(_names(result)):
         label = f"{name} (held)" if name in result.fixed else name
         ax.plot(
             evals,
@@ -82,6 +96,11 @@ def plot_parameter_histories(
             markersize=3,
             label=label,
         )
+    ratio = hist / ref
+    ax.axhline(1.0, **TRUTH_STYLE, label="true value" if truth is not None else "final estimate")
+    limits = robust_limits(ratio, truth=1.0, converged_fraction=0.5)
+    if limits is not None:
+        ax.set_ylim(*limits)
     if paper_evaluations:
         ax.axvline(paper_evaluations, color="k", lw=0.8, ls=":")
         ax.text(

@@ -30,7 +30,7 @@ MODEL = "arm6"
 #: Sampling period of every record [s].
 DT = 1e-3
 #: Encoder noise [rad] and torque noise (fraction of each joint's rms torque).
-ENCODER_STD = 1e-4
+ENCODER_STD = 1e-3
 TORQUE_NOISE = 0.02
 
 

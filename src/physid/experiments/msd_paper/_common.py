@@ -13,7 +13,7 @@ from ...estimators.algebraic import AlgebraicEstimator
 from ...estimators.recursive import RecursiveLeastSquares
 from ...simulate import PAPER_MSD
 
-#: Root seed of every record of this study (the demo's "seed 003").
+#: Root seed of every record of this study.
 SEED = 3
 PAPER = "Oueslati et al. 2011"
 W0 = MSD_NATURAL_FREQUENCY  # √(400/3) rad/s

@@ -129,7 +129,7 @@ def identification(sd, r) -> ReportSection:
         f"{100 * r['well_excited_spread']:g} %), the mean |relative bias| is "
         f"{100 * r['mean_abs_relative_bias']['idim-ols']:.2g} % for IDIM-OLS and "
         f"{100 * r['mean_abs_relative_bias']['idim-iv']:.2g} % for IDIM-IV"
-        + (f" ({ratio:.2g} of the OLS bias)." if ratio is not None else ".")
+        + (f" (IV/OLS ratio {ratio:.2g})." if ratio is not None else ".")
         + " The nominal 95 % intervals contain the truth in "
         + " and ".join(
             f"{100 * m[k]['coverage']:.0f} % of the cases for {k.upper()}"
