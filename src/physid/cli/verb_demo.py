@@ -8,6 +8,8 @@ import argparse
 from ._common import progress
 
 ORDER = 10
+#: Library keyword → this verb's flag, for error messages (physid.errors.arg).
+ARGUMENT_FLAGS = {"out_dir": "--out"}
 
 
 def register(subparsers) -> None:
@@ -40,13 +42,9 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..errors import InputError
     from ..report.demo import check_out_dir, run_demo
 
-    try:  # before any work: a bad --out must not cost a whole demo
-        check_out_dir(args.out)
-    except InputError as exc:
-        raise InputError(str(exc).replace("out_dir=", "--out ", 1)) from None
+    check_out_dir(args.out)  # before any work: a bad --out must not cost a whole demo
     paths = run_demo(args.out, quick=args.quick, progress=progress)
     print(paths.html)
     return 0

@@ -39,7 +39,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, arg
 from ..experiments.data import SectionData
 from .html import Html, ReportPaths, ReportSection, Table, write_report
 from .parts import render
@@ -529,17 +529,18 @@ def check_out_dir(out_dir: str | os.PathLike) -> Path:
         ``out_dir`` is an existing file (not a folder), or its parent folder is a file.
     """
     out = Path(out_dir)
+    named = arg("out_dir", repr(str(out)), cli=str(out))
     if out.exists() and not out.is_dir():
         raise InputError(
-            f"out_dir={str(out)!r} is an existing file, not a folder; the demo writes a folder "
+            f"{named} is an existing file, not a folder; the demo writes a folder "
             "(report.html, results.json, PNGs). Give a new or existing folder name."
         )
     for parent in out.absolute().parents:
         if parent.exists():
             if not parent.is_dir():
                 raise InputError(
-                    f"out_dir={str(out)!r}: {str(parent)!r} is a file, so the folder cannot be "
-                    "created there. Choose another path."
+                    f"{named}: {str(parent)!r} is a file, so the folder cannot be created there. "
+                    "Choose another path."
                 )
             break
     return out
@@ -553,8 +554,8 @@ def _stage(out: Path) -> Path:
         return Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=parent))
     except OSError as exc:
         raise InputError(
-            f"out_dir={str(out)!r}: cannot write into {str(parent)!r} ({exc.strerror}); choose a "
-            "folder you can write to."
+            f"{arg('out_dir', repr(str(out)), cli=str(out))}: cannot write into {str(parent)!r} "
+            f"({exc.strerror}); choose a folder you can write to."
         ) from None
 
 
