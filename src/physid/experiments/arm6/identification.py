@@ -123,9 +123,13 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
             "simulate_wall_time_s": seconds["simulate"],
             "input_error": {
                 "run": False,
-                "reason": "the input-error method fits the parameters of a model that enter "
-                "nonlinearly (lengths, as in Part I); for a URDF arm, linear in its base "
-                "parameters, IDIM is the method, and input-error is not run on it here",
+                "reason": "the input-error method fits the model's own parameters, here the "
+                "standard inertial parameters of every link, of which only the base combinations "
+                "are identifiable, so its Jacobian is singular; holding the other parameters at "
+                "their nominal values makes the fit slow, and it ends on the positivity bounds of "
+                "the standard parameters it then carries. IDIM estimates the base parameters "
+                "directly; input-error remains the method for parameters that enter "
+                "nonlinearly, as the lengths of Part I",
             },
         }
     )

@@ -143,7 +143,7 @@ def identification(sd, r) -> ReportSection:
             else "."
         ),
         f"The base regressor's condition number on the first record is "
-        f"{ols['condition_number']:.3g}. The input-error method is not run here: "
+        f"{ols['condition_number']:.3g}. The input-error method is not run on this arm: "
         + r["input_error"]["reason"]
         + ".",
     ]
@@ -152,15 +152,15 @@ def identification(sd, r) -> ReportSection:
         FigureSpec(
             "arm6_bias_bars",
             plot_bias_bars(
-                d["names"],
+                d["well"] or d["names"],
                 {k.upper(): v for k, v in d["bias"].items()},
-                d["well"],
-                title="|Relative bias| of each base parameter over the seeds: OLS vs IV",
+                title="|Relative bias| of each well-excited base parameter: OLS vs IV",
             ),
             _bias_caption(r),
-            alt="Grouped bars on a log scale, one pair per base parameter: the absolute relative "
-            "bias of IDIM-OLS and of IDIM-IV in percent; parameters that are not well excited "
-            "have grey labels.",
+            alt="Grouped bars on a log scale, one pair per well-excited base parameter: the "
+            "absolute relative bias of IDIM-OLS and of IDIM-IV in percent. Parameters that the "
+            "trajectory does not excite well are left out (their relative errors are "
+            "meaningless); the table lists all of them.",
         )
     ]
     return _section(sd, paragraphs, figures)
