@@ -20,6 +20,7 @@ import logging
 import os
 
 from physid.analysis import montecarlo as mc
+from physid.analysis import msd_study
 
 
 def _dask_time(n_workers: int, grid: dict) -> tuple[float, mc.SweepResult]:
@@ -34,13 +35,15 @@ def _dask_time(n_workers: int, grid: dict) -> tuple[float, mc.SweepResult]:
     )
     client = distributed.Client(cluster)
     try:
-        variants = mc.msd_estimator_variants(grid["methods"])
+        variants = msd_study.msd_estimator_variants(grid["methods"])
         for v in variants:
             v.update(duration=grid["duration"], dt=1e-3)
-        client.run(mc._warm_up, variants)  # every worker imports and derives its kernels once
+        client.run(
+            msd_study._warm_up, variants
+        )  # every worker imports and derives its kernels once
         best, res = float("inf"), None
         for _ in range(2):  # best of two: the machine may be shared
-            res = mc.msd_sweep(
+            res = msd_study.msd_sweep(
                 grid["snr"],
                 grid["ratio"],
                 trials=grid["trials"],
@@ -72,7 +75,7 @@ def run(quick: bool) -> list[dict]:
         )
         scale = dict(full, methods=("algebraic", "rls"))  # the full 1000-estimate grid
     n_records = len(full["snr"]) * len(full["ratio"]) * full["trials"]
-    res = mc.msd_sweep(
+    res = msd_study.msd_sweep(
         full["snr"],
         full["ratio"],
         trials=full["trials"],
@@ -144,7 +147,7 @@ def run(quick: bool) -> list[dict]:
         reference, name = res, "local pool"  # the same grid and seed: no need to run it again
     else:
         reference, name = (
-            mc.msd_sweep(
+            msd_study.msd_sweep(
                 scale["snr"],
                 scale["ratio"],
                 trials=scale["trials"],

@@ -14,7 +14,7 @@ from __future__ import annotations
 import sys
 import tempfile
 
-from physid.analysis.montecarlo import msd_sweep
+from physid.analysis.msd_study import msd_sweep
 
 
 def main(out_dir: str) -> None:

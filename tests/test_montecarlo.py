@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from physid.analysis import montecarlo as mc
+from physid.analysis.msd_study import msd_sweep
 from physid.errors import InputError
 
 GRID = {"mu": [0.0, 2.0, -1.0], "sigma": [0.5, 1.0]}
@@ -375,7 +376,10 @@ def test_bad_arguments_raise_clear_errors():
 
 def test_msd_sweep_refuses_a_bad_record_length_before_running():
     """Checked by the sweep itself, not only by the CLI: no sweep full of error rows."""
-    with pytest.raises(InputError, match=r"duration \[s\] must be finite and > 0"):
-        mc.msd_sweep([80.0], [1.0], trials=1, duration=-1.0, scheduler="serial", progress=False)
-    with pytest.raises(InputError, match=r"dt \[s\] must be finite and > 0"):
-        mc.msd_sweep([80.0], [1.0], trials=1, dt=0.0, scheduler="serial", progress=False)
+    with pytest.raises(InputError, match=r"duration must be finite and > 0"):
+        msd_sweep([80.0], [1.0], trials=1, duration=-1.0, scheduler="serial", progress=False)
+    with pytest.raises(InputError, match=r"dt must be finite and > 0"):
+        msd_sweep([80.0], [1.0], trials=1, dt=0.0, scheduler="serial", progress=False)
+    # a coarse dt is blamed on dt, not on a duration the caller never gave (issue 16)
+    with pytest.raises(InputError, match=r"dt = 1 s leaves only 5 sample\(s\) in duration = 5 s"):
+        msd_sweep([80.0], [1.0], trials=1, dt=1.0, scheduler="serial", progress=False)

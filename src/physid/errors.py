@@ -48,6 +48,7 @@ __all__ = [
     "EstimationError",
     "SimulationError",
     "MissingDependencyError",
+    "SchedulerError",
     "arg",
 ]
 
@@ -230,4 +231,11 @@ class MissingDependencyError(PhysidError, ImportError):
     """An optional dependency (Dask, h5py, pinocchio ...) is needed for the requested feature.
 
     The message names the extra to install, e.g. ``pip install "physid[dask]"``.
+    """
+
+
+class SchedulerError(PhysidError, ConnectionError):
+    """A Dask scheduler cannot be reached (wrong address, not running, or too slow to answer).
+
+    The message names the address and the timeout, and how to change them.
     """

@@ -1,7 +1,9 @@
 """Analysis: identifiability, variance-based input design, convergence metrics, Monte-Carlo sweeps.
 
-`montecarlo` runs locally by default; its Dask backend needs the ``dask`` extra
-(``pip install "physid[dask]"``), imported only when asked for.
+`montecarlo` is the sweep engine (grid × seeds on a serial, process-pool or Dask backend; Dask
+needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when asked for);
+`studies` builds its trials from a model, a scenario and an estimator (`model_sweep`: any
+linear-ODE model); `msd_study` is the paper's MSD study on it (`msd_sweep`).
 """
 
 from .identifiability import (
@@ -20,7 +22,9 @@ from .metrics import (
     settle_time,
     shortest_window,
 )
-from .montecarlo import SweepResult, msd_sweep, run_sweep, trial_specs
+from .montecarlo import SweepResult, run_sweep, trial_specs
+from .msd_study import msd_sweep
+from .studies import EstimationTrial, SineScenario, model_sweep
 
 __all__ = [
     "IdentifiabilityWarning",
@@ -42,4 +46,7 @@ __all__ = [
     "run_sweep",
     "msd_sweep",
     "trial_specs",
+    "model_sweep",
+    "EstimationTrial",
+    "SineScenario",
 ]

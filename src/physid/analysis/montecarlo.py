@@ -38,7 +38,16 @@ Outputs (`write_sweep`)
     temporary file in the target folder and renamed into place, so an interrupted sweep never leaves
     a half-written file.
 
-The MSD study of Oueslati et al. (2011, section 5) is `msd_sweep` / `msd_trial`.
+Interrupts and resources
+    Ctrl-C (SIGINT) or SIGTERM stops the sweep: queued work is cancelled and the local pool's
+    workers are killed before the exception propagates (the CLI exits 130 or 143). Before any
+    trial is generated, the memory the table will need is estimated and a request beyond what
+    the machine has is refused with the numbers. A Dask scheduler address that cannot be reached
+    within ``scheduler_timeout`` seconds raises `physid.errors.SchedulerError`.
+
+This module is the generic engine. The trials it runs for a model, a scenario and an estimator
+are built in `physid.analysis.studies` (`model_sweep`: any linear-ODE model); the MSD study of
+Oueslati et al. (2011, section 5) is `physid.analysis.msd_study` (`msd_sweep`, `msd_trial`).
 """
 
 from __future__ import annotations
@@ -64,9 +73,8 @@ import numpy as np
 
 from .._paths import atomic_write
 from .._validate import check_int, check_positive
-from ..errors import InputError, MissingDependencyError
+from ..errors import InputError, MissingDependencyError, SchedulerError, arg
 from ..estimators.results import ResultMixin, jsonable
-from ..models.linear_ode import MSD_NATURAL_FREQUENCY
 from . import metrics
 
 __all__ = [
@@ -78,17 +86,39 @@ __all__ = [
     "read_table",
     "atomic_write",
     "parse_scheduler",
-    "msd_trial",
-    "msd_sweep",
-    "msd_estimator_variants",
-    "MSD_TIME_COLUMNS",
+    "table_memory",
+    "first_failure",
 ]
 
 DASK_HINT = "pip install physid[dask]"
 #: Sweeps with at most this many trials run in-process under scheduler="local" (a pool costs more).
 IN_PROCESS_LIMIT = 8
-#: Columns of the MSD table that are convergence times (NaN = not converged; medians are censored).
-MSD_TIME_COLUMNS = ("t_first_hit", "t_settle")
+#: Bytes one trial costs in memory while a sweep runs: its TrialSpec, its row dict (about 20
+#: columns of floats and short strings) and the CSV text (measured: ~2.3 kB for an MSD trial).
+BYTES_PER_TRIAL = 3000
+#: Fraction of the available memory a sweep's table may use.
+MEMORY_FRACTION = 0.5
+#: Seconds to wait for a Dask scheduler address to answer.
+SCHEDULER_TIMEOUT = 30.0
+#: Moved to physid.analysis.msd_study; still importable from here (see `__getattr__`).
+_MOVED = {
+    "msd_trial",
+    "msd_sweep",
+    "msd_estimator_variants",
+    "MSD_TIME_COLUMNS",
+    "MSD_NATURAL_FREQUENCY",
+    "_warm_up",
+}
+
+
+def __getattr__(name):
+    # The MSD study moved to physid.analysis.msd_study (issue 12 item 8); the old names keep
+    # working for one release. Lazy, so the engine never imports the study (no cycle).
+    if name in _MOVED:
+        from . import msd_study
+
+        return getattr(msd_study, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 # =========================================================================== grid and seeds
@@ -431,7 +461,11 @@ def _single_threaded_blas() -> None:
     nanny already starts its workers with these variables set to 1.
     """
     import ctypes
+    import signal
 
+    # a worker that inherited the CLI's SIGTERM handler would raise inside the pool's machinery;
+    # the parent kills its workers itself when it is terminated
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     for name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ[name] = "1"  # for libraries imported later in this worker
     try:
@@ -475,8 +509,8 @@ def _run_pool(trial, specs, workers, chunksize, retries, bar):
                     chunk_rows = _failed_rows(futures[fut], f"{type(exc).__name__}: {exc}")
                 rows.extend(chunk_rows)
                 bar.advance(len(chunk_rows))
-        except BaseException:  # Ctrl-C: do not wait for the queued chunks
-            pool.shutdown(wait=False, cancel_futures=True)
+        except BaseException:  # Ctrl-C or SIGTERM: stop now, leave no worker behind
+            _kill_pool(pool)
             raise
         pool.shutdown(wait=True)
         pending = broken
@@ -488,6 +522,105 @@ def _run_pool(trial, specs, workers, chunksize, retries, bar):
                 bar.advance(len(lost))
                 pending = []
     return rows
+
+
+def _kill_pool(pool: cf.ProcessPoolExecutor) -> None:
+    """Cancel the queued chunks and kill the pool's worker processes.
+
+    ``shutdown(wait=False)`` alone lets each worker finish its current chunk, and a process that
+    was sent SIGTERM exits before they do, leaving them blocked on their queue forever.
+    """
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for proc in processes:
+        try:
+            proc.kill()
+        except (OSError, ValueError):  # already gone
+            pass
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        try:
+            proc.join(timeout=5)
+        except (OSError, ValueError, AssertionError):
+            pass
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux MemAvailable; else total RAM)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def _bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB", "EB"):
+        if n < 1000 or unit == "EB":
+            return f"{n:.3g} {unit}"
+        n /= 1000
+    return f"{n:.3g} EB"  # pragma: no cover
+
+
+def table_memory(grid: Mapping[str, Sequence], trials: int) -> tuple[int, int]:
+    """Number of trials of a sweep and the memory [bytes] its table needs while it runs.
+
+    Parameters
+    ----------
+    grid : mapping of str to sequence
+        Axis name → values (see `trial_specs`).
+    trials : int
+        Trials per grid point.
+
+    Returns
+    -------
+    (n_trials, bytes) : tuple of int
+        ``prod(len(axis)) · trials`` and that times `BYTES_PER_TRIAL`.
+
+    Examples
+    --------
+    >>> table_memory({"snr_db": [25, 50], "ratio": [1, 5, 10]}, 100)
+    (600, 1800000)
+    """
+    axes = _check_grid(grid)
+    trials = check_int(trials, "trials", minimum=1)
+    n = math.prod(len(v) for v in axes.values()) * trials
+    return n, n * BYTES_PER_TRIAL
+
+
+def _check_memory(grid, trials) -> None:
+    n, need = table_memory(grid, trials)
+    available = _available_memory()
+    if available is None or need <= MEMORY_FRACTION * available:
+        return
+    cells = n // trials
+    raise InputError(
+        f"a sweep of {n:,} trials ({cells} grid point(s) × {arg('trials')} = {trials:,}) needs "
+        f"about {_bytes(need)} of memory for its table ({BYTES_PER_TRIAL} B per trial), but this "
+        f"machine has {_bytes(available)} available (a sweep may use "
+        f"{MEMORY_FRACTION:.0%}). Use fewer {arg('trials')} or grid points (at most about "
+        f"{int(MEMORY_FRACTION * available / BYTES_PER_TRIAL / cells):,} trials per point here), "
+        "or split the study into several sweeps with different seeds."
+    )
+
+
+def _dask_client(distributed, address: str, timeout: float):
+    """A client of the scheduler at ``address``, or `SchedulerError` after ``timeout`` s."""
+    try:
+        return distributed.Client(address, timeout=f"{timeout}s")
+    except (OSError, TimeoutError) as exc:
+        raise SchedulerError(
+            f"could not reach the Dask scheduler at {address!r} within {timeout:g} s "
+            f"({type(exc).__name__}: {exc}). Check the address and that a scheduler runs there "
+            f"(`dask scheduler`), raise {arg('scheduler_timeout', 'SECONDS', cli='SECONDS')}, or "
+            f"use {arg('scheduler', repr('local'), cli='local')}.",
+            arguments=("scheduler",),
+        ) from None
 
 
 def _run_dask(client, trial, specs, chunksize, retries, bar):
@@ -726,6 +859,7 @@ def run_sweep(
     censored_columns: Sequence[str] = (),
     progress: bool = True,
     label: str = "sweep",
+    scheduler_timeout: float = SCHEDULER_TIMEOUT,
 ) -> SweepResult:
     """Run ``trial`` on every grid point and trial number; return the tidy table.
 
@@ -760,10 +894,23 @@ def run_sweep(
         Show a progress bar on stderr.
     label : str
         Text in front of the progress bar.
+    scheduler_timeout : float [s]
+        How long to wait for a ``"tcp://..."`` scheduler to answer (default 30 s) before raising
+        `physid.errors.SchedulerError`.
 
     Returns
     -------
     SweepResult
+        The table; ``success`` is False when any trial is not ``ok``, and ``message`` names the
+        first failure when every trial failed.
+
+    Raises
+    ------
+    InputError
+        Bad settings, or a table larger than half the available memory (the message gives the
+        numbers).
+    SchedulerError
+        A scheduler address that does not answer within ``scheduler_timeout``.
 
     Examples
     --------
@@ -780,12 +927,14 @@ def run_sweep(
     retries = check_int(retries, "retries", minimum=0)
     workers = check_int(workers, "workers", minimum=1, allow_none=True, fix="None uses every CPU.")
     chunksize = check_int(chunksize, "chunksize", minimum=1, allow_none=True)
-    kind, arg = parse_scheduler(scheduler)
+    scheduler_timeout = check_positive(scheduler_timeout, "scheduler_timeout")
+    kind, address = parse_scheduler(scheduler)
     if workers is not None and kind != "local":
         raise InputError(
             f"workers={workers} applies to scheduler='local' only; with {scheduler!r} the "
             "worker count is the scheduler's (use 'local:N' for a Dask LocalCluster of N workers)."
         )
+    _check_memory(grid, trials)  # before anything of that size is allocated
     specs = trial_specs(grid, trials, seed, shared_seed_axes=shared_seed_axes)
     axes = _check_grid(grid)
     setting_columns: list[str] = []
@@ -821,7 +970,7 @@ def run_sweep(
         client = None
         try:
             if kind == "dask-client":
-                client = arg
+                client = address
                 backend = (
                     f"dask client {getattr(client, 'scheduler', None) and client.scheduler.address}"
                 )
@@ -829,17 +978,17 @@ def run_sweep(
                 import logging
 
                 cluster = distributed.LocalCluster(
-                    n_workers=arg,
+                    n_workers=address,
                     threads_per_worker=1,
                     processes=True,
                     dashboard_address=None,
                     silence_logs=logging.ERROR,
                 )
                 client = distributed.Client(cluster)
-                backend = f"dask LocalCluster ({arg} worker processes)"
+                backend = f"dask LocalCluster ({address} worker processes)"
             else:
-                client = distributed.Client(arg, timeout="30s")
-                backend = f"dask {arg}"
+                client = _dask_client(distributed, address, scheduler_timeout)
+                backend = f"dask {address}"
             n_workers = _dask_workers(client)
             size = chunksize or _default_chunksize(len(specs), n_workers, chunks_per_worker=2)
             rows = _run_dask(client, trial, specs, size, int(retries), bar)
@@ -859,6 +1008,10 @@ def run_sweep(
     message = f"{len(full_rows)} trials on {backend} in {elapsed:.1f} s" + (
         f"; {n_bad} not ok (see the status and message columns)" if n_bad else ""
     )
+    if full_rows and n_bad == len(full_rows):
+        message = (
+            f"every trial failed ({n_bad} of {n_bad}); {first_failure(full_rows, setting_columns)}"
+        )
     return SweepResult(
         grid={k: list(v) for k, v in axes.items()},
         trials=int(trials),
@@ -872,6 +1025,33 @@ def run_sweep(
         success=n_bad == 0,
         message=message,
     )
+
+
+def first_failure(rows: Sequence[Mapping[str, Any]], setting_columns: Sequence[str] = ()) -> str:
+    """Where and why the first trial that is not ``ok`` failed, in one sentence.
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        Table rows (`SweepResult.rows`).
+    setting_columns : sequence of str
+        The columns that name a grid cell, shown for the failed row.
+
+    Returns
+    -------
+    str
+        ``"the first (row 3: snr_db=25, ratio=1, trial 0) ended with status 'error': ..."``, or
+        ``""`` when every row is ok.
+    """
+    for r in rows:
+        if r.get("status") == "ok":
+            continue
+        where = "".join(f"{k}={r.get(k)}, " for k in setting_columns)
+        return (
+            f"the first (row {r.get('index')}: {where}trial {r.get('trial')}) ended with status "
+            f"{r.get('status')!r}: {str(r.get('message') or '(no message)').rstrip('.')}"
+        )
+    return ""
 
 
 # =========================================================================== writing
@@ -1011,230 +1191,3 @@ def _parse_cell(text: str):
         return float(text)
     except ValueError:
         return text
-
-
-# =========================================================================== the MSD study
-def msd_estimator_variants(
-    methods: Sequence[str] = ("algebraic", "rls"),
-    *,
-    windows: Sequence[float] = (0.05,),
-    forgettings: Sequence[float] = (1.0,),
-) -> list[dict]:
-    """Estimator configurations for the MSD sweep: algebraic × windows and rls × forgetting factors.
-
-    Examples
-    --------
-    >>> msd_estimator_variants(["algebraic", "rls"], windows=[0.05], forgettings=[1.0, 0.99])
-    ... # doctest: +NORMALIZE_WHITESPACE
-    [{'method': 'algebraic', 'window': 0.05, 'forgetting': None},
-     {'method': 'rls', 'window': None, 'forgetting': 1.0},
-     {'method': 'rls', 'window': None, 'forgetting': 0.99}]
-    """
-    variants: list[dict] = []
-    for method in methods:
-        if method == "algebraic":
-            variants += [
-                {"method": "algebraic", "window": float(w), "forgetting": None} for w in windows
-            ]
-        elif method == "rls":
-            variants += [
-                {"method": "rls", "window": None, "forgetting": float(f)} for f in forgettings
-            ]
-        else:
-            raise InputError(f"method must be 'algebraic' or 'rls'; got {method!r}.")
-    return variants
-
-
-def _msd_estimator(settings: Mapping[str, Any]):
-    method = settings.get("method", "algebraic")
-    if method == "algebraic":
-        from ..estimators.algebraic import AlgebraicEstimator
-
-        kwargs = dict(settings.get("estimator_options") or {})
-        return AlgebraicEstimator(
-            model="msd", window=float(settings.get("window") or 0.05), **kwargs
-        )
-    if method == "rls":
-        from ..estimators.recursive import RecursiveLeastSquares
-
-        kwargs = dict(settings.get("estimator_options") or {})
-        forgetting = settings.get("forgetting")
-        kwargs.setdefault("covariance", "diagonal")  # the sweep needs θ̂ only: 4x less memory
-        return RecursiveLeastSquares(
-            model="msd", forgetting=1.0 if forgetting is None else float(forgetting), **kwargs
-        )
-    raise InputError(f"method must be 'algebraic' or 'rls'; got {method!r}.")
-
-
-def _msd_truth(rec, default: float) -> float:
-    meta = getattr(rec, "metadata", {}) or {}
-    for key in ("natural_frequency", "omega0"):
-        if key in meta and np.isscalar(meta[key]):
-            return float(meta[key])
-    return default
-
-
-def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
-    """One trial of the MSD study: simulate the paper's scenario, estimate ω0, measure convergence.
-
-    Parameters
-    ----------
-    settings : mapping
-        ``snr_db`` (None = noise-free), ``ratio`` (Z = ω1/ω0), ``method`` (``"algebraic"`` or
-        ``"rls"``), ``window`` [s] (algebraic), ``forgetting`` (rls), and optionally ``duration``
-        [s] (default 5), ``dt`` [s] (1e-3), ``tolerance`` (0.02), ``estimator_options`` (dict
-        passed to the estimator).
-    seed : int
-        Seed of the measurement noise.
-
-    Returns
-    -------
-    dict
-        ``omega0_true``, ``omega0_final``, ``zeta_final``, ``theta1_true``, ``theta1_final``,
-        ``theta2_true``, ``theta2_final`` (the truths and the estimator's final estimates; the
-        ``*_final`` / ``*_true`` pairs give the bias and spread in `SweepResult.summarize`),
-        ``final_error`` (relative ω0 error of the final estimate), ``t_first_hit`` and ``t_settle``
-        [s] (`physid.analysis.metrics`; NaN = not within 2 % by the end), ``valid_fraction``, and a
-        ``status`` ``"estimator-failed"`` with the estimator's message when it did not succeed.
-    """
-    from ..simulate import msd_paper_scenario
-
-    rec = msd_paper_scenario(
-        ratio=float(settings["ratio"]),
-        snr_db=None if settings.get("snr_db") is None else float(settings["snr_db"]),
-        duration=float(settings.get("duration", 5.0)),
-        dt=float(settings.get("dt", 1e-3)),
-        seed=int(seed),
-    )
-    truth = _msd_truth(rec, MSD_NATURAL_FREQUENCY)
-    meta = getattr(rec, "metadata", {}) or {}
-    theta_true = {n: float(meta.get(n, math.nan)) for n in ("theta1", "theta2")}
-    result = _msd_estimator(settings).fit(rec).result_
-    tol = float(settings.get("tolerance", metrics.DEFAULT_TOLERANCE))
-    t, omega, valid = metrics.estimate_trace(result, "natural_frequency")
-    conv = metrics.convergence_times(t, omega, truth, tol, valid=valid)
-    params = dict(getattr(result, "parameters", {}) or {})
-    omega_final = float(params.get("natural_frequency", math.nan))
-    out = {
-        "omega0_true": truth,
-        "omega0_final": omega_final,
-        "zeta_final": float(params.get("damping_ratio", math.nan)),
-        "theta1_true": theta_true["theta1"],
-        "theta1_final": float(params.get("theta1", math.nan)),
-        "theta2_true": theta_true["theta2"],
-        "theta2_final": float(params.get("theta2", math.nan)),
-        "final_error": abs(omega_final - truth) / truth if math.isfinite(omega_final) else math.nan,
-        "t_first_hit": conv["first_hit"],
-        "t_settle": conv["settle"],
-        "valid_fraction": float(getattr(result, "valid_fraction", math.nan)),
-    }
-    if not getattr(result, "success", True):
-        out["status"] = "estimator-failed"
-        out["message"] = str(getattr(result, "message", ""))
-    return out
-
-
-msd_trial.preload_modules = (  # type: ignore[attr-defined]
-    "physid.simulate",
-    "physid.estimators.algebraic",
-    "physid.estimators.recursive",
-)
-
-
-def _warm_up(variants: Sequence[Mapping[str, Any]]) -> None:
-    """Run each estimator configuration once on a short clean record (fills in-memory caches)."""
-    from ..simulate import msd_paper_scenario
-
-    rec = msd_paper_scenario(ratio=10.0, duration=0.6, dt=float(variants[0].get("dt", 1e-3)))
-    for settings in variants:
-        try:
-            _msd_estimator(settings).fit(rec)
-        except Exception:  # noqa: S112 - the real trials will report the problem with its message
-            continue
-
-
-def msd_sweep(
-    snr_db: Sequence[float | None] = (25.0, 50.0, 80.0),
-    ratio: Sequence[float] = (0.5, 1.0, 2.0, 5.0, 10.0),
-    *,
-    trials: int = 10,
-    methods: Sequence[str] = ("algebraic", "rls"),
-    windows: Sequence[float] = (0.05,),
-    forgettings: Sequence[float] = (1.0,),
-    duration: float = 5.0,
-    dt: float = 1e-3,
-    seed: int = 0,
-    scheduler: Any = "local",
-    workers: int | None = None,
-    chunksize: int | None = None,
-    progress: bool = True,
-    estimator_options: Mapping[str, Mapping[str, Any]] | None = None,
-) -> SweepResult:
-    """The convergence study of Oueslati et al. (2011, Figs. 5–6): SNR × Z × estimator × seeds.
-
-    Every (SNR, Z, trial) simulates one noisy record of the paper's MSD (`msd_paper_scenario`),
-    shared by all estimator configurations (paired comparison), and each configuration estimates ω0
-    on it (`msd_trial`).
-
-    Parameters
-    ----------
-    snr_db : sequence of float [dB]
-        Signal-to-noise ratios (None = noise-free).
-    ratio : sequence of float
-        Input frequency ratios Z = ω1 / ω0.
-    trials : int
-        Noise realisations per (SNR, Z).
-    methods : sequence of {"algebraic", "rls"}
-    windows : sequence of float [s]
-        Algebraic window lengths.
-    forgettings : sequence of float
-        RLS forgetting factors λ in (0, 1].
-    duration, dt : float [s]
-        Record length and sample period.
-    seed : int
-        Root seed.
-    scheduler, workers, chunksize, progress
-        See `run_sweep`.
-    estimator_options : mapping, optional
-        ``{"algebraic": {...}, "rls": {...}}`` extra keyword arguments per method.
-
-    Returns
-    -------
-    SweepResult
-    """
-    snr_values = [None if s is None else float(s) for s in snr_db]
-    ratio_values = [float(z) for z in ratio]
-    if any(z <= 0 for z in ratio_values) or not ratio_values:
-        raise InputError(f"ratio must be a non-empty list of positive numbers; got {list(ratio)}.")
-    for f in forgettings:
-        if not 0 < float(f) <= 1:
-            raise InputError(f"forgetting factors must lie in (0, 1]; got {f!r}.")
-    for w in windows:
-        if not float(w) > 0:
-            raise InputError(f"windows must be positive lengths [s]; got {w!r}.")
-    duration = check_positive(duration, "duration [s]")
-    dt = check_positive(dt, "dt [s]")
-    variants = msd_estimator_variants(methods, windows=windows, forgettings=forgettings)
-    options = dict(estimator_options or {})
-    for v in variants:
-        v["duration"] = duration
-        v["dt"] = dt
-        if options.get(v["method"]):
-            v["estimator_options"] = dict(options[v["method"]])
-    grid = {"snr_db": snr_values, "ratio": ratio_values, "estimator": variants}
-    kind, _ = parse_scheduler(scheduler)
-    if kind == "local":
-        _warm_up(variants)  # derive the estimators' kernels once here; forked workers inherit them
-    return run_sweep(
-        msd_trial,
-        grid,
-        trials=trials,
-        seed=seed,
-        scheduler=scheduler,
-        workers=workers,
-        chunksize=chunksize,
-        shared_seed_axes=("estimator",),
-        censored_columns=MSD_TIME_COLUMNS,
-        progress=progress,
-        label="sweep msd",
-    )

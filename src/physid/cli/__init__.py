@@ -21,9 +21,12 @@ for keywords whose flag has another name (None: the verb has no flag for it).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import pkgutil
+import signal
 import sys
+import threading
 
 from .. import __version__
 from ..errors import PhysidError
@@ -101,6 +104,31 @@ def argument_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
     return flags
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the program is so that cleanup runs as for Ctrl-C (exit 143).
+
+    A `KeyboardInterrupt` subclass: code that cleans up on Ctrl-C (the sweep's pool kills its
+    workers, staged outputs are dropped) does the same on SIGTERM.
+    """
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated()
+
+
+@contextlib.contextmanager
+def _sigterm_as_exception():
+    """While a verb runs, SIGTERM raises `Terminated` (only possible in the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``physid`` command; returns the exit status."""
     parser = build_parser()
@@ -109,7 +137,11 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return 2
     try:
-        return int(args.func(args) or 0)
+        with _sigterm_as_exception():
+            return int(args.func(args) or 0)
+    except Terminated:
+        print("physid: terminated", file=sys.stderr)
+        return 143
     except PhysidError as exc:
         print(f"physid: error: {exc.render(argument_flags(parser, args))}", file=sys.stderr)
         return 2
