@@ -112,8 +112,34 @@ class Terminated(KeyboardInterrupt):
     """
 
 
+_TERMINATING = {"pending": False}
+#: Seconds after which a SIGTERM whose exception was swallowed is raised again.
+_RETRY_S = 0.2
+
+
 def _raise_terminated(signum, frame):
+    _TERMINATING["pending"] = True
+    # An exception raised in a signal handler is lost when the signal lands inside a callback
+    # whose exceptions Python ignores (e.g. logging's after-fork handler while a pool worker is
+    # forked): re-raise from an alarm until something handles it (see _retry_terminated).
+    signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
     raise Terminated()
+
+
+def _retry_terminated(signum, frame):
+    if not _TERMINATING["pending"]:
+        return
+    if isinstance(sys.exc_info()[1], Terminated):  # being handled: cleanup is running
+        return
+    signal.setitimer(signal.ITIMER_REAL, _RETRY_S)
+    raise Terminated()
+
+
+def _quiet_lost_terminated(unraisable):
+    """A swallowed `Terminated` is retried, not reported as "Exception ignored in ..."."""
+    if isinstance(unraisable.exc_value, Terminated):
+        return
+    sys.__unraisablehook__(unraisable)
 
 
 @contextlib.contextmanager
@@ -123,10 +149,16 @@ def _sigterm_as_exception():
         yield
         return
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_alarm = signal.signal(signal.SIGALRM, _retry_terminated)
+    previous_hook, sys.unraisablehook = sys.unraisablehook, _quiet_lost_terminated
     try:
         yield
     finally:
+        sys.unraisablehook = previous_hook
+        _TERMINATING["pending"] = False
+        signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGALRM, previous_alarm)
 
 
 def main(argv: list[str] | None = None) -> int:
