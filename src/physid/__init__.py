@@ -47,7 +47,17 @@ __all__ = [
 def load_model(name_or_path, **options):
     """Load a built-in model by name (``"manipulator"``, ``"msd"``) or a TOML model file.
 
-    See `physid.models.load_model` for the options.
+    Parameters
+    ----------
+    name_or_path : str or path
+        A built-in name or the path of a model file.
+    **options
+        Passed on to `physid.models.load_model` (see there).
+
+    Returns
+    -------
+    ChainModel or LinearODEModel
+        The model, with its nominal parameters.
     """
     from .models import load_model as _load_model
 
@@ -56,6 +66,18 @@ def load_model(name_or_path, **options):
 
 def load_recording(path, **options):
     """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5.
+
+    Parameters
+    ----------
+    path : str or path
+        The file.
+    **options
+        Passed on to `physid.signals.load_recording` (see there).
+
+    Returns
+    -------
+    Recording
+        Time, named channels (SI units), metadata.
 
     See `physid.signals.load_recording` for the options.
     """

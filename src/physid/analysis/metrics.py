@@ -334,6 +334,23 @@ def convergence_times(
 ) -> dict[str, float]:
     """The first-hit and settle times [s] and the final relative error of one estimate trace.
 
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,) [s]
+        Uniformly sampled times.
+    estimate : array_like, shape (n_samples,)
+        The estimate's trace.
+    truth : float or array_like, shape (n_samples,)
+        The true value.
+    tolerance : float, default 0.02
+        Relative tolerance.
+    stretch, fraction : float
+        The settle rule (see `settle_time`).
+    valid : array_like of bool, optional
+        Which samples hold a valid estimate.
+    invalid : {"hold", "fail"}
+        See `within_tolerance`.
+
     Returns
     -------
     dict

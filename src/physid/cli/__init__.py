@@ -57,7 +57,13 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (all verbs registered)."""
+    """The full argument parser (all verbs registered).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        ``physid`` with one sub-parser per ``verb_<name>.py`` module.
+    """
     parser = _Parser(
         prog="physid",
         description=(
@@ -162,7 +168,19 @@ def _sigterm_as_exception():
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``physid`` command; returns the exit status."""
+    """Entry point of the ``physid`` command.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit status: 0 success, 2 refused input (one ``physid: error:`` line on stderr),
+        130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -265,6 +265,11 @@ def build_chain_model(
         Override the spec's kinetic-energy mode.
     cache : bool
         Read and write the on-disk cache (default True).
+
+    Returns
+    -------
+    ChainModel
+        The frozen model with its generated numeric functions.
     """
     if kinetic is not None:
         if kinetic not in ("exact", "paper"):

@@ -325,8 +325,22 @@ def msd_from_physical(mass, damping, stiffness) -> dict:
 
     b0 = 1/m is the gain from force u = F; with the normalised input u = F/m use b0 = 1.
 
-    Example
+    Parameters
+    ----------
+    mass : float [kg]
+        m > 0.
+    damping : float [N·s/m]
+        c >= 0.
+    stiffness : float [N/m]
+        k > 0.
+
+    Returns
     -------
+    dict
+        ``theta1`` [1/s], ``theta2`` [1/s²], ``b0`` [1/kg].
+
+    Examples
+    --------
     >>> msd_from_physical(3.0, 0.05, 400.0)["theta2"]   # doctest: +ELLIPSIS
     133.33...
     """
@@ -337,7 +351,20 @@ def msd_from_physical(mass, damping, stiffness) -> dict:
 
 
 def natural_frequency_damping(theta1, theta2):
-    """(θ1, θ2) → (ω0 = √θ2 [rad/s], ζ = θ1 / (2√θ2)); vectorised, NaN where θ2 ≤ 0."""
+    """(θ1, θ2) → (ω0 = √θ2 [rad/s], ζ = θ1 / (2√θ2)); vectorised, NaN where θ2 ≤ 0.
+
+    Parameters
+    ----------
+    theta1 : float or array_like [1/s]
+        θ1 = c/m.
+    theta2 : float or array_like [1/s²]
+        θ2 = k/m.
+
+    Returns
+    -------
+    (omega0, zeta) : tuple of float or ndarray
+        Natural frequency [rad/s] and damping ratio, shaped like the inputs.
+    """
     t1 = np.asarray(theta1, dtype=float)
     t2 = np.asarray(theta2, dtype=float)
     ok = t2 > 0
@@ -349,7 +376,20 @@ def natural_frequency_damping(theta1, theta2):
 
 
 def theta_from_natural(omega0, zeta):
-    """(ω0 [rad/s], ζ) → (θ1 = 2ζω0 [1/s], θ2 = ω0² [1/s²]); vectorised."""
+    """(ω0 [rad/s], ζ) → (θ1 = 2ζω0 [1/s], θ2 = ω0² [1/s²]); vectorised.
+
+    Parameters
+    ----------
+    omega0 : float or array_like [rad/s]
+        Natural frequency.
+    zeta : float or array_like
+        Damping ratio.
+
+    Returns
+    -------
+    (theta1, theta2) : tuple of float or ndarray
+        θ1 [1/s] and θ2 [1/s²], shaped like the inputs.
+    """
     w = np.asarray(omega0, dtype=float)
     z = np.asarray(zeta, dtype=float)
     t1, t2 = 2.0 * z * w, w * w
@@ -359,7 +399,22 @@ def theta_from_natural(omega0, zeta):
 
 
 def physical_from_theta(theta1, theta2, mass) -> dict:
-    """(θ1, θ2, m) → {"mass": m, "damping": c = θ1 m [N·s/m], "stiffness": k = θ2 m [N/m]}."""
+    """(θ1, θ2, m) → {"mass": m, "damping": c = θ1 m [N·s/m], "stiffness": k = θ2 m [N/m]}.
+
+    Parameters
+    ----------
+    theta1 : float [1/s]
+        θ1 = c/m.
+    theta2 : float [1/s²]
+        θ2 = k/m.
+    mass : float [kg]
+        m > 0.
+
+    Returns
+    -------
+    dict
+        ``mass`` [kg], ``damping`` [N·s/m], ``stiffness`` [N/m].
+    """
     m = check_positive(mass, "mass")
     return {"mass": m, "damping": float(theta1) * m, "stiffness": float(theta2) * m}
 

@@ -86,7 +86,23 @@ def _tomllib():
 
 @dataclass(frozen=True)
 class ParameterSpec:
-    """One model parameter: nominal ``value`` in SI ``unit``; ``identify`` marks it unknown."""
+    """One model parameter: nominal ``value`` in SI ``unit``; ``identify`` marks it unknown.
+
+    Attributes
+    ----------
+    name : str
+        The symbol used in expressions.
+    value : float
+        Nominal value [unit].
+    unit : str
+        SI unit text.
+    identify : bool
+        Estimated by default.
+    description : str
+        Free text.
+    where : str
+        Where the model file defines it (for messages).
+    """
 
     name: str
     value: float
@@ -106,6 +122,23 @@ class JointSpec:
     ``where`` locates the joint's dh/transform key in the model file; ``locations`` holds
     ``(key, "file, line N (...)")`` pairs for the other keys, so that an error in ``mass`` names
     the line of ``mass`` (see `location`).
+
+    Attributes
+    ----------
+    mass : str
+        Expression of the point mass [kg].
+    dh : tuple or None
+        ``(key, expression)`` pairs of the Denavit-Hartenberg parameters.
+    transform : tuple or None
+        4 × 4 expression strings of the link transform.
+    rotor_inertia, viscous, coulomb : str
+        Expressions of J [kg·m²], the viscous [N·m·s/rad] and Coulomb [N·m] friction.
+    name : str
+        Joint name.
+    where : str
+        Where the joint is defined in the model file.
+    locations : tuple
+        ``(key, location)`` pairs of its other keys.
     """
 
     mass: str
@@ -136,7 +169,27 @@ class JointSpec:
 
 @dataclass(frozen=True)
 class ChainSpec:
-    """A serial chain model: parameters, joints, gravity [m/s²] and kinetic-energy mode."""
+    """A serial chain model: parameters, joints, gravity [m/s²] and kinetic-energy mode.
+
+    Attributes
+    ----------
+    name : str
+        Model name.
+    parameters : tuple of ParameterSpec
+        The parameters, in file order.
+    joints : tuple of JointSpec
+        The joints from the base outwards.
+    gravity : tuple of float [m/s²]
+        Gravity in the base frame.
+    kinetic : {"exact", "paper"}
+        Kinetic-energy mode.
+    description : str
+        Free text.
+    source : str
+        The file (or ``<built-in>``).
+    text : str
+        The file's text (for messages that quote a line).
+    """
 
     name: str
     parameters: tuple
@@ -165,7 +218,25 @@ class ChainSpec:
 
 @dataclass(frozen=True)
 class LinearODESpec:
-    """A linear ODE Σ a_i y^(i) = Σ b_i u^(i) with a_n = 1; ``a``/``b`` hold parameter names."""
+    """A linear ODE Σ a_i y^(i) = Σ b_i u^(i) with a_n = 1; ``a``/``b`` hold parameter names.
+
+    Attributes
+    ----------
+    name : str
+        Model name.
+    parameters : tuple of ParameterSpec
+        The coefficients' parameters.
+    a : tuple of str
+        Names of a_0 … a_(n−1).
+    b : tuple of str
+        Names of b_0 … b_m.
+    input_name, output_name : str
+        Recording channels of u and y.
+    description : str
+        Free text.
+    source : str
+        The file (or ``<built-in>``).
+    """
 
     name: str
     parameters: tuple

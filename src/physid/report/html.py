@@ -165,7 +165,17 @@ class ReportSection:
 
 @dataclass(frozen=True)
 class ReportPaths:
-    """Where `write_report` put its outputs."""
+    """Where `write_report` put its outputs.
+
+    Attributes
+    ----------
+    html : Path
+        The self-contained report.html.
+    json : Path
+        results.json.
+    figures : tuple of Path
+        The PNG files.
+    """
 
     html: Path
     json: Path

@@ -74,6 +74,22 @@ class Sinusoid:
 def sinusoid(t, amplitude: float, angular_frequency: float, phase: float = 0.0) -> np.ndarray:
     """``amplitude · sin(angular_frequency · t + phase)`` sampled at ``t`` [s], shape (n_samples,).
 
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,) [s]
+        Sample times.
+    amplitude : float
+        In the unit of the signal.
+    angular_frequency : float [rad/s]
+        ω.
+    phase : float [rad]
+        φ.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        The samples.
+
     Examples
     --------
     >>> sinusoid([0.0, 0.25], 2.0, 2 * np.pi).round(12).tolist()  # a quarter period -> the peak
@@ -89,6 +105,16 @@ def schroeder_phases(n_components: int) -> np.ndarray:
 
     M. R. Schroeder, "Synthesis of low-peak-factor signals and binary sequences with low
     autocorrelation", IEEE Trans. Inf. Theory 16 (1970) 85-89, for equal amplitudes.
+
+    Parameters
+    ----------
+    n_components : int
+        K >= 1.
+
+    Returns
+    -------
+    ndarray, shape (K,) [rad]
+        The phases φ_1 … φ_K.
     """
     n_components = check_int(n_components, "n_components", minimum=1)
     k = np.arange(1, int(n_components) + 1)
@@ -165,6 +191,22 @@ def multisine(t, angular_frequencies, amplitudes=1.0, phases="schroeder") -> np.
     With the default Schroeder phases the crest factor stays low (about 1.7 for many
     equal-amplitude components, against √(2K) with equal phases), so the excitation power is high
     for a bounded input.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,) [s]
+        Sample times.
+    angular_frequencies : array_like, shape (K,) [rad/s]
+        ω_k.
+    amplitudes : float or array_like, shape (K,)
+        A_k (a scalar: the same for all).
+    phases : "schroeder" or array_like, shape (K,) [rad]
+        φ_k; ``"schroeder"`` uses `schroeder_phases`.
+
+    Returns
+    -------
+    ndarray, shape (n_samples,)
+        The samples.
     """
     return Multisine(angular_frequencies, amplitudes, phases)(t)
 

@@ -37,6 +37,16 @@ __all__ = [
 def make_rng(rng=None) -> np.random.Generator:
     """Return a `numpy.random.Generator` from ``None``, an int seed, a SeedSequence or a Generator.
 
+    Parameters
+    ----------
+    rng : None, int, SeedSequence, BitGenerator or Generator
+        The source; a Generator is returned as is, None gives fresh entropy.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The generator to draw from.
+
     Raises
     ------
     InputError
@@ -165,7 +175,20 @@ def add_white_noise(
 
 
 def snr_db(x, noise) -> np.ndarray:
-    """Realised SNR [dB] per channel, ``10 log10(Σ x² / Σ noise²)``."""
+    """Realised SNR [dB] per channel, ``10 log10(Σ x² / Σ noise²)``.
+
+    Parameters
+    ----------
+    x : array_like, shape (n_samples,) or (n_samples, n_channels)
+        The clean signal.
+    noise : array_like, same shape
+        The noise added to it.
+
+    Returns
+    -------
+    ndarray, shape (n_channels,) [dB]
+        The SNR of each channel.
+    """
     x = _as_signal(x, "x")
     noise = _as_signal(noise, "noise")
     if x.shape != noise.shape:
@@ -202,6 +225,18 @@ def alias_frequency(angular_frequency: float, dt: float) -> float:
 
     The sampled sequence ``sin(ω k Δ)`` equals ``± sin(ω_a k Δ)`` with
     ``ω_a = |ω − ω_s · round(ω / ω_s)|``, ``ω_s = 2π / Δ``, which lies in ``[0, π / Δ]``.
+
+    Parameters
+    ----------
+    angular_frequency : float [rad/s]
+        ω of the sinusoid.
+    dt : float [s]
+        Sample period Δ.
+
+    Returns
+    -------
+    float [rad/s]
+        The apparent frequency ω_a.
 
     Examples
     --------

@@ -9,7 +9,13 @@ __all__ = ["ClosedLoopRecording", "LinearODERecording"]
 
 
 class ClosedLoopRecording(Recording):
-    """A closed-loop manipulator run: t, q1..qn, qd1..qdn, tau1..taun, r1..rn."""
+    """A closed-loop manipulator run: t, q1..qn, qd1..qdn, tau1..taun, r1..rn.
+
+    Parameters
+    ----------
+    t, data, names, units, metadata
+        As for `physid.signals.Recording`, whose constructor it inherits.
+    """
 
     def plot(self, names=None, ax=None, *, torques: bool = False):
         """Joint responses (Cedro & Janecki, Fig. 2); with ``names``/``ax``, the generic plot."""
@@ -21,7 +27,13 @@ class ClosedLoopRecording(Recording):
 
 
 class LinearODERecording(Recording):
-    """An open-loop linear ODE run: t, u, x and x_true when noise or a disturbance was added."""
+    """An open-loop linear ODE run: t, u, x and x_true when noise or a disturbance was added.
+
+    Parameters
+    ----------
+    t, data, names, units, metadata
+        As for `physid.signals.Recording`, whose constructor it inherits.
+    """
 
     def plot(self, names=None, ax=None):
         """Input and response (Oueslati et al., Fig. 4); with ``names``/``ax``, the generic plot."""
