@@ -8,7 +8,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ...analysis import metrics
-from ...analysis.montecarlo import MSD_NATURAL_FREQUENCY
+from ...analysis.msd_study import MSD_NATURAL_FREQUENCY
 from ...estimators.algebraic import AlgebraicEstimator
 from ...estimators.recursive import RecursiveLeastSquares
 from ...simulate import PAPER_MSD

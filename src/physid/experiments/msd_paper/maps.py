@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ...analysis import metrics
-from ...analysis.montecarlo import msd_sweep
+from ...analysis.msd_study import msd_sweep
 from ...estimators.algebraic import AlgebraicEstimator
 from ...simulate import msd_paper_scenario
 from ..data import FigureData, SectionData, Table

@@ -21,7 +21,13 @@ __all__ = ["render", "renderers"]
 
 
 def renderers() -> dict[str, Callable[[SectionData, dict[str, Any]], ReportSection]]:
-    """Every known section key and its renderer."""
+    """Every known section key and its renderer.
+
+    Returns
+    -------
+    dict
+        Section key → ``renderer(data, results) -> ReportSection``.
+    """
     from . import arm, manipulator, msd
 
     return {**manipulator.RENDERERS, **msd.RENDERERS, **arm.RENDERERS}
@@ -34,6 +40,16 @@ def as_json(results) -> dict[str, Any]:
 
 def render(section: SectionData) -> ReportSection:
     """The `ReportSection` of one section's data.
+
+    Parameters
+    ----------
+    section : SectionData
+        What an experiment returned for one report section.
+
+    Returns
+    -------
+    ReportSection
+        The rendered section (paragraphs, tables, figures, results).
 
     Raises
     ------
