@@ -1,19 +1,15 @@
 """Hostile input, room `arch` (issue 16): the sweep's interrupts, resources and messages.
 
-One row per case: ``(case_id, argv, expected_exit, message_regex)``; ``{tmp}`` is a fresh
-folder. Uses the shared framework (tests/hostile/_cases.py) when it is present, else the same
-checks with a local runner. The SIGTERM case needs a real process and lives in
-tests/test_cli_sweep.py (test_sigterm_kills_the_pool_and_exits_143).
+One row per case: ``(case_id, argv, expected_exit, message_regex)``, run by the shared framework
+(tests/hostile/_cases.py; ``{tmp}`` is a fresh folder). The SIGTERM case needs a real process and
+lives in tests/test_cli_sweep.py (test_sigterm_kills_the_pool_and_exits_143).
 """
 
 from __future__ import annotations
 
-import contextlib
-import io
-import re
-import warnings
-
 import pytest
+
+from ._cases import case_ids, check_case
 
 QUIET = ["--no-progress", "--scheduler", "serial"]
 SWEEP = ["sweep", "msd", *QUIET]
@@ -62,29 +58,8 @@ CASES = [
 ]
 
 
-def _run(argv):
-    from physid.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-            try:
-                code = main([str(a) for a in argv])
-            except SystemExit as exc:
-                code = exc.code if isinstance(exc.code, int) else 2
-    return int(code or 0), err.getvalue(), [str(w.message) for w in caught]
-
-
 @pytest.mark.parametrize(
-    ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=[c[0] for c in CASES]
+    ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_arch(case_id, argv, expected_exit, message_regex, tmp_path):
-    argv = [a.replace("{tmp}", str(tmp_path)) for a in argv]
-    code, err, caught = _run(argv)
-    assert code == expected_exit, err
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert lines and lines[-1].startswith("physid: error:"), err
-    assert sum(ln.startswith("physid: error:") for ln in lines) == 1, err
-    assert re.search(message_regex, err, re.S), err
-    assert not caught, caught
+def test_arch(case_id, argv, expected_exit, message_regex, hostile):
+    check_case(hostile, argv, expected_exit, message_regex)
