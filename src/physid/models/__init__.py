@@ -11,7 +11,7 @@
 from __future__ import annotations
 
 from .chain import BaseParameters, ChainModel, build_chain_model
-from .library import BUILTIN_MODELS, load_model, manipulator_model
+from .library import BUILTIN_MODELS, load_model, load_model_file, manipulator_model, model_from_spec
 from .linear_ode import (
     LinearODEModel,
     msd_from_physical,
@@ -20,11 +20,16 @@ from .linear_ode import (
     physical_from_theta,
     theta_from_natural,
 )
-from .spec import ChainSpec, JointSpec, LinearODESpec, ParameterSpec, dh_transform, load_model_file
+from .rigid import RigidChain
+from .rigid_model import RigidBodyModel
+from .spec import ChainSpec, JointSpec, LinearODESpec, ParameterSpec, dh_transform
 
 __all__ = [
     "load_model",
     "load_model_file",
+    "model_from_spec",
+    "RigidBodyModel",
+    "RigidChain",
     "BUILTIN_MODELS",
     "ChainModel",
     "BaseParameters",

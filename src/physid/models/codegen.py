@@ -28,6 +28,9 @@ __all__ = [
     "VECTOR_NAMESPACE",
     "SharedExpressions",
     "SCALAR_NAMESPACE",
+    "compiler",
+    "build_shared_library",
+    "chain_kernel",
 ]
 
 
@@ -385,3 +388,100 @@ class SharedExpressions:
             else:
                 body.append(f"{t} = {sca.doprint(hoist(e))}")
         return head, body
+
+
+# ---------------------------------------------------------------------------------------------
+# C back end: compile a source once (cc + ctypes), cache the shared library by content
+# ---------------------------------------------------------------------------------------------
+
+_LIBRARIES: dict = {}
+
+
+def compiler() -> str | None:
+    """Path of the C compiler used ($CC, else cc, gcc or clang on PATH), or None."""
+    import os
+    import shutil
+
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
+        if name:
+            path = shutil.which(name)
+            if path:
+                return path
+    return None
+
+
+def build_shared_library(source: str, tag: str):
+    """Compile C ``source`` into a shared library (cached on disk by content) and load it.
+
+    Parameters
+    ----------
+    source : str
+        C99 source.
+    tag : str
+        Short name used in the cached file's name (``tag-<hash>.so``).
+
+    Returns
+    -------
+    ctypes.CDLL or None
+        None when no compiler works or the build fails (callers fall back to numpy/Python).
+    """
+    import ctypes
+    import hashlib
+    import os
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    from .._paths import cache_dir
+
+    key = hashlib.sha256((source + sys.platform + str(sys.version_info[:2])).encode()).hexdigest()[
+        :32
+    ]
+    if key in _LIBRARIES:
+        return _LIBRARIES[key]
+    folder = cache_dir()
+    lib_path = folder / f"{tag}-{key}.so"
+    if not lib_path.exists():
+        cc = compiler()
+        if cc is None:
+            return None
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            with tempfile.TemporaryDirectory(dir=folder) as tmp:
+                src = Path(tmp) / f"{tag}.c"
+                src.write_text(source, encoding="utf-8")
+                out = Path(tmp) / f"{tag}.so"
+                proc = subprocess.run(
+                    [cc, "-O3", "-shared", "-fPIC", "-o", str(out), str(src), "-lm"],
+                    capture_output=True,
+                    text=True,
+                    timeout=120,
+                )
+                if proc.returncode != 0:
+                    return None
+                os.replace(out, lib_path)  # atomic: a reader never sees half a library
+        except (OSError, subprocess.SubprocessError):
+            return None
+    try:
+        lib = ctypes.CDLL(str(lib_path))
+    except OSError:
+        return None
+    _LIBRARIES[key] = lib
+    return lib
+
+
+def chain_kernel(chain):
+    """Compiled generic C kernel of a rigid chain, or None without a compiler.
+
+    Parameters
+    ----------
+    chain : physid.models.rigid.RigidChain
+
+    Returns
+    -------
+    physid.models.ckernel.ChainKernel or None
+    """
+    from .ckernel import load_kernel
+
+    return load_kernel(chain)

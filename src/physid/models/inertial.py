@@ -285,7 +285,7 @@ def check_physical(p10, *, tol: float = 0.0):
     _, _, ic = physical_from_standard(p)
     eig = np.linalg.eigvalsh(inertia_matrix(ic))
     scale = max(float(np.abs(eig).max()), 1e-300)
-    if eig[0] <= -tol * scale:
+    if eig[0] < -tol * scale - 1e-15 * scale:
         problems.append(
             f"the inertia about the centre of mass is not positive semi-definite (principal "
             f"moments {np.round(eig, 9).tolist()} kg·m²)"

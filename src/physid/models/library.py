@@ -10,12 +10,19 @@ from pathlib import Path
 
 from ..errors import InputError, ModelFileError
 from .linear_ode import msd_model
-from .spec import model_from_spec, parse_model_text, read_model_file
+from .spec import ChainSpec, parse_model_text, read_model_file
 
-__all__ = ["load_model", "manipulator_model", "manipulator_spec", "BUILTIN_MODELS"]
+__all__ = [
+    "load_model",
+    "load_model_file",
+    "model_from_spec",
+    "manipulator_model",
+    "manipulator_spec",
+    "BUILTIN_MODELS",
+]
 
 #: Names `load_model` accepts besides file paths.
-BUILTIN_MODELS = ("manipulator", "msd")
+BUILTIN_MODELS = ("manipulator", "msd", "arm6")
 
 
 def manipulator_spec():
@@ -73,9 +80,13 @@ def load_model(name_or_path, **options):
     Parameters
     ----------
     name_or_path : str or Path
-        ``"manipulator"``, ``"msd"``, or the path of a ``.toml`` model file (docs/model-files.md).
+        ``"manipulator"``, ``"msd"``, ``"arm6"`` (a 6-DOF UR5-like rigid-body arm with friction
+        and armature), the path of a ``.toml`` model file (docs/model-files.md), of a URDF
+        sidecar TOML (``extends = "robot.urdf"``) or of a ``.urdf`` file.
     **options
         ``"manipulator"`` and chain files: ``kinetic`` ("exact" | "paper"), ``cache`` (bool).
+        Rigid-body models (URDF, sidecars, rigid-body chains): ``strict`` (bool: refuse
+        physically doubtful inertias instead of warning).
         ``"msd"``: ``mass`` [kg], ``damping`` [N·s/m], ``stiffness`` [N/m], ``input``
         ("normalised" | "force"). Unknown options raise `InputError`.
 
@@ -89,6 +100,14 @@ def load_model(name_or_path, **options):
     >>> model.a_names, model.b_names
     (('theta2', 'theta1'), ('b0',))
     """
+    if isinstance(name_or_path, str) and name_or_path == "arm6":
+        bad = set(options) - {"strict", "cache"}
+        if bad:
+            raise InputError(
+                f"unknown option(s) {sorted(bad)} for built-in model 'arm6'; allowed: strict, cache."
+            )
+        with resources.as_file(resources.files("physid.models").joinpath("data")) as folder:
+            return load_model_file(Path(folder) / "arm6.toml", strict=options.get("strict", False))
     if isinstance(name_or_path, str) and name_or_path in BUILTIN_MODELS:
         if name_or_path == "manipulator":
             allowed = {"kinetic", "cache"}
@@ -105,8 +124,8 @@ def load_model(name_or_path, **options):
         return builder(**options)
     if not isinstance(name_or_path, (str, Path)):
         raise InputError(
-            f"name_or_path must be a built-in name {BUILTIN_MODELS} or a path to a .toml model "
-            f"file; got {type(name_or_path).__name__}."
+            f"name_or_path must be a built-in name {BUILTIN_MODELS} or a path to a .toml or "
+            f".urdf model file; got {type(name_or_path).__name__}."
         )
     path = Path(name_or_path)
     if not path.exists():
@@ -114,4 +133,96 @@ def load_model(name_or_path, **options):
             f"{str(name_or_path)!r} is neither a built-in model {BUILTIN_MODELS} nor an existing "
             f"model file; check the spelling or the path."
         )
-    return model_from_spec(read_model_file(path), **options)
+    return load_model_file(path, **options)
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def load_model_file(path, **options):
+    """Load a TOML model file (see ``docs/model-files.md``) into a model.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` file.
+    **options
+        For chains: ``kinetic`` ("exact" | "paper", overrides the file), ``cache`` (bool).
+        Linear ODE models take no options.
+
+    Returns
+    -------
+    ChainModel or LinearODEModel
+
+    Raises
+    ------
+    ModelFileError
+        Any problem in the file, naming its line and the fix.
+    """
+    strict = options.pop("strict", False)
+    spec = read_model_file(path, strict=strict)
+    return model_from_spec(spec, **options)
+
+
+def model_from_spec(spec, **options):
+    """Build a `ChainModel` or `LinearODEModel` from a specification.
+
+    Parameters
+    ----------
+    spec : ChainSpec or LinearODESpec
+        From `read_model_file` / `parse_model_text`.
+    **options
+        For chains: ``kinetic`` ("exact" | "paper", overrides the spec) and ``cache`` (bool,
+        use the on-disk derivation cache). Linear ODE models take none.
+
+    Returns
+    -------
+    ChainModel or LinearODEModel
+
+    Raises
+    ------
+    InputError
+        An unknown option.
+    ModelFileError
+        An expression that does not parse, an unknown symbol, a transform that is not rigid.
+    """
+    from ..errors import InputError
+    from .rigid import RigidChain
+
+    if isinstance(spec, RigidChain):
+        from .rigid_model import RigidBodyModel
+
+        bad = set(options) - {"kinetic", "cache"}
+        if bad:
+            raise InputError(
+                f"unknown option(s) {sorted(bad)} for rigid-body model {spec.name!r}; allowed: "
+                "kinetic, cache, strict (at load)."
+            )
+        if options.get("kinetic", "exact") != "exact":
+            raise InputError(
+                f"kinetic={options['kinetic']!r}: rigid-body model {spec.name!r} has only the exact "
+                "kinetic energy (the paper's formula is for point masses on revolute joints)."
+            )
+        return RigidBodyModel(spec)
+    if isinstance(spec, ChainSpec):
+        from .chain import build_chain_model
+        from .spec import check_nominal_values
+
+        check_nominal_values(spec)
+
+        allowed = {"kinetic", "cache"}
+        bad = set(options) - allowed
+        if bad:
+            raise InputError(
+                f"unknown option(s) {sorted(bad)} for chain model {spec.name!r}; allowed: "
+                f"{sorted(allowed)}."
+            )
+        return build_chain_model(spec, **options)
+    from .linear_ode import LinearODEModel
+
+    if options:
+        raise InputError(
+            f"linear ODE model {spec.name!r} takes no options; got {sorted(options)}. Edit the "
+            f"parameter values in the model file instead."
+        )
+    return LinearODEModel.from_spec(spec)

@@ -1,5 +1,11 @@
 """Independent implementations of the same chain, for cross-checks and benchmarks (optional peers).
 
+`to_pinocchio` builds a `PinocchioPeer` from any chain model — a rigid-body model (URDF, sidecar,
+rigid TOML) from its placements, axes and link inertias, or a DH point-mass chain (the paper's
+arm) as below — carrying every term: armature as ``model.armature`` and the friction and offset
+terms (viscous, Coulomb, asymmetric, offset) added by the peer's `rnea` and removed before `aba`,
+so that ``peer.rnea(q, v, a)`` equals physid's ``inverse_dynamics`` term for term.
+
 `pinocchio_model` builds the pinocchio model (extra ``peers``: ``pip install pin``) of a DH chain
 described by a `ChainModel`: revolute-Z joints whose placements come from the DH transforms,
 point masses as ``pin.Inertia(m, lever, 0)`` at the link-frame origins, the rotor inertias as
@@ -12,7 +18,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["pinocchio_model"]
+__all__ = ["pinocchio_model", "to_pinocchio", "PinocchioPeer"]
 
 
 def _evaluate(text: str, values: dict) -> float:
@@ -66,3 +72,124 @@ def pinocchio_model(model, params=None):
     pm.armature = np.array(armature)
     pm.gravity.linear = np.array(model.gravity, dtype=float)
     return pm, pm.createData()
+
+
+class PinocchioPeer:
+    """A pinocchio model of a physid chain plus the drive terms pinocchio's algorithms lack.
+
+    Attributes
+    ----------
+    model, data : pinocchio.Model, pinocchio.Data
+    friction : dict prefix -> ndarray (n,)
+        Fv, Fc, Fvp, Fvn, Fcp, Fcn, OF values (armature is in ``model.armature``).
+    """
+
+    def __init__(self, pmodel, friction: dict):
+        self.model = pmodel
+        self.data = pmodel.createData()
+        self.friction = {k: np.asarray(v, dtype=float) for k, v in friction.items()}
+
+    def drive_torque(self, qd) -> np.ndarray:
+        """Friction and offset torques (no armature) at joint velocities ``qd`` (n,).
+
+        Parameters
+        ----------
+        qd : array_like (n,)
+
+        Returns
+        -------
+        ndarray (n,)
+        """
+        v = np.asarray(qd, dtype=float)
+        f = self.friction
+        out = np.zeros_like(v)
+        if "Fv" in f:
+            out += f["Fv"] * v
+        if "Fc" in f:
+            out += f["Fc"] * np.sign(v)
+        if "Fvp" in f:
+            out += f["Fvp"] * np.where(v > 0, v, 0.0)
+        if "Fvn" in f:
+            out += f["Fvn"] * np.where(v < 0, v, 0.0)
+        if "Fcp" in f:
+            out += f["Fcp"] * (v > 0)
+        if "Fcn" in f:
+            out -= f["Fcn"] * (v < 0)
+        if "OF" in f:
+            out += f["OF"]
+        return out
+
+    def rnea(self, q, qd, qdd) -> np.ndarray:
+        """τ of one state, drive terms included (pinocchio.rnea + friction + offset)."""
+        import pinocchio as pin
+
+        return pin.rnea(self.model, self.data, q, qd, qdd) + self.drive_torque(qd)
+
+    def crba(self, q) -> np.ndarray:
+        """M(q) of one state (full symmetric matrix, armature included)."""
+        import pinocchio as pin
+
+        M = pin.crba(self.model, self.data, q)
+        return np.triu(M) + np.triu(M, 1).T
+
+    def aba(self, q, qd, tau) -> np.ndarray:
+        """q̈ of one state under torques ``tau`` (friction and offset removed first)."""
+        import pinocchio as pin
+
+        return pin.aba(self.model, self.data, q, qd, np.asarray(tau) - self.drive_torque(qd))
+
+
+def to_pinocchio(model, params=None) -> PinocchioPeer:
+    """The pinocchio peer of a physid chain model, every term carried.
+
+    Parameters
+    ----------
+    model : RigidBodyModel or ChainModel
+        A rigid-body model, or a DH point-mass chain.
+    params : dict or array_like, optional
+        Parameters (nominal by default).
+
+    Returns
+    -------
+    PinocchioPeer
+    """
+    import pinocchio as pin
+
+    from .inertial import to_pinocchio_order
+
+    if not hasattr(model, "chain"):
+        pm, _ = pinocchio_model(model, params)
+        values = dict(
+            zip(model.parameter_names, model.parameter_vector(params).tolist(), strict=False)
+        )
+        spec = model.spec
+        friction = {
+            "Fv": [_evaluate(j.viscous, values) for j in spec.joints],
+            "Fc": [_evaluate(j.coulomb, values) for j in spec.joints],
+        }
+        return PinocchioPeer(pm, friction)
+    chain = model.chain
+    inertia, drive = chain.split(model.parameter_vector(params))
+    pm = pin.Model()
+    parent = 0
+    for i in range(chain.n_joints):
+        a = chain.axis[i]
+        if chain.joint_types[i] == "revolute":
+            jm = pin.JointModelRevoluteUnaligned(float(a[0]), float(a[1]), float(a[2]))
+        else:
+            jm = pin.JointModelPrismaticUnaligned(float(a[0]), float(a[1]), float(a[2]))
+        placement = pin.SE3(np.array(chain.rotation[i]), np.array(chain.translation[i]))
+        jid = pm.addJoint(parent, jm, placement, chain.joint_names[i])
+        pm.appendBodyToJoint(
+            jid,
+            pin.Inertia.FromDynamicParameters(to_pinocchio_order(inertia[i])),
+            pin.SE3.Identity(),
+        )
+        parent = jid
+    names = chain.drive_names
+    pm.armature = (
+        np.array(drive[:, names.index("Ia")]) if "Ia" in names else np.zeros(chain.n_joints)
+    )
+    pm.gravity.linear = np.array(chain.gravity, dtype=float)
+    friction = {k: drive[:, c] for c, k in enumerate(names) if k != "Ia"}
+    return PinocchioPeer(pm, friction)

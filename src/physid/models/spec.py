@@ -33,7 +33,6 @@ __all__ = [
     "LinearODESpec",
     "read_model_file",
     "parse_model_text",
-    "load_model_file",
     "dh_transform",
     "RESERVED_NAMES",
 ]
@@ -325,13 +324,16 @@ def _where(
 # ---------------------------------------------------------------------------------------------
 
 
-def read_model_file(path) -> ChainSpec | LinearODESpec:
-    """Read a TOML model file into a specification (no sympy needed).
+def read_model_file(path, *, strict: bool = False):
+    """Read a TOML model file (or a URDF) into a specification (no sympy needed).
 
     Parameters
     ----------
     path : str or os.PathLike
-        The ``.toml`` file (format: ``docs/model-files.md``).
+        The ``.toml`` file (format: ``docs/model-files.md``), a URDF sidecar TOML
+        (``extends = "robot.urdf"``) or a ``.urdf`` file.
+    strict : bool
+        Rigid-body models: refuse physically doubtful inertias instead of warning.
 
     Returns
     -------
@@ -344,6 +346,10 @@ def read_model_file(path) -> ChainSpec | LinearODESpec:
         The file is missing or unreadable, or its content is invalid (see `parse_model_text`).
     """
     path = Path(path)
+    if path.suffix.lower() == ".urdf":
+        from .urdf import read_urdf
+
+        return read_urdf(path, strict=strict)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
@@ -353,7 +359,11 @@ def read_model_file(path) -> ChainSpec | LinearODESpec:
         ) from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"cannot read model file {str(path)!r}: {exc}.") from None
-    return parse_model_text(text, source=str(path))
+    if text.lstrip().startswith(("<?xml", "<robot")):
+        from .urdf import parse_urdf
+
+        return parse_urdf(text, str(path), strict=strict)
+    return parse_model_text(text, source=str(path), strict=strict)
 
 
 def _expr_text(value, where: str) -> str:
@@ -368,7 +378,7 @@ def _expr_text(value, where: str) -> str:
     )
 
 
-def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearODESpec:
+def parse_model_text(text: str, source: str = "<string>", *, strict: bool = False):
     """Parse the TOML text of a model file into a specification.
 
     Only the structure is checked here (keys, tables, parameter values, 4×4 shape of
@@ -381,11 +391,14 @@ def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearO
         TOML text in the format of ``docs/model-files.md``.
     source : str
         Name used in error messages (a file path, or ``"<string>"``).
+    strict : bool
+        Rigid-body chains: refuse physically doubtful inertias instead of warning.
 
     Returns
     -------
-    ChainSpec or LinearODESpec
-        ``kind = "chain"`` (the default) or ``kind = "linear_ode"``.
+    ChainSpec or LinearODESpec or RigidChain
+        ``kind = "chain"`` (the default) or ``kind = "linear_ode"``; rigid-body chains and
+        URDF sidecars (``extends = "robot.urdf"``) give a `physid.models.rigid.RigidChain`.
 
     Raises
     ------
@@ -416,6 +429,10 @@ def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearO
             f"{source}: not valid TOML: {exc}. Check quoting (expressions are strings: "
             f'a = "l2"), brackets and that every key is `name = value`.'
         ) from None
+    if "extends" in data:
+        from .urdf import read_sidecar
+
+        return read_sidecar(data, source, strict=strict)
     kind = data.get("kind", "chain")
     if kind not in KINDS:
         raise ModelFileError(
@@ -426,6 +443,10 @@ def parse_model_text(text: str, source: str = "<string>") -> ChainSpec | LinearO
         raise ModelFileError(f'{source}: the model needs a name, e.g. name = "my_arm" at the top.')
     params = _parse_parameters(data, text, source)
     if kind == "chain":
+        from .rigid_spec import is_rigid_chain, parse_rigid_chain
+
+        if is_rigid_chain(data):
+            return parse_rigid_chain(data, text, source, name, params, strict=strict)
         return _parse_chain(data, text, source, name, params)
     return _parse_linear_ode(data, text, source, name, params)
 
@@ -1033,79 +1054,3 @@ def symbolic_chain(spec: ChainSpec):
                 )
             )
     return out
-
-
-# ---------------------------------------------------------------------------------------------
-# file → model
-# ---------------------------------------------------------------------------------------------
-
-
-def load_model_file(path, **options):
-    """Load a TOML model file (see ``docs/model-files.md``) into a model.
-
-    Parameters
-    ----------
-    path : str or Path
-        The ``.toml`` file.
-    **options
-        For chains: ``kinetic`` ("exact" | "paper", overrides the file), ``cache`` (bool).
-        Linear ODE models take no options.
-
-    Returns
-    -------
-    ChainModel or LinearODEModel
-
-    Raises
-    ------
-    ModelFileError
-        Any problem in the file, naming its line and the fix.
-    """
-    spec = read_model_file(path)
-    return model_from_spec(spec, **options)
-
-
-def model_from_spec(spec, **options):
-    """Build a `ChainModel` or `LinearODEModel` from a specification.
-
-    Parameters
-    ----------
-    spec : ChainSpec or LinearODESpec
-        From `read_model_file` / `parse_model_text`.
-    **options
-        For chains: ``kinetic`` ("exact" | "paper", overrides the spec) and ``cache`` (bool,
-        use the on-disk derivation cache). Linear ODE models take none.
-
-    Returns
-    -------
-    ChainModel or LinearODEModel
-
-    Raises
-    ------
-    InputError
-        An unknown option.
-    ModelFileError
-        An expression that does not parse, an unknown symbol, a transform that is not rigid.
-    """
-    from ..errors import InputError
-
-    if isinstance(spec, ChainSpec):
-        from .chain import build_chain_model
-
-        check_nominal_values(spec)
-
-        allowed = {"kinetic", "cache"}
-        bad = set(options) - allowed
-        if bad:
-            raise InputError(
-                f"unknown option(s) {sorted(bad)} for chain model {spec.name!r}; allowed: "
-                f"{sorted(allowed)}."
-            )
-        return build_chain_model(spec, **options)
-    from .linear_ode import LinearODEModel
-
-    if options:
-        raise InputError(
-            f"linear ODE model {spec.name!r} takes no options; got {sorted(options)}. Edit the "
-            f"parameter values in the model file instead."
-        )
-    return LinearODEModel.from_spec(spec)

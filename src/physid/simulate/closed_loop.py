@@ -19,19 +19,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
 
-from .._validate import as_1d, as_2d, check_finite, check_positive, per_joint, sample_period
+from .._validate import as_1d, check_finite, check_positive, per_joint, sample_period
 from ..errors import InputError, ShapeError, SimulationError
 from ..signals.noise import add_white_noise
 from .linear import uniform_time
 from .recordings import ClosedLoopRecording
-from .references import FilteredSteps, filtered_steps
+from .references import FilteredSteps, ReferenceTrajectory, filtered_steps, make_reference
 
 __all__ = [
     "PAPER_MANIPULATOR",
@@ -55,152 +53,6 @@ PAPER_MANIPULATOR: dict[str, Any] = {
     "kp": (3800.0, 40000.0, 10000.0, 500.0),  # [N·m/rad]
     "kd": (159.5, 120.0, 50.0, 2.0),  # [N·m·s/rad]
 }
-
-
-# --------------------------------------------------------------------------- reference
-@dataclass(frozen=True, eq=False)
-class ReferenceTrajectory:
-    """A joint reference r(t) [rad]: a C² cubic spline through samples, held constant outside.
-
-    Calling it with a float returns a list of n_joints floats (cheap, for the integrator's
-    right-hand side); `sample` evaluates whole arrays.
-
-    Attributes
-    ----------
-    t : ndarray (n_knots,) [s]
-    values : ndarray (n_knots, n_joints) [rad]
-    """
-
-    t: np.ndarray
-    values: np.ndarray
-
-    def __post_init__(self) -> None:
-        t = np.asarray(self.t, dtype=float)
-        v = np.asarray(self.values, dtype=float)
-        if t.size >= 2:
-            spline = CubicSpline(t, v, axis=0)
-            # per interval i and joint j the polynomial coefficients (c3, c2, c1, c0) in s = t − t_i
-            coef = np.transpose(spline.c, (1, 2, 0))  # (n_intervals, n_joints, 4)
-            coef = np.ascontiguousarray(coef)
-            coef.setflags(write=False)
-            object.__setattr__(self, "_coef_array", coef)
-            object.__setattr__(self, "_coef", coef.tolist())
-            uniform = np.ptp(np.diff(t)) <= 1e-9 * (t[-1] - t[0])
-            object.__setattr__(
-                self, "_uniform_h", (t[-1] - t[0]) / (t.size - 1) if uniform else None
-            )
-            object.__setattr__(self, "_spline", spline)
-        else:
-            object.__setattr__(self, "_coef_array", np.zeros((0, v.shape[1], 4)))
-            object.__setattr__(self, "_uniform_h", None)
-        object.__setattr__(self, "_t0", float(t[0]))
-        object.__setattr__(self, "_t1", float(t[-1]))
-        object.__setattr__(self, "_first", v[0].tolist())
-        object.__setattr__(self, "_last", v[-1].tolist())
-        object.__setattr__(self, "_knots", t.tolist())
-
-    @property
-    def n_joints(self) -> int:
-        """Number of joints (columns of ``values``)."""
-        return int(np.asarray(self.values).shape[1])
-
-    @property
-    def uniform_step(self) -> float | None:
-        """Knot spacing [s] when the knots are uniform, else None."""
-        return self._uniform_h
-
-    @property
-    def coefficients(self) -> np.ndarray:
-        """Spline coefficients (n_intervals, n_joints, 4): c3, c2, c1, c0 in s = t − t_i."""
-        return self._coef_array
-
-    def __call__(self, t: float) -> list[float]:
-        """r(t) as a list of floats [rad] for one time t [s] (Horner on the interval's cubic)."""
-        if t <= self._t0:
-            return self._first
-        if t >= self._t1:
-            return self._last
-        h = self._uniform_h
-        if h is not None:
-            i = min(int((t - self._t0) / h), len(self._coef) - 1)
-            s = t - (self._t0 + i * h)
-        else:
-            i = int(np.searchsorted(self.t, t, side="right")) - 1
-            s = t - self._knots[i]
-        return [((c3 * s + c2) * s + c1) * s + c0 for c3, c2, c1, c0 in self._coef[i]]
-
-    def sample(self, t) -> np.ndarray:
-        """r at an array of times [s] -> (n_samples, n_joints), constant outside the knots."""
-        t = as_1d(t, "t")
-        if np.asarray(self.t).size < 2:
-            return np.tile(self.values[0], (t.size, 1))
-        clipped = np.clip(t, self._t0, self._t1)
-        return self._spline(clipped)
-
-
-def make_reference(reference, n_joints: int, t_grid: np.ndarray | None = None):
-    """Normalise a joint reference to a callable ``r(t) -> sequence of n_joints`` [rad].
-
-    Parameters
-    ----------
-    reference : ReferenceTrajectory, FilteredSteps, array_like or callable
-        One of: a `ReferenceTrajectory` (returned as is); a `FilteredSteps` (its samples,
-        interpolated by a cubic spline); a constant array, shape (n_joints,) [rad]; an array of
-        samples, shape (n_samples, n_joints) [rad], on `t_grid` (cubic spline); or a callable
-        ``r(t)`` (t [s]) returning n_joints angles [rad] (returned as is after a probe at t = 0).
-    n_joints : int
-        Number of joints the reference must provide.
-    t_grid : ndarray, shape (n_samples,) [s], optional
-        Time stamps of a sampled-array reference (required only for that form).
-
-    Returns
-    -------
-    ReferenceTrajectory or callable
-        ``r(t)`` [rad] for scalar t [s]; a `ReferenceTrajectory` also evaluates whole arrays.
-
-    Raises
-    ------
-    ShapeError
-        The reference does not hold `n_joints` angles, or a sampled reference does not have one
-        row per sample of `t_grid`.
-    InputError
-        Non-finite reference values.
-    """
-    if isinstance(reference, ReferenceTrajectory):
-        ref = reference
-    elif isinstance(reference, FilteredSteps):
-        ref = ReferenceTrajectory(reference.t, reference.values)
-    elif callable(reference):
-        probe = np.asarray(reference(0.0), dtype=float).reshape(-1)
-        if probe.size != n_joints:
-            raise ShapeError(
-                f"reference(t) must return {n_joints} angles [rad]; got {probe.size} values."
-            )
-        return reference
-    else:
-        arr = np.asarray(reference, dtype=float)
-        if arr.ndim <= 1:
-            arr = as_1d(arr, "reference")
-            if arr.size != n_joints:
-                raise ShapeError(
-                    f"a constant reference must hold {n_joints} angles [rad]; got {arr.size}."
-                )
-            check_finite(arr[None, :], "reference")
-            ref = ReferenceTrajectory(np.array([0.0]), arr[None, :])
-        else:
-            arr = as_2d(arr, "reference", n_channels=n_joints)
-            check_finite(arr, "reference")
-            if t_grid is None or arr.shape[0] != t_grid.size:
-                raise ShapeError(
-                    "a sampled reference must have one row per time sample "
-                    f"({None if t_grid is None else t_grid.size}); "
-                    f"got {arr.shape[0]} rows. Give a callable r(t) or a ReferenceTrajectory "
-                    "for other grids."
-                )
-            ref = ReferenceTrajectory(t_grid, arr)
-    if ref.n_joints != n_joints:
-        raise ShapeError(f"the reference has {ref.n_joints} joints; the model has {n_joints}.")
-    return ref
 
 
 def paper_reference(paper: bool = True, *, dt: float = PAPER_MANIPULATOR["dt"]) -> FilteredSteps:
@@ -266,6 +118,27 @@ def closed_loop_rhs(model, *, kp, kd, reference: Callable, params=None, backend:
         raise InputError(
             f"backend must be 'auto', 'compiled', 'generated' or 'pinocchio'; got {backend!r}."
         )
+    if backend in ("auto", "compiled") and hasattr(model, "chain") and hasattr(model, "_c_kernel"):
+        kernel = model._c_kernel()  # rigid-body chain: the generic C kernel
+        if kernel is not None:
+            spline = None
+            if isinstance(reference, ReferenceTrajectory) and reference.uniform_step is not None:
+                spline = (
+                    float(reference.t[0]),
+                    float(reference.uniform_step),
+                    reference.coefficients,
+                    np.asarray(reference.values[0]),
+                    np.asarray(reference.values[-1]),
+                )
+            fast = kernel.pd_rhs(model.parameter_vector(params), kp_a, kd_a, reference, spline)
+            fast.backend = "compiled"
+            return fast
+        if backend == "compiled":
+            raise SimulationError(
+                "the compiled right-hand side is unavailable: no working C compiler (cc, gcc or "
+                "clang on PATH, or $CC) or the build failed. Use backend='generated'."
+            )
+        backend = "generated"
     if backend in ("auto", "compiled"):
         from .compiled import compiled_pd_rhs
 
@@ -307,7 +180,15 @@ def closed_loop_rhs(model, *, kp, kd, reference: Callable, params=None, backend:
                 f"kinetic={model.kinetic!r}. Load it with kinetic='exact' to compare with "
                 "pinocchio."
             )
-        pmodel, pdata = pinocchio_model(model, params)
+        if hasattr(model, "chain"):
+            from ..models.peers import to_pinocchio
+
+            peer = to_pinocchio(model, params)
+            pmodel, pdata = peer.model, peer.data
+            drive = peer.drive_torque
+        else:
+            pmodel, pdata = pinocchio_model(model, params)
+            drive = None
         aba = pin.aba
 
         def rhs_pin(t, y):
@@ -315,6 +196,8 @@ def closed_loop_rhs(model, *, kp, kd, reference: Callable, params=None, backend:
             qd = y[n:]
             r = np.asarray(reference(t))
             tau = kp_a * (r - q) - kd_a * qd  # τ = Kp (r − q) − Kd q̇
+            if drive is not None:
+                tau = tau - drive(qd)
             return np.concatenate((qd, aba(pmodel, pdata, q, qd, tau)))
 
         rhs_pin.backend = "pinocchio"

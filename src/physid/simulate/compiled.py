@@ -208,7 +208,7 @@ def compiled_pd_rhs(model, params, kp, kd, reference):
     reference : ReferenceTrajectory with uniform knots (evaluated in C), or any callable
         ``r(t)`` (evaluated in Python and passed in).
     """
-    from .closed_loop import ReferenceTrajectory
+    from .references import ReferenceTrajectory
 
     lib = _load_library(model)
     if lib is None:

@@ -1,0 +1,447 @@
+"""`RigidBodyModel`: a `ChainModel` whose parameters are the standard rigid-body parameters.
+
+Built from a URDF, a URDF sidecar TOML, or a TOML chain with rigid-body keys (full inertia,
+prismatic joints, modified DH, drive terms). Its parameters θ are the regressor's own columns
+(``m1 mcx1 … ZZ1 [Ia1 Fv1 …] m2 …``), so β(θ) = θ, τ = Y θ and ∂τ/∂θ = Y. Nothing is derived
+symbolically: every function is Newton–Euler over arrays (`physid.models.rigid`), or the generic C
+kernel (`physid.models.codegen.chain_kernel`) when a C compiler works.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import InputError, ModelFileError
+from . import rigid
+from .chain import ChainModel
+
+__all__ = ["RigidBodyModel"]
+
+
+class RigidBodyModel(ChainModel):
+    """Serial rigid-body chain with full inertial parameters, linear in its parameters.
+
+    Same interface as `ChainModel` (``inverse_dynamics``, ``mass_matrix``, ``bias_forces``,
+    ``gravity_forces``, ``forward_dynamics``, ``parameter_jacobian``, ``regressor``, ``beta``,
+    ``base_parameters``, ``make_rhs``, ``make_state_rhs``), plus `regressor_names`,
+    `joint_types`, `limits` and `chain` (the numeric description). Joint positions are [rad] for
+    revolute and [m] for prismatic joints; torques [N·m] or forces [N].
+
+    Attributes
+    ----------
+    chain : RigidChain
+    regressor_names : tuple of str
+        Equal to `parameter_names` and `beta_names`.
+    joint_types : tuple of str
+    limits : dict
+        ``position`` (n, 2), ``velocity`` (n,), ``effort`` (n,), ``acceleration`` (n,); NaN
+        where unknown.
+    """
+
+    def __init__(self, chain: rigid.RigidChain, *, check: bool = True):
+        start = time.perf_counter()
+        self._chain = chain
+        self._spec = chain
+        self.name = chain.name
+        self.n_joints = chain.n_joints
+        self.parameter_names = chain.parameter_names()
+        self._nominal = chain.nominal_vector()
+        self.units = dict(zip(self.parameter_names, chain.parameter_units(), strict=True))
+        if chain.identify:
+            bad = [s for s in chain.identify if s not in self.parameter_names]
+            if bad:
+                raise ModelFileError(
+                    f"{chain.source}: identify names unknown parameter(s) {bad}; the model's "
+                    f"parameters are {list(self.parameter_names[: chain.per_joint])}... "
+                    "(per joint: m, mcx, mcy, mcz, XX, XY, XZ, YY, YZ, ZZ, then drive terms)."
+                )
+            self.unknown = tuple(s for s in self.parameter_names if s in chain.identify)
+        else:
+            self.unknown = self.parameter_names
+        self.kinetic = "exact"
+        self.gravity = tuple(float(g) for g in chain.gravity)
+        self.joint_names = tuple(chain.joint_names)
+        self.joint_types = tuple(chain.joint_types)
+        self.limits = {k: np.array(v, dtype=float) for k, v in chain.limits.items()}
+        n = self.n_joints
+        self.limits.setdefault("position", np.full((n, 2), np.nan))
+        for key in ("velocity", "effort", "acceleration"):
+            self.limits.setdefault(key, np.full(n, np.nan))
+        self.loaded_from_cache = False
+        self.cache_key = ""
+        self._cache_enabled = False
+        self._regressor = None
+        self._kernel = None
+        self._kernel_tried = False
+        if check:
+            self._check_mass_matrix()
+        self.load_seconds = time.perf_counter() - start
+
+    # -- description ------------------------------------------------------------------------
+    @property
+    def chain(self) -> rigid.RigidChain:
+        """The numeric description (placements, axes, nominal parameters, limits)."""
+        return self._chain
+
+    @property
+    def spec(self):
+        """The description this model was built from (a `RigidChain`)."""
+        return self._chain
+
+    @property
+    def regressor_names(self) -> tuple:
+        """Names of the regressor's columns (= `parameter_names`)."""
+        return self.parameter_names
+
+    @property
+    def beta_names(self) -> tuple:
+        """Names of β (= `parameter_names`: the model is linear in its parameters)."""
+        return self.parameter_names
+
+    def __repr__(self) -> str:
+        return (
+            f"RigidBodyModel(name={self.name!r}, n_joints={self.n_joints}, "
+            f"joint_types={self.joint_types}, n_parameters={len(self.parameter_names)})"
+        )
+
+    def _check_mass_matrix(self):
+        """Refuse a model whose M(q) is singular at the nominal parameters (random states)."""
+        rng = np.random.default_rng(7)
+        n = self.n_joints
+        q = rng.uniform(-np.pi, np.pi, (4, n))
+        for j, kind in enumerate(self.joint_types):
+            if kind == "prismatic":
+                q[:, j] = rng.uniform(0.0, 0.5, 4)
+        M = rigid.mass_matrix(self._chain, self._nominal, q)
+        for s in range(M.shape[0]):
+            ev = np.linalg.eigvalsh(M[s])
+            scale = max(float(np.abs(ev).max()), 1e-300)
+            if ev[0] <= 1e-12 * scale:
+                d = np.diag(M[s])
+                j = int(np.argmin(d))
+                raise ModelFileError(
+                    f"{self._chain.source}: the mass matrix is singular at the nominal parameters "
+                    f"(smallest eigenvalue {ev[0]:.3g}, largest {ev[-1]:.3g}): joint "
+                    f"{j + 1} ({self.joint_names[j]!r}) moves no mass or inertia (a zero-length "
+                    "link, or a point mass on its axis). Give the links it moves a mass and "
+                    "inertia, or an armature for that joint."
+                )
+
+    # -- kernels ----------------------------------------------------------------------------
+    def _c_kernel(self):
+        if not self._kernel_tried:
+            self._kernel_tried = True
+            from .codegen import chain_kernel
+
+            self._kernel = chain_kernel(self._chain)
+        return self._kernel
+
+    def _arrays(self, *pairs):
+        n, cols = self._states(*pairs)
+        return n, [np.ascontiguousarray(np.array(c).T) for c in cols]
+
+    # -- dynamics ---------------------------------------------------------------------------
+    def inverse_dynamics(self, q, qd, qdd, params=None) -> np.ndarray:
+        """Joint torques τ = M(q) q̈ + C(q, q̇) q̇ + g(q) + τ_drive, shape (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+            Joint positions [rad | m], velocities and accelerations.
+        params : dict or array_like (n_parameters,), optional
+            None: nominal; a dict overrides some; an array gives all (like `parameter_names`).
+
+        Returns
+        -------
+        ndarray, shape (n_samples, n_joints) [N·m | N]
+        """
+        _, (Q, QD, QDD) = self._arrays((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        beta = self.parameter_vector(params)
+        k = self._c_kernel()
+        if k is not None:
+            return k.rnea(beta, Q, QD, QDD)
+        return rigid.rnea(self._chain, beta, Q, QD, QDD)
+
+    def mass_matrix(self, q, params=None) -> np.ndarray:
+        """Mass matrix M(q), shape (n_samples, n_joints, n_joints), symmetric.
+
+        Parameters
+        ----------
+        q : array_like, shape (n_samples, n_joints) [rad | m]
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints, n_joints) [kg·m² | kg]
+        """
+        _, (Q,) = self._arrays((q, "q"))
+        beta = self.parameter_vector(params)
+        k = self._c_kernel()
+        if k is not None:
+            return k.mass(beta, Q)
+        return rigid.mass_matrix(self._chain, beta, Q)
+
+    def bias_forces(self, q, qd, params=None) -> np.ndarray:
+        """h(q, q̇) = C(q, q̇) q̇ + g(q) + friction: τ at q̈ = 0, shape (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q, qd : array_like, shape (n_samples, n_joints)
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints) [N·m | N]
+        """
+        _, (Q, QD) = self._arrays((q, "q"), (qd, "qd"))
+        return self.inverse_dynamics(Q, QD, np.zeros_like(Q), params)
+
+    def gravity_forces(self, q, params=None) -> np.ndarray:
+        """g(q): the torque that holds the arm still (no friction or offset), (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q : array_like, shape (n_samples, n_joints)
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints) [N·m | N]
+        """
+        _, (Q,) = self._arrays((q, "q"))
+        beta = self.parameter_vector(params)
+        z = np.zeros_like(Q)
+        return rigid.rnea(self._chain, beta, Q, z, z, drive=False)
+
+    def forward_dynamics(self, q, qd, tau, params=None) -> np.ndarray:
+        """q̈ = M(q)⁻¹ (τ − h(q, q̇)), shape (n_samples, n_joints).
+
+        Parameters
+        ----------
+        q, qd : array_like, shape (n_samples, n_joints)
+        tau : array_like, shape (n_samples, n_joints) [N·m | N]
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints)
+
+        Raises
+        ------
+        InputError
+            M(q) is singular at some sample.
+        """
+        _, (Q, QD, TAU) = self._arrays((q, "q"), (qd, "qd"), (tau, "tau"))
+        M = self.mass_matrix(Q, params)
+        rhs = TAU - self.bias_forces(Q, QD, params)
+        try:
+            return np.linalg.solve(M, rhs[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            raise InputError(
+                "the mass matrix is singular at some sample at these parameters: a joint moves no "
+                "mass; check params (masses and inertias must be positive)."
+            ) from None
+
+    # -- linear-in-parameters form ----------------------------------------------------------
+    def beta(self, params=None) -> np.ndarray:
+        """β(θ) = θ (shape (n_parameters,)): the model is linear in its parameters.
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_parameters,)
+        """
+        return self.parameter_vector(params)
+
+    def beta_jacobian(self, params=None) -> np.ndarray:
+        """∂β/∂θ = identity, shape (n_parameters, n_parameters).
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        ndarray (n_parameters, n_parameters)
+        """
+        return np.eye(len(self.parameter_names))
+
+    def regressor(self, q, qd, qdd, *, out=None) -> np.ndarray:
+        """Y(q, q̇, q̈), shape (n_samples, n_joints, n_parameters), with τ = Y @ θ.
+
+        Evaluated in blocks of samples directly into the result, so the peak memory is one
+        copy of Y plus ~1 MB of scratch.
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+        out : ndarray, optional
+            Preallocated result (float64, C-contiguous, the shape above).
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints, n_parameters) [N·m per unit of each parameter]
+        """
+        n, (Q, QD, QDD) = self._arrays((q, "q"), (qd, "qd"), (qdd, "qdd"))
+        shape = (n, self.n_joints, len(self.parameter_names))
+        if out is not None and (out.shape != shape or out.dtype != np.float64):
+            raise InputError(f"out must be a float64 array of shape {shape}; got {out.shape}.")
+        k = self._c_kernel()
+        if k is not None:
+            return k.regressor(Q, QD, QDD, out=out)
+        return rigid.regressor(self._chain, Q, QD, QDD, out=out)
+
+    def parameter_jacobian(self, q, qd, qdd, params=None) -> np.ndarray:
+        """∂τ/∂θ = Y(q, q̇, q̈), shape (n_samples, n_joints, n_parameters).
+
+        Parameters
+        ----------
+        q, qd, qdd : array_like, shape (n_samples, n_joints)
+        params : dict or array_like, optional
+            Unused (the model is linear); checked.
+
+        Returns
+        -------
+        ndarray (n_samples, n_joints, n_parameters)
+        """
+        self.parameter_vector(params)
+        return self.regressor(q, qd, qdd)
+
+    def _regressor_data(self) -> dict:
+        n = len(self.parameter_names)
+        return {
+            "names": list(self.parameter_names),
+            "keep": list(range(n)),
+            "monomials": [[int(i == j) for j in range(n)] for i in range(n)],
+            "exponents": np.eye(n),
+        }
+
+    def base_parameters(self, params=None, *, n_states=None, seed=0, rtol=1e-9):
+        """Base parameters: QR with column pivoting of Y stacked over random states.
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+            Unused for the base set (it depends only on the geometry); kept for the signature.
+        n_states : int, optional
+            Random states (default max(50, 2·n_parameters / n_joints + 20)).
+        seed : int
+        rtol : float
+            Rank threshold on |R_kk| / |R_00| of the column-scaled regressor.
+
+        Returns
+        -------
+        physid.models.base.BaseParameters
+        """
+        from .base import base_parameters_of_regressor
+
+        return base_parameters_of_regressor(
+            self, n_states=n_states, seed=seed, rtol=rtol, limits=self.limits
+        )
+
+    # -- single-state right-hand sides ------------------------------------------------------
+    def make_rhs(self, params=None):
+        """``f(q, qd, tau) -> qdd`` for one state (arrays of length n_joints).
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        callable
+        """
+        beta = self.parameter_vector(params)
+        k = self._c_kernel()
+        n = self.n_joints
+        if k is not None:
+            fd = k.forward_one(beta)
+
+            def rhs(q, qd, tau):
+                return fd(q, qd, tau)
+
+            return rhs
+
+        def rhs_np(q, qd, tau):
+            return self.forward_dynamics(
+                np.reshape(q, (1, n)), np.reshape(qd, (1, n)), np.reshape(tau, (1, n)), beta
+            )[0]
+
+        return rhs_np
+
+    def make_state_rhs(self, params=None):
+        """``f(y, tau) -> ẏ`` for the state y = [q, q̇] (length 2·n_joints).
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+
+        Returns
+        -------
+        callable
+        """
+        f = self.make_rhs(params)
+        n = self.n_joints
+
+        def state_rhs(y, tau):
+            y = np.asarray(y, dtype=float)
+            return np.concatenate([y[n:], f(y[:n], y[n:], tau)]).tolist()
+
+        return state_rhs
+
+    def make_pd_rhs(self, params=None, *, kp, kd, reference):
+        """PD closed-loop right-hand side (see `physid.simulate.closed_loop.closed_loop_rhs`).
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+        kp, kd : array_like (n_joints,)
+        reference : callable or array_like (n_joints,)
+
+        Returns
+        -------
+        callable
+            ``f(t, y)``.
+        """
+        accel = self.make_rhs(params)
+        n = self.n_joints
+        kp_a = np.broadcast_to(np.asarray(kp, dtype=float), (n,)).copy()
+        kd_a = np.broadcast_to(np.asarray(kd, dtype=float), (n,)).copy()
+        if callable(reference):
+            ref = reference
+        else:
+            r_const = np.asarray(reference, dtype=float)
+
+            def ref(t):
+                return r_const
+
+        def pd_rhs(t, y):
+            y = np.asarray(y, dtype=float)
+            q, qd = y[:n], y[n:]
+            tau = kp_a * (np.asarray(ref(t), dtype=float) - q) - kd_a * qd
+            return np.concatenate([qd, accel(q, qd, tau)])
+
+        return pd_rhs
+
+    def symbolic_equations(self):
+        """Not available: rigid-body models are evaluated numerically (Newton–Euler).
+
+        Returns
+        -------
+        None
+            Never; raises.
+
+        Raises
+        ------
+        InputError
+            Always.
+        """
+        raise InputError(
+            f"model {self.name!r} is a rigid-body model evaluated by Newton–Euler; it has no "
+            "symbolic equations. Use inverse_dynamics, mass_matrix or regressor."
+        )
