@@ -1,4 +1,7 @@
-"""``physid simulate manipulator|msd --out F.csv [...]``: write a simulated recording.
+"""``physid simulate manipulator|msd|MODEL --out F.csv [...]``: write a simulated recording.
+
+* ``MODEL`` (a ``.toml``/``.urdf`` chain file or the built-in ``arm6``): PD closed loop of any
+  chain model following ``--reference`` → t, q1..qn, qd1..qdn, tau1..taun, r1..rn.
 
 * ``manipulator``: the closed-loop PD experiment of Cedro & Janecki (section 4) → t, q1..q4,
   qd1..qd4, tau1..tau4, r1..r4.
@@ -9,12 +12,29 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 
 from ..errors import InputError
 from ._common import float_list, progress
 
 ORDER = 20
+
+
+class _AnyName(dict):
+    """Sub-command choices that accept any name (unknown names become ``model MODEL``)."""
+
+    def __contains__(self, key):
+        return True
+
+
+class _SystemOrModel(argparse._SubParsersAction):
+    """Sub-commands ``manipulator`` and ``msd``; any other name is a chain model (``model``)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if values and values[0] not in self._name_parser_map and not values[0].startswith("-"):
+            values = ["model", *values]
+        super().__call__(parser, namespace, values, option_string)
 
 
 def register(subparsers) -> None:
@@ -27,8 +47,9 @@ def register(subparsers) -> None:
             "output path is printed on stdout."
         ),
     )
-    systems = parser.add_subparsers(dest="system", metavar="SYSTEM")
+    systems = parser.add_subparsers(dest="system", metavar="SYSTEM", action=_SystemOrModel)
     systems.required = True
+    _register_model(systems)
 
     arm = systems.add_parser(
         "manipulator",
@@ -126,6 +147,7 @@ def register(subparsers) -> None:
         "--seed", metavar="N", default=None, help="noise seed (non-negative integer; needs --snr)"
     )
     msd.set_defaults(func=run_msd)
+    systems.choices = _AnyName(systems._name_parser_map)
 
 
 def _number(text, option: str, *, positive: bool = False, allow_zero: bool = False) -> float | None:
@@ -274,5 +296,141 @@ def run_msd(args) -> int:
             f"{alias_frequency(d['angular_frequency'], rec.dt):.6g} rad/s after sampling"
         )
     progress(text)
+    print(path)
+    return 0
+
+
+# ------------------------------------------------------------------------- any chain model
+def _register_model(systems) -> None:
+    chain = systems.add_parser(
+        "model",
+        help="closed-loop PD run of any chain model: physid simulate MODEL.toml|MODEL.urdf|arm6",
+        description=(
+            "PD control τ = Kp (r − q) − Kd q̇ of a chain model (a .toml or .urdf file, or the "
+            "built-in arm6) following a reference, integrated with DOP853. Writes t, q1..qn, "
+            "qd1..qdn, tau1..taun, r1..rn (rad or m for prismatic joints). Usage: physid simulate "
+            "MODEL --out F.csv."
+        ),
+    )
+    chain.add_argument("model", metavar="MODEL", help="model file (.toml, .urdf) or arm6")
+    chain.add_argument("--out", metavar="F", required=True, help="output file (.csv or .npz)")
+    chain.add_argument(
+        "--reference",
+        metavar="F|LIST",
+        default=None,
+        help="a recording with t and r1..rn (e.g. from design-excitation), or n comma-separated "
+        "set-points; default: a smooth multi-sine of 0.3 rad (0.05 m) per joint",
+    )
+    chain.add_argument(
+        "--kp",
+        metavar="LIST",
+        default=None,
+        help="proportional gains, one or one per joint (default: (2π·3 Hz)² M_jj at q = 0)",
+    )
+    chain.add_argument(
+        "--kd",
+        metavar="LIST",
+        default=None,
+        help="derivative gains, one or one per joint (default: critically damped, 2·2π·3 Hz·M_jj)",
+    )
+    chain.add_argument("--duration", metavar="S", default="10", help="duration [s] (default 10)")
+    chain.add_argument(
+        "--dt", metavar="S", default="0.001", help="sample period [s] (default 1 ms)"
+    )
+    chain.add_argument("--noise-std", metavar="RAD", default=None, help="white noise std on q")
+    chain.add_argument("--seed", metavar="N", default=None, help="noise seed (needs --noise-std)")
+    chain.set_defaults(func=run_model)
+
+
+def _gains(text, option, n, default):
+    import numpy as np
+
+    if text is None:
+        return default
+    values = float_list(text, option)
+    if len(values) == 1:
+        values = values * n
+    if len(values) != n:
+        raise InputError(f"{option} expects 1 or {n} gains (one per joint); got {len(values)}.")
+    arr = np.array(values)
+    if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+        raise InputError(f"{option} gains must be finite and >= 0; got {text!r}.")
+    return arr
+
+
+def run_model(args) -> int:
+    import numpy as np
+
+    from ..models import ChainModel, load_model
+    from ..signals import load_recording, save_recording
+    from ..simulate import simulate_closed_loop
+
+    model = load_model(args.model)
+    if not isinstance(model, ChainModel):
+        raise InputError(
+            f"{args.model!r} is a {type(model).__name__}, not a chain model; simulate it with "
+            "physid simulate msd, or give a chain model (.toml with [[joints]] or .urdf)."
+        )
+    n = model.n_joints
+    duration = _number(args.duration, "--duration [s]", positive=True)
+    dt = _number(args.dt, "--dt [s]", positive=True)
+    if duration / dt > 5e7:
+        raise InputError(f"--duration/--dt asks for {duration / dt:.3g} samples; at most 5e7.")
+    noise = _number(args.noise_std, "--noise-std", positive=True, allow_zero=True)
+    seed = _seed(args.seed)
+    if seed is not None and noise is None:
+        raise InputError("--seed only seeds the measurement noise; give --noise-std as well.")
+    types = getattr(model, "joint_types", ("revolute",) * n)
+    M0 = model.mass_matrix(np.zeros((1, n)))[0]
+    w = 2 * np.pi * 3.0
+    kp = _gains(args.kp, "--kp", n, w**2 * np.diag(M0))
+    kd = _gains(args.kd, "--kd", n, 2 * w * np.diag(M0))
+    t = np.arange(int(round(duration / dt)) + 1) * dt
+    grid = None
+    if args.reference is None:
+        amp = np.array([0.05 if k == "prismatic" else 0.3 for k in types])
+        freq = 0.1 * (1.0 + 0.37 * np.arange(n))
+        env = 0.5 * (1 - np.cos(np.pi * np.clip(t / min(1.0, duration), 0, 1)))
+        reference = amp * env[:, None] * np.sin(2 * np.pi * freq * t[:, None])
+        limits = getattr(model, "limits", None)
+        if limits is not None:
+            lo, hi = limits["position"][:, 0], limits["position"][:, 1]
+            mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+            mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
+            reference = reference + mid
+    elif any(ch.isalpha() for ch in args.reference) or "/" in args.reference:
+        rec = load_recording(args.reference)
+        names = [f"r{j + 1}" for j in range(n)]
+        missing = [c for c in names if c not in rec.names]
+        if missing:
+            raise InputError(
+                f"--reference {args.reference!r} has no channel(s) {missing}; it needs t and "
+                f"r1..r{n}."
+            )
+        reference = rec.select(names).data
+        grid = rec.t
+        t = np.arange(int(round((rec.t[-1] - rec.t[0]) / dt)) + 1) * dt + rec.t[0]
+    else:
+        values = float_list(args.reference, "--reference")
+        if len(values) != n:
+            raise InputError(f"--reference expects {n} set-points; got {len(values)}.")
+        reference = np.array(values)
+    progress(f"physid simulate {args.model}: {n} joints, {t.size} samples ...")
+    rec = simulate_closed_loop(
+        model,
+        kp=kp,
+        kd=kd,
+        reference=reference,
+        t=t,
+        noise_std=noise,
+        rng=seed,
+        reference_grid=grid,
+    )
+    path = save_recording(rec, args.out)
+    integ = rec.metadata["integrator"]
+    progress(
+        f"physid simulate {args.model}: {integ['nfev']} right-hand-side calls in "
+        f"{integ['wall_seconds']:.2f} s ({integ['backend']})"
+    )
     print(path)
     return 0

@@ -19,7 +19,7 @@ from .rigid import DRIVE_NAMES, RigidChain
 
 __all__ = ["ChainKernel", "load_kernel", "model_buffer"]
 
-_JS = 34
+_JS = 35
 _MAXJ = 64
 _P = ctypes.c_void_p
 
@@ -46,17 +46,19 @@ def _library():
     return lib
 
 
-def model_buffer(chain: RigidChain, beta) -> np.ndarray:
+def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.ndarray:
     """The kernel's model buffer for parameters ``beta`` (see the C source's layout).
 
     Parameters
     ----------
     chain : RigidChain
     beta : array_like (n_parameters,)
+    coulomb_smoothing : float [rad/s]
+        0: exact sign(q̇); > 0: tanh(q̇ / v_s) (simulation only).
 
     Returns
     -------
-    ndarray (4 + 34 n,)
+    ndarray (4 + 35 n,)
     """
     inertia, drive = chain.split(beta)
     n = chain.n_joints
@@ -73,6 +75,7 @@ def model_buffer(chain: RigidChain, beta) -> np.ndarray:
         J[16:26] = inertia[i]
         for c, name in enumerate(names):
             J[26 + DRIVE_NAMES.index(name)] = drive[i, c]
+        J[34] = coulomb_smoothing
     return buf
 
 
@@ -131,9 +134,9 @@ class ChainKernel:
         )
         return out
 
-    def forward_one(self, beta):
+    def forward_one(self, beta, coulomb_smoothing: float = 0.0):
         """``f(q, qd, tau) -> qdd`` for one state, parameters bound."""
-        buf = model_buffer(self.chain, beta)
+        buf = model_buffer(self.chain, beta, coulomb_smoothing)
         n = self.n
         work = np.zeros(4 * n)
         q_s, qd_s, tau_s, out = work[:n], work[n : 2 * n], work[2 * n : 3 * n], work[3 * n :]
@@ -158,7 +161,7 @@ class ChainKernel:
         f.buffers = (buf, work)
         return f
 
-    def pd_rhs(self, beta, kp, kd, reference, spline=None):
+    def pd_rhs(self, beta, kp, kd, reference, spline=None, coulomb_smoothing: float = 0.0):
         """The PD closed loop ``f(t, y) -> ẏ`` as one C call.
 
         ``spline``: ``(t0, step, coefficients (n_int, n, 4), first, last)`` of a cubic spline
@@ -167,7 +170,7 @@ class ChainKernel:
         from ..errors import SimulationError
 
         n = self.n
-        buf = model_buffer(self.chain, beta)
+        buf = model_buffer(self.chain, beta, coulomb_smoothing)
         if spline is not None:
             t0, step, coef, first, last = spline
             coef = np.asarray(coef, dtype=float)

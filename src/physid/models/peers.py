@@ -84,7 +84,8 @@ class PinocchioPeer:
         Fv, Fc, Fvp, Fvn, Fcp, Fcn, OF values (armature is in ``model.armature``).
     """
 
-    def __init__(self, pmodel, friction: dict):
+    def __init__(self, pmodel, friction: dict, coulomb_smoothing: float = 0.0):
+        self.coulomb_smoothing = float(coulomb_smoothing)
         self.model = pmodel
         self.data = pmodel.createData()
         self.friction = {k: np.asarray(v, dtype=float) for k, v in friction.items()}
@@ -103,18 +104,24 @@ class PinocchioPeer:
         v = np.asarray(qd, dtype=float)
         f = self.friction
         out = np.zeros_like(v)
+        eps = self.coulomb_smoothing
+        if eps > 0:
+            th = np.tanh(v / eps)
+            pos, neg, sgn = 0.5 * (1 + th), 0.5 * (1 - th), th
+        else:
+            pos, neg, sgn = (v > 0), (v < 0), np.sign(v)
         if "Fv" in f:
             out += f["Fv"] * v
         if "Fc" in f:
-            out += f["Fc"] * np.sign(v)
+            out += f["Fc"] * sgn
         if "Fvp" in f:
             out += f["Fvp"] * np.where(v > 0, v, 0.0)
         if "Fvn" in f:
             out += f["Fvn"] * np.where(v < 0, v, 0.0)
         if "Fcp" in f:
-            out += f["Fcp"] * (v > 0)
+            out += f["Fcp"] * pos
         if "Fcn" in f:
-            out -= f["Fcn"] * (v < 0)
+            out -= f["Fcn"] * neg
         if "OF" in f:
             out += f["OF"]
         return out
@@ -139,7 +146,7 @@ class PinocchioPeer:
         return pin.aba(self.model, self.data, q, qd, np.asarray(tau) - self.drive_torque(qd))
 
 
-def to_pinocchio(model, params=None) -> PinocchioPeer:
+def to_pinocchio(model, params=None, *, coulomb_smoothing: float = 0.0) -> PinocchioPeer:
     """The pinocchio peer of a physid chain model, every term carried.
 
     Parameters
@@ -148,6 +155,8 @@ def to_pinocchio(model, params=None) -> PinocchioPeer:
         A rigid-body model, or a DH point-mass chain.
     params : dict or array_like, optional
         Parameters (nominal by default).
+    coulomb_smoothing : float [rad/s]
+        0: exact sign(q̇); > 0: tanh(q̇ / v_s) as physid's simulation uses.
 
     Returns
     -------
@@ -167,7 +176,7 @@ def to_pinocchio(model, params=None) -> PinocchioPeer:
             "Fv": [_evaluate(j.viscous, values) for j in spec.joints],
             "Fc": [_evaluate(j.coulomb, values) for j in spec.joints],
         }
-        return PinocchioPeer(pm, friction)
+        return PinocchioPeer(pm, friction, coulomb_smoothing)
     chain = model.chain
     inertia, drive = chain.split(model.parameter_vector(params))
     pm = pin.Model()
@@ -192,4 +201,4 @@ def to_pinocchio(model, params=None) -> PinocchioPeer:
     )
     pm.gravity.linear = np.array(chain.gravity, dtype=float)
     friction = {k: drive[:, c] for c, k in enumerate(names) if k != "Ia"}
-    return PinocchioPeer(pm, friction)
+    return PinocchioPeer(pm, friction, coulomb_smoothing)

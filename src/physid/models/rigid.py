@@ -235,19 +235,24 @@ def _kinematics(chain, q, qd, qdd, gravity: bool = True):
     return X, out
 
 
-def _drive_torque(chain, drive, qd, qdd):
+def _drive_torque(chain, drive, qd, qdd, smoothing=0.0):
     """Drive terms' torque (N, n) for drive values (n, n_drive)."""
     tau = np.zeros_like(qd)
     for c, name in enumerate(chain.drive_names):
-        tau += drive[:, c] * _drive_column(name, qd, qdd)
+        tau += drive[:, c] * _drive_column(name, qd, qdd, smoothing)
     return tau
 
 
-def _drive_column(name, qd, qdd):
+def _drive_column(name, qd, qdd, smoothing=0.0):
+    """Regressor column of one drive term; ``smoothing`` > 0 [rad/s] replaces sign(q̇) by
+    tanh(q̇ / smoothing) (simulation only)."""
     if name == "Ia":
         return qdd
     if name == "Fv":
         return qd
+    if smoothing > 0 and name in ("Fc", "Fcp", "Fcn"):
+        th = np.tanh(qd / smoothing)
+        return {"Fc": th, "Fcp": 0.5 * (1 + th), "Fcn": -0.5 * (1 - th)}[name]
     if name == "Fc":
         return np.sign(qd)
     if name == "Fvp":
@@ -261,7 +266,7 @@ def _drive_column(name, qd, qdd):
     return np.ones_like(qd)  # OF
 
 
-def _rnea_block(chain, inertia, drive, q, qd, qdd, gravity=True, with_drive=True):
+def _rnea_block(chain, inertia, drive, q, qd, qdd, gravity=True, with_drive=True, smoothing=0.0):
     """Newton–Euler torques (N, n) for joint-frame inertial parameters (n, 10)."""
     N, n = q.shape
     X, kin = _kinematics(chain, q, qd, qdd, gravity)
@@ -281,7 +286,7 @@ def _rnea_block(chain, inertia, drive, q, qd, qdd, gravity=True, with_drive=True
         f_child = _mv(R, f)
         n_child = _mv(R, nn) + _cross(p, f_child)
     if with_drive and drive.shape[1]:
-        tau += _drive_torque(chain, drive, qd, qdd)
+        tau += _drive_torque(chain, drive, qd, qdd, smoothing)
     return tau
 
 
@@ -290,7 +295,17 @@ def inertial_split(p10):
     return float(p10[0]), np.asarray(p10[1:4])
 
 
-def rnea(chain: RigidChain, beta, q, qd, qdd, *, gravity: bool = True, drive: bool = True):
+def rnea(
+    chain: RigidChain,
+    beta,
+    q,
+    qd,
+    qdd,
+    *,
+    gravity: bool = True,
+    drive: bool = True,
+    smoothing: float = 0.0,
+):
     """Inverse dynamics τ (N, n) [N·m or N] by Newton–Euler over all samples, in blocks.
 
     Parameters
@@ -302,6 +317,8 @@ def rnea(chain: RigidChain, beta, q, qd, qdd, *, gravity: bool = True, drive: bo
         Joint positions [rad|m], velocities and accelerations.
     gravity, drive : bool
         Include gravity / the drive and friction terms.
+    smoothing : float [rad/s]
+        0: exact sign(q̇) in the Coulomb terms; > 0: tanh(q̇ / smoothing) (simulation).
 
     Returns
     -------
@@ -313,7 +330,15 @@ def rnea(chain: RigidChain, beta, q, qd, qdd, *, gravity: bool = True, drive: bo
     for s in range(0, N, BLOCK):
         sl = slice(s, s + BLOCK)
         out[sl] = _rnea_block(
-            chain, inertia, drv, q[sl], qd[sl], qdd[sl], gravity=gravity, with_drive=drive
+            chain,
+            inertia,
+            drv,
+            q[sl],
+            qd[sl],
+            qdd[sl],
+            gravity=gravity,
+            with_drive=drive,
+            smoothing=smoothing,
         )
     return out
 

@@ -345,12 +345,15 @@ class RigidBodyModel(ChainModel):
         )
 
     # -- single-state right-hand sides ------------------------------------------------------
-    def make_rhs(self, params=None):
+    def make_rhs(self, params=None, *, coulomb_smoothing: float = 0.0):
         """``f(q, qd, tau) -> qdd`` for one state (arrays of length n_joints).
 
         Parameters
         ----------
         params : dict or array_like, optional
+        coulomb_smoothing : float [rad/s]
+            0: exact sign(q̇) in Coulomb terms; > 0: tanh(q̇ / coulomb_smoothing), which an ODE
+            integrator needs to step through velocity reversals in reasonable time.
 
         Returns
         -------
@@ -359,18 +362,16 @@ class RigidBodyModel(ChainModel):
         beta = self.parameter_vector(params)
         k = self._c_kernel()
         n = self.n_joints
+        eps = float(coulomb_smoothing)
         if k is not None:
-            fd = k.forward_one(beta)
-
-            def rhs(q, qd, tau):
-                return fd(q, qd, tau)
-
-            return rhs
+            return k.forward_one(beta, eps)
+        chain = self._chain
 
         def rhs_np(q, qd, tau):
-            return self.forward_dynamics(
-                np.reshape(q, (1, n)), np.reshape(qd, (1, n)), np.reshape(tau, (1, n)), beta
-            )[0]
+            q1, qd1 = np.reshape(q, (1, n)), np.reshape(qd, (1, n))
+            M = rigid.mass_matrix(chain, beta, q1)[0]
+            h = rigid.rnea(chain, beta, q1, qd1, np.zeros((1, n)), smoothing=eps)[0]
+            return np.linalg.solve(M, np.asarray(tau, dtype=float) - h)
 
         return rhs_np
 
@@ -394,7 +395,7 @@ class RigidBodyModel(ChainModel):
 
         return state_rhs
 
-    def make_pd_rhs(self, params=None, *, kp, kd, reference):
+    def make_pd_rhs(self, params=None, *, kp, kd, reference, coulomb_smoothing: float = 0.0):
         """PD closed-loop right-hand side (see `physid.simulate.closed_loop.closed_loop_rhs`).
 
         Parameters
@@ -402,13 +403,15 @@ class RigidBodyModel(ChainModel):
         params : dict or array_like, optional
         kp, kd : array_like (n_joints,)
         reference : callable or array_like (n_joints,)
+        coulomb_smoothing : float [rad/s]
+            As in `make_rhs`.
 
         Returns
         -------
         callable
             ``f(t, y)``.
         """
-        accel = self.make_rhs(params)
+        accel = self.make_rhs(params, coulomb_smoothing=coulomb_smoothing)
         n = self.n_joints
         kp_a = np.broadcast_to(np.asarray(kp, dtype=float), (n,)).copy()
         kd_a = np.broadcast_to(np.asarray(kd, dtype=float), (n,)).copy()

@@ -4,12 +4,14 @@
  *   model = [n, gx, gy, gz, joint_0 (JS doubles), joint_1, ...]
  *   joint = [type (0 revolute, 1 prismatic), R0 (9, row-major), p0 (3), axis (3),
  *            inertia in the joint frame (10: m mcx mcy mcz XX XY XZ YY YZ ZZ),
- *            drive (8: Ia Fv Fc Fvp Fvn Fcp Fcn OF)]
+ *            drive (8: Ia Fv Fc Fvp Fvn Fcp Fcn OF), Coulomb smoothing velocity (1; 0: exact)]
+ * With a smoothing velocity v_s > 0 (simulation only), sign(q̇) becomes tanh(q̇ / v_s) and the
+ * one-sided indicators [q̇ > 0], [q̇ < 0] become (1 ± tanh(q̇ / v_s)) / 2.
  * Built once with cc -O2 and loaded with ctypes (physid.models.ckernel). */
 #include <math.h>
 #include <string.h>
 
-#define JS 34
+#define JS 35
 #define MAXJ 64
 
 typedef struct {
@@ -98,6 +100,11 @@ static void kinematics(const double *model, const double *q, const double *qd, c
 static inline double sgn(double x) { return (x > 0) - (x < 0); }
 
 static double drive_torque(const double *D, double qd, double qdd) {
+    if (D[8] > 0) {
+        double th = tanh(qd / D[8]), pos = 0.5 * (1 + th), neg = 0.5 * (1 - th);
+        return D[0] * qdd + D[1] * qd + D[2] * th + (qd > 0 ? D[3] * qd : 0.0) + D[5] * pos +
+               (qd < 0 ? D[4] * qd : 0.0) - D[6] * neg + D[7];
+    }
     return D[0] * qdd + D[1] * qd + D[2] * sgn(qd) + (qd > 0 ? D[3] * qd + D[5] : 0.0) +
            (qd < 0 ? D[4] * qd - D[6] : 0.0) + D[7];
 }

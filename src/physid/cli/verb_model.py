@@ -1,0 +1,155 @@
+"""``physid model info MODEL [--json]``: what a model is — joints, parameters, limits, base set.
+
+Works for the built-ins (``manipulator``, ``msd``, ``arm6``), TOML model files, URDF sidecars and
+URDF files. Prints text (or one JSON object with ``--json``); the load/derivation time is part of
+it. Progress and timings go to stderr.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from ._common import print_json, progress
+
+ORDER = 15
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "model",
+        help="describe a model: joints, parameters with units, limits, base parameters",
+        description=(
+            "Inspect a model: physid model info MODEL [--json]. MODEL is a built-in name "
+            "(manipulator, msd, arm6), a .toml model file, a URDF sidecar or a .urdf file."
+        ),
+    )
+    actions = parser.add_subparsers(dest="action", metavar="ACTION")
+    actions.required = True
+    info = actions.add_parser(
+        "info",
+        help="joints, parameters, limits and base parameters of a model",
+        description="Describe MODEL: joints, parameters with units, limits, base parameters "
+        "(each as an expression of the standard parameters and in words) and the load time.",
+    )
+    info.add_argument("model", metavar="MODEL", help="built-in name, .toml or .urdf file")
+    info.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    info.add_argument(
+        "--no-base",
+        action="store_true",
+        help="skip the base parameters (they need the regressor; slow for big symbolic models)",
+    )
+    info.set_defaults(func=run_info)
+
+
+def _finite(x):
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def describe(model, *, base: bool = True) -> dict:
+    """JSON-ready description of a model (the content of ``physid model info --json``).
+
+    Parameters
+    ----------
+    model : ChainModel or LinearODEModel
+    base : bool
+        Include the base parameters.
+
+    Returns
+    -------
+    dict
+    """
+    from ..models import ChainModel
+
+    out = {"name": model.name, "kind": type(model).__name__}
+    units = getattr(model, "units", {})
+    params = model.parameters
+    out["parameters"] = [
+        {"name": k, "value": v, "unit": units.get(k, ""), "identify": k in model.unknown}
+        for k, v in params.items()
+    ]
+    if isinstance(model, ChainModel):
+        n = model.n_joints
+        types = getattr(model, "joint_types", ("revolute",) * n)
+        limits = getattr(model, "limits", None)
+        joints = []
+        for j in range(n):
+            entry = {"index": j + 1, "name": model.joint_names[j], "type": types[j]}
+            if limits is not None:
+                lo, hi = limits["position"][j]
+                entry["limits"] = {
+                    "position": [_finite(lo), _finite(hi)],
+                    "velocity": _finite(limits["velocity"][j]),
+                    "effort": _finite(limits["effort"][j]),
+                    "acceleration": _finite(limits["acceleration"][j]),
+                }
+            joints.append(entry)
+        out["joints"] = joints
+        out["gravity"] = list(model.gravity)
+        out["load_seconds"] = float(model.load_seconds)
+        out["loaded_from_cache"] = bool(model.loaded_from_cache)
+        if base:
+            start = time.perf_counter()
+            bp = model.base_parameters()
+            exprs = getattr(bp, "expressions", bp.base_names)
+            words = getattr(bp, "words", None) or [""] * len(exprs)
+            out["base_parameters"] = {
+                "n_base": int(bp.n_base),
+                "n_columns": int(bp.n_beta),
+                "base": [
+                    {"name": b, "expression": e, "words": w}
+                    for b, e, w in zip(bp.base_names, exprs, words, strict=True)
+                ],
+                "no_effect": list(bp.no_effect),
+                "unidentifiable": list(bp.unidentifiable),
+                "seconds": time.perf_counter() - start,
+            }
+    else:
+        out["order"] = int(model.order)
+        out["a"] = list(model.a_names)
+        out["b"] = list(model.b_names)
+    return out
+
+
+def run_info(args) -> int:
+    from ..models import load_model
+
+    start = time.perf_counter()
+    model = load_model(args.model)
+    progress(f"physid model info: loaded {args.model!r} in {time.perf_counter() - start:.3f} s")
+    info = describe(model, base=not args.no_base)
+    if args.json:
+        print_json(info)
+        return 0
+    lines = [f"model {info['name']} ({info['kind']})"]
+    if "joints" in info:
+        lines.append(f"joints ({len(info['joints'])}):")
+        for j in info["joints"]:
+            lim = j.get("limits")
+            text = f"  {j['index']}. {j['name']} [{j['type']}]"
+            if lim:
+                lo, hi = lim["position"]
+                text += (
+                    f"  position {lo if lo is not None else '?'} .. {hi if hi is not None else '?'}"
+                    f", velocity {lim['velocity'] if lim['velocity'] is not None else '?'}"
+                    f", effort {lim['effort'] if lim['effort'] is not None else '?'}"
+                )
+            lines.append(text)
+        lines.append(f"gravity {info['gravity']} m/s²; load {info['load_seconds']:.3f} s")
+    lines.append(f"parameters ({len(info['parameters'])}):")
+    for p in info["parameters"]:
+        mark = "" if p["identify"] else "  (fixed)"
+        lines.append(f"  {p['name']} = {p['value']:.6g} {p['unit']}{mark}")
+    bp = info.get("base_parameters")
+    if bp:
+        lines.append(f"base parameters ({bp['n_base']} of {bp['n_columns']} columns):")
+        for b in bp["base"]:
+            lines.append(f"  {b['name']} = {b['expression']}")
+            if b["words"]:
+                lines.append(f"      {b['words']}")
+        if bp["no_effect"]:
+            lines.append(f"  no effect on the torques: {', '.join(bp['no_effect'])}")
+        lines += [f"  {s}" for s in bp["unidentifiable"]]
+    print("\n".join(lines))
+    return 0
