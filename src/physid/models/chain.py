@@ -280,11 +280,51 @@ def build_chain_model(
     key = _cache.content_key(spec.derivation_content())
     start = time.perf_counter()
     data, from_cache = _cache.cached(
-        "chain", key, lambda: _derive(spec), enabled=cache, valid=lambda d: _valid_entry(d, spec)
+        "chain",
+        key,
+        lambda: _with_progress(spec, lambda: _derive(spec)),
+        enabled=cache,
+        valid=lambda d: _valid_entry(d, spec),
     )
     model = ChainModel(spec, data, key=key, from_cache=from_cache, cache=cache)
     model.load_seconds = time.perf_counter() - start
     return model
+
+
+def _with_progress(spec: ChainSpec, work, *, after: float = 1.0):
+    """Run a derivation; when it takes longer than ``after`` seconds, say so on stderr.
+
+    A cold derivation of a 6-joint chain takes seconds, a 10-joint one minutes: without a word a
+    user cannot tell a slow derivation from a hang. Nothing is printed for quick ones.
+    """
+    import sys
+    import threading
+
+    start = time.perf_counter()
+    said = threading.Event()
+
+    def announce():
+        said.set()
+        print(
+            f"physid: deriving the equations of motion of {spec.name!r} ({len(spec.joints)} "
+            "joints, symbolic Lagrange); this is done once and cached ...",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    timer = threading.Timer(after, announce)
+    timer.daemon = True
+    timer.start()
+    try:
+        return work()
+    finally:
+        timer.cancel()
+        if said.is_set():
+            print(
+                f"physid: derived {spec.name!r} in {time.perf_counter() - start:.1f} s",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def _valid_entry(data: dict, spec: ChainSpec) -> bool:
@@ -877,7 +917,7 @@ class ChainModel:
                 data, _ = _cache.cached(
                     "regressor",
                     self.cache_key,
-                    lambda: _derive_regressor(self._spec),
+                    lambda: _with_progress(self._spec, lambda: _derive_regressor(self._spec)),
                     enabled=self._cache_enabled,
                     valid=lambda d: {"monomials", "names", "keep", "source"} <= set(d),
                 )

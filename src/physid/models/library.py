@@ -161,16 +161,18 @@ def load_model_file(path, **options):
     """
     strict = options.pop("strict", False)
     spec = read_model_file(path, strict=strict)
-    return model_from_spec(spec, **options)
+    return model_from_spec(spec, strict=strict, **options)
 
 
-def model_from_spec(spec, **options):
+def model_from_spec(spec, *, strict: bool = False, **options):
     """Build a `ChainModel` or `LinearODEModel` from a specification.
 
     Parameters
     ----------
     spec : ChainSpec or LinearODESpec
         From `read_model_file` / `parse_model_text`.
+    strict : bool
+        Chains: refuse (instead of warn about) negative masses and inertias.
     **options
         For chains: ``kinetic`` ("exact" | "paper", overrides the spec) and ``cache`` (bool,
         use the on-disk derivation cache). Linear ODE models take none.
@@ -209,6 +211,7 @@ def model_from_spec(spec, **options):
         from .spec import check_nominal_values
 
         check_nominal_values(spec)
+        _check_signs(spec, strict)
 
         allowed = {"kinetic", "cache"}
         bad = set(options) - allowed
@@ -217,7 +220,9 @@ def model_from_spec(spec, **options):
                 f"unknown option(s) {sorted(bad)} for chain model {spec.name!r}; allowed: "
                 f"{sorted(allowed)}."
             )
-        return build_chain_model(spec, **options)
+        model = build_chain_model(spec, **options)
+        _check_not_singular(model)
+        return model
     from .linear_ode import LinearODEModel
 
     if options:
@@ -226,3 +231,53 @@ def model_from_spec(spec, **options):
             f"parameter values in the model file instead."
         )
     return LinearODEModel.from_spec(spec)
+
+
+def _check_signs(spec, strict: bool) -> None:
+    """Warn about (``strict``: refuse) a negative mass or rotor inertia at the nominal values."""
+    import warnings
+
+    import numpy as np
+
+    from ..errors import PhysidError
+    from ..expressions import evaluate_expression
+    from .urdf import ModelWarning
+
+    values = {p.name: p.value for p in spec.parameters}
+    for k, joint in enumerate(spec.joints):
+        for attr, what in (("mass", "mass [kg]"), ("rotor_inertia", "rotor inertia [kg·m²]")):
+            text = getattr(joint, attr)
+            try:
+                v = float(np.asarray(evaluate_expression(text, values)))
+            except (PhysidError, TypeError, ValueError):
+                continue
+            if v < 0:
+                where = joint.location(attr) or f"{spec.source} (joints[{k + 1}].{attr})"
+                msg = (
+                    f"{where}: the {what} of joint {k + 1} is {v:.6g} at the nominal parameter "
+                    f"values ({text!r}); a mass or inertia must be >= 0. Check the sign and the "
+                    "parameter values."
+                )
+                if strict:
+                    raise ModelFileError(msg)
+                warnings.warn(msg, ModelWarning, stacklevel=4)
+
+
+def _check_not_singular(model) -> None:
+    """Refuse a chain whose mass matrix is singular at the nominal parameters (random states)."""
+    import numpy as np
+
+    rng = np.random.default_rng(7)
+    q = rng.uniform(-np.pi, np.pi, (4, model.n_joints))
+    M = model.mass_matrix(q)
+    for s in range(M.shape[0]):
+        ev = np.linalg.eigvalsh(M[s])
+        if not np.abs(ev).min() > 1e-12 * max(float(np.abs(ev).max()), 1e-300):
+            j = int(np.argmin(np.abs(np.diag(M[s]))))
+            raise ModelFileError(
+                f"{model.spec.source}: the mass matrix is singular at the nominal parameters "
+                f"(eigenvalues {np.round(ev, 9).tolist()} at a random pose): joint {j + 1} moves "
+                "no mass or inertia — a zero-length link, a point mass on its own axis, or a "
+                "zero mass. Give that link a length or a mass off the axis, or the joint a "
+                "rotor_inertia."
+            )
