@@ -12,6 +12,14 @@ Rows:
   ``make_rhs`` against one ``aba`` call; the fused closed-loop ``make_pd_rhs`` against the same
   PD law written with numpy around ``aba`` (what a solve_ivp right-hand side would do).
 
+Rigid-body rows (a 7-DOF Panda-like URDF, tests/data/arm7.urdf, with a sidecar adding armature,
+viscous and Coulomb friction: 91 regressor columns):
+* cold load (empty cache: parse + build + compile the generic C kernel on first use) and warm
+  load (fresh process, kernel cached), each including the first inverse-dynamics call;
+* inverse dynamics and the regressor at 1e5 samples against pinocchio's ``rnea`` and
+  ``computeJointTorqueRegressor`` looped in Python (20 000 samples, extrapolated);
+* peak memory (tracemalloc) of the regressor against the size of one float64 copy of it.
+
 Ratios are ours-over-theirs speed (> 1: we are faster). Run: python benchmarks/run.py --only models
 """
 
@@ -93,7 +101,160 @@ def _best(fn, number: int, repeat: int = 5) -> float:
     return min(timeit.repeat(fn, number=number, repeat=repeat)) / number
 
 
+ARM7 = Path(__file__).resolve().parent.parent / "tests" / "data" / "arm7.urdf"
+SIDECAR = """
+name = "arm7_friction"
+extends = "arm7.urdf"
+""" + "".join(
+    f"[joints.joint{j}]\narmature = {0.3 / j:.4g}\nviscous = {1.0 / j:.4g}\ncoulomb = {0.8 / j:.4g}\n"
+    for j in range(1, 8)
+)
+
+
+def _timed_rigid_load(target: str, cache_dir: str) -> dict:
+    code = textwrap.dedent(f"""
+        import json, time
+        import numpy as np
+        import physid.models
+        t = time.perf_counter()
+        m = physid.models.load_model({target!r})
+        t_load = time.perf_counter() - t
+        m.inverse_dynamics(np.zeros((1, m.n_joints)), np.zeros((1, m.n_joints)),
+                           np.zeros((1, m.n_joints)))
+        print(json.dumps({{"seconds": time.perf_counter() - t, "load": t_load,
+                           "n_columns": len(m.regressor_names)}}))
+    """)
+    env = dict(os.environ, PHYSID_CACHE_DIR=cache_dir)
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _rigid_rows(quick: bool) -> list[dict]:
+    import shutil
+    import tracemalloc
+
+    import pinocchio as pin
+
+    from physid.models import load_model
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        shutil.copy(ARM7, Path(tmp) / "arm7.urdf")
+        side = Path(tmp) / "arm7.toml"
+        side.write_text(SIDECAR, encoding="utf-8")
+        cache = str(Path(tmp) / "cache")
+        cold = _timed_rigid_load(str(side), cache)
+        warm = _timed_rigid_load(str(side), cache)
+        model = load_model(side)
+    cols = cold["n_columns"]
+    rows.append(
+        dict(
+            case=f"cold load 7-DOF rigid (full inertia + armature + friction, {cols} columns; "
+            "incl. C kernel build and first call)",
+            value=cold["seconds"],
+            unit="s",
+            goal="< 30 s",
+            met=cold["seconds"] < 30.0,
+        )
+    )
+    rows.append(
+        dict(
+            case="warm load 7-DOF rigid (fresh process, kernel cached, incl. first call)",
+            value=warm["seconds"],
+            unit="s",
+            baseline="cold load",
+            baseline_value=cold["seconds"],
+            ratio=cold["seconds"] / warm["seconds"],
+            goal="< 0.2 s",
+            met=warm["seconds"] < 0.2,
+        )
+    )
+    pm = pin.buildModelFromUrdf(str(ARM7))
+    pdata = pm.createData()
+    n = 20_000 if quick else 100_000
+    rng = np.random.default_rng(0)
+    q, qd, qdd = rng.normal(size=(3, n, 7))
+    n_pin = min(n, 20_000)
+    t_ours = _best(lambda: model.inverse_dynamics(q, qd, qdd), number=1, repeat=3)
+    rnea = pin.rnea
+
+    def pin_id():
+        for i in range(n_pin):
+            rnea(pm, pdata, q[i], qd[i], qdd[i])
+
+    t_pin = _best(pin_id, number=1, repeat=3) * n / n_pin
+    rows.append(
+        dict(
+            case=f"inverse dynamics 7-DOF rigid, {n:.0e} samples",
+            value=n / t_ours,
+            unit="samples/s",
+            baseline="pinocchio rnea (python loop)",
+            baseline_value=n / t_pin,
+            ratio=t_pin / t_ours,
+            goal="at least as fast as pinocchio",
+            met=t_pin >= t_ours,
+        )
+    )
+    out = np.empty((n, 7, cols))
+    t_reg = _best(lambda: model.regressor(q, qd, qdd, out=out), number=1, repeat=3)
+    reg = pin.computeJointTorqueRegressor
+
+    def pin_reg():
+        for i in range(n_pin):
+            reg(pm, pdata, q[i], qd[i], qdd[i])
+
+    t_preg = _best(pin_reg, number=1, repeat=3) * n / n_pin
+    rows.append(
+        dict(
+            case=f"regressor 7-DOF rigid ({cols} columns), {n:.0e} samples",
+            value=n / t_reg,
+            unit="samples/s",
+            baseline="pinocchio computeJointTorqueRegressor (python loop, 70 columns)",
+            baseline_value=n / t_preg,
+            ratio=t_preg / t_reg,
+            goal="at least as fast as pinocchio",
+            met=t_preg >= t_reg,
+        )
+    )
+    out = None
+    tracemalloc.start()
+    Y = model.regressor(q, qd, qdd)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    rows.append(
+        dict(
+            case=f"peak memory of the regressor, {n:.0e} x 7 x {cols} (tracemalloc)",
+            value=peak / 1e6,
+            unit="MB",
+            baseline="one float64 copy of Y",
+            baseline_value=Y.nbytes / 1e6,
+            ratio=Y.nbytes / peak,
+            goal="<= one copy (+ 5 %)",
+            met=peak <= 1.05 * Y.nbytes,
+        )
+    )
+    del Y
+    start = time.perf_counter()
+    bp = model.base_parameters()
+    rows.append(
+        dict(
+            case=f"base parameters 7-DOF rigid ({bp.n_base} of {cols})",
+            value=time.perf_counter() - start,
+            unit="s",
+            goal="informational",
+            met=None,
+        )
+    )
+    return rows
+
+
 def run(quick: bool = False) -> list[dict]:
+    return _rigid_rows(quick) + _symbolic_rows(quick)
+
+
+def _symbolic_rows(quick: bool = False) -> list[dict]:
     import pinocchio as pin
 
     from physid.models import load_model

@@ -172,8 +172,52 @@ def _msd_rows(quick: bool) -> list[dict]:
     return rows
 
 
+def _rigid_rows(quick: bool) -> list[dict]:
+    """A 10 s closed-loop run of the 7-DOF Panda-like arm (armature, viscous and Coulomb
+    friction), the same solve_ivp run driven by the C kernel and by pinocchio.aba."""
+    from pathlib import Path
+
+    from physid.models import load_model
+    from physid.simulate import ReferenceTrajectory, simulate_closed_loop
+
+    urdf = Path(__file__).resolve().parent.parent / "tests" / "data" / "arm7.urdf"
+    model = load_model(urdf)
+    duration = 2.0 if quick else 10.0
+    t = np.arange(0.0, duration + 5e-4, 1e-3)
+    amp = np.array([0.5, 0.4, 0.5, 0.4, 0.6, 0.5, 0.6])
+    freq = 0.2 * (1.0 + 0.37 * np.arange(7))
+    mid = np.array([0, 0, 0, -1.5, 0, 1.8, 0])
+    ref = ReferenceTrajectory(t, mid + amp * np.sin(2 * np.pi * freq * t[:, None]))
+    kp = np.array([600, 600, 500, 400, 100, 80, 50.0])
+    kd = np.array([50, 50, 40, 30, 8, 6, 4.0])
+    times, nfev = {}, {}
+    repeats = 1 if quick else 3
+    for backend in ("compiled", "pinocchio"):
+        best = np.inf
+        for _ in range(repeats):
+            rec = simulate_closed_loop(
+                model, kp=kp, kd=kd, reference=ref, t=t, q0=mid, backend=backend
+            )
+            best = min(best, rec.metadata["integrator"]["wall_seconds"])
+        times[backend] = best
+        nfev[backend] = rec.metadata["integrator"]["nfev"]
+    ratio = times["pinocchio"] / times["compiled"]
+    return [
+        {
+            "case": f"7-DOF rigid {duration:g} s closed loop, C kernel ({nfev['compiled']} calls)",
+            "value": times["compiled"],
+            "unit": "s",
+            "baseline": f"same solve_ivp run with pinocchio.aba ({nfev['pinocchio']} calls)",
+            "baseline_value": times["pinocchio"],
+            "ratio": ratio,
+            "goal": "at least as fast as pinocchio (ratio >= 1)",
+            "met": bool(ratio >= 1.0),
+        }
+    ]
+
+
 def run(quick: bool = False) -> list[dict]:
-    return _manipulator_rows(quick) + _msd_rows(quick)
+    return _rigid_rows(quick) + _manipulator_rows(quick) + _msd_rows(quick)
 
 
 if __name__ == "__main__":

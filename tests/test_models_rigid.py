@@ -329,3 +329,15 @@ def test_closed_loop_of_a_rigid_chain_matches_pinocchio():
         np.testing.assert_allclose(runs[be]["q1"], runs["compiled"]["q1"], atol=1e-7)
     assert runs["compiled"].metadata["kp"] == [200.0, 80.0]
     assert runs["compiled"].metadata["integrator"]["backend"] == "compiled"
+
+
+def test_worked_example_of_the_docs():
+    root = Path(__file__).parent.parent
+    arm = physid.load_model(root / "examples" / "models" / "planar2.toml")
+    np.testing.assert_allclose(arm.chain.standard[0][[1, 7, 9]], [0.506, 0.14232, 0.14032])
+    base = arm.base_parameters()
+    assert base.n_base == 9
+    assert dict(zip(base.base_names, base.expressions, strict=True))["YY1R"] == (
+        "YY1 + Ia1 + 0.2025*m2"
+    )
+    assert "m1" in base.no_effect

@@ -354,3 +354,18 @@ def test_negative_point_mass_warns_in_a_symbolic_chain(tmp_path):
         physid.load_model(path, cache=False)
     with pytest.raises(ModelFileError, match="must be >= 0"):
         physid.load_model(path, strict=True, cache=False)
+
+
+def test_slow_derivations_say_so_on_stderr(capsys):
+    import time
+
+    from physid.models.chain import _with_progress
+    from physid.models.library import manipulator_spec
+
+    spec = manipulator_spec()
+    assert _with_progress(spec, lambda: 7, after=5.0) == 7
+    assert capsys.readouterr().err == ""  # quick: nothing printed
+    assert _with_progress(spec, lambda: time.sleep(0.3) or 8, after=0.05) == 8
+    err = capsys.readouterr().err
+    assert "deriving the equations of motion of 'manipulator' (4 joints" in err
+    assert "derived the equations of motion of 'manipulator' in" in err

@@ -333,7 +333,7 @@ def _register_model(systems) -> None:
         default=None,
         help="derivative gains, one or one per joint (default: critically damped, 2·2π·3 Hz·M_jj)",
     )
-    chain.add_argument("--duration", metavar="S", default="10", help="duration [s] (default 10)")
+    chain.add_argument("--duration", metavar="S", default="5", help="duration [s] (default: 5)")
     chain.add_argument(
         "--dt", metavar="S", default="0.001", help="sample period [s] (default 1 ms)"
     )

@@ -291,7 +291,7 @@ def build_chain_model(
     return model
 
 
-def _with_progress(spec: ChainSpec, work, *, after: float = 1.0):
+def _with_progress(spec: ChainSpec, work, *, after: float = 1.0, what: str = "equations of motion"):
     """Run a derivation; when it takes longer than ``after`` seconds, say so on stderr.
 
     A cold derivation of a 6-joint chain takes seconds, a 10-joint one minutes: without a word a
@@ -306,8 +306,8 @@ def _with_progress(spec: ChainSpec, work, *, after: float = 1.0):
     def announce():
         said.set()
         print(
-            f"physid: deriving the equations of motion of {spec.name!r} ({len(spec.joints)} "
-            "joints, symbolic Lagrange); this is done once and cached ...",
+            f"physid: deriving the {what} of {spec.name!r} ({len(spec.joints)} joints, "
+            "symbolic Lagrange); this is done once and cached ...",
             file=sys.stderr,
             flush=True,
         )
@@ -321,7 +321,8 @@ def _with_progress(spec: ChainSpec, work, *, after: float = 1.0):
         timer.cancel()
         if said.is_set():
             print(
-                f"physid: derived {spec.name!r} in {time.perf_counter() - start:.1f} s",
+                f"physid: derived the {what} of {spec.name!r} in "
+                f"{time.perf_counter() - start:.1f} s",
                 file=sys.stderr,
                 flush=True,
             )
@@ -377,6 +378,9 @@ class BaseParameters:
         be identified".
     null_directions : ndarray (n_theta, n_theta - theta_rank)
         Relative changes dθ/θ that leave every base parameter unchanged (to first order).
+    combinations : tuple of Combination
+        The same statements as `physid.models.identifiability.Combination` objects (the one way
+        physid names unidentifiable combinations; ``unidentifiable`` holds their texts).
     """
 
     beta_names: tuple
@@ -390,6 +394,12 @@ class BaseParameters:
     theta_rank: int
     unidentifiable: tuple
     null_directions: np.ndarray
+    combinations: tuple = ()
+
+    @property
+    def expressions(self) -> tuple:
+        """Each base parameter as a combination of the monomials (same as `base_names`)."""
+        return self.base_names
 
     @property
     def description(self) -> str:
@@ -413,6 +423,8 @@ class BaseParameters:
         out = {}
         for f in dataclasses.fields(self):
             v = getattr(self, f.name)
+            if f.name == "combinations":
+                v = [dataclasses.asdict(c) for c in v]
             out[f.name] = (
                 v.tolist()
                 if isinstance(v, np.ndarray)
@@ -917,7 +929,11 @@ class ChainModel:
                 data, _ = _cache.cached(
                     "regressor",
                     self.cache_key,
-                    lambda: _with_progress(self._spec, lambda: _derive_regressor(self._spec)),
+                    lambda: _with_progress(
+                        self._spec,
+                        lambda: _derive_regressor(self._spec),
+                        what="regressor (linear-in-parameters form)",
+                    ),
                     enabled=self._cache_enabled,
                     valid=lambda d: {"monomials", "names", "keep", "source"} <= set(d),
                 )
@@ -1072,31 +1088,19 @@ class ChainModel:
         K = K[order]
         ind_sorted = ind[order]
         base_names = tuple(_format_combination(K[k], names) for k in range(rank))
-        # θ-level: symbolic grouping by monomial support
+        # θ-level: every unidentifiable direction named by the one Combination path
+        # (physid.models.identifiability.describe_direction), as every result names it
+        from .identifiability import Combination, describe_direction
+
         E = d["exponents"]
-        statements = []
         pnames = self.parameter_names
-        appears = {j: {b for b in range(nb) if E[b, j] > 0} for j in range(len(pnames))}
-        for j, bs in appears.items():
-            if not bs:
-                statements.append(
-                    f"{pnames[j]} does not enter the equations of motion: it cannot be identified."
+        combos = []
+        for j in range(len(pnames)):
+            if not np.any(E[:, j] > 0):
+                text = (
+                    f"{pnames[j]} does not enter the equations of motion: it cannot be identified"
                 )
-        done = set()
-        for j, bs in appears.items():
-            if len(bs) != 1 or j in done:
-                continue
-            (b,) = bs
-            support = {i for i in range(len(pnames)) if E[b, i] > 0}
-            if len(support) >= 2 and all(appears[i] == {b} for i in support):
-                group = sorted(support)
-                done |= set(group)
-                who = " and ".join([", ".join(pnames[i] for i in group[:-1]), pnames[group[-1]]])
-                statements.append(
-                    f"{who} enter only as {names[b]}: only that product can be identified, not "
-                    f"{' and '.join(pnames[i] for i in group)} separately."
-                )
-        # θ-rank of the base parameters at params
+                combos.append(Combination((pnames[j],), f"{pnames[j]} (no effect)", {}, text))
         theta = self.parameter_vector(params)
         Jb = K @ self.beta_jacobian(theta) * theta[None, :]  # relative (dθ/θ) coordinates
         if Jb.size:
@@ -1105,17 +1109,14 @@ class ChainModel:
             null = Vt[trank:].T
         else:
             trank, null = 0, np.eye(len(pnames))
+        silent = {c.parameters[0] for c in combos}
         for v in null.T:
-            involved = [pnames[i] for i in np.flatnonzero(np.abs(v) > 1e-6)]
-            if involved and not set(involved) <= {pnames[i] for i in done}:
-                terms = ", ".join(
-                    f"{v[i]:+.3g}·d{pnames[i]}/{pnames[i]}"
-                    for i in np.flatnonzero(np.abs(v) > 1e-6)
-                )
-                statements.append(
-                    f"parameters {involved} cannot all be told apart: the change "
-                    f"{terms} leaves τ unchanged."
-                )
+            if not np.any(np.abs(v) > 1e-6):
+                continue
+            c = describe_direction(v, pnames, beta_names=names)
+            if not set(c.parameters) <= silent:
+                combos.append(c)
+        statements = [c.text for c in combos]
         no_effect = tuple(d["names"][b] for b in range(len(d["monomials"])) if b not in d["keep"])
         return BaseParameters(
             beta_names=names,
@@ -1129,6 +1130,7 @@ class ChainModel:
             theta_rank=trank,
             unidentifiable=tuple(statements),
             null_directions=null,
+            combinations=tuple(combos),
         )
 
     # -- symbolic view ------------------------------------------------------------------------
