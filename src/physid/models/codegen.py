@@ -30,7 +30,6 @@ __all__ = [
     "SCALAR_NAMESPACE",
     "compiler",
     "build_shared_library",
-    "chain_kernel",
 ]
 
 
@@ -469,19 +468,3 @@ def build_shared_library(source: str, tag: str):
         return None
     _LIBRARIES[key] = lib
     return lib
-
-
-def chain_kernel(chain):
-    """Compiled generic C kernel of a rigid chain, or None without a compiler.
-
-    Parameters
-    ----------
-    chain : physid.models.rigid.RigidChain
-
-    Returns
-    -------
-    physid.models.ckernel.ChainKernel or None
-    """
-    from .ckernel import load_kernel
-
-    return load_kernel(chain)

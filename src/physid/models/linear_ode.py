@@ -471,10 +471,22 @@ def as_linear_ode_model(model) -> LinearODEModel:
     Raises `InputError` for anything else (chain models are identified with
     `physid.estimators.input_error`).
     """
-    if isinstance(model, str):
-        from .library import load_model
+    if isinstance(model, str):  # "msd" or a model file, read here (library imports this module)
+        if model == "msd":
+            model = msd_model()
+        else:
+            from pathlib import Path
 
-        model = load_model(model)
+            from .spec import read_model_file
+
+            if not Path(model).exists():
+                raise InputError(
+                    f"model {model!r} is neither 'msd' nor an existing model file; check the "
+                    "spelling or the path."
+                )
+            spec = read_model_file(model)
+            if isinstance(spec, LinearODESpec):
+                model = LinearODEModel.from_spec(spec)
     if not isinstance(model, LinearODEModel):
         raise InputError(
             "model must be a linear ODE model: 'msd', a path to a TOML model file of kind "

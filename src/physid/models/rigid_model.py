@@ -4,7 +4,7 @@ Built from a URDF, a URDF sidecar TOML, or a TOML chain with rigid-body keys (fu
 prismatic joints, modified DH, drive terms). Its parameters θ are the regressor's own columns
 (``m1 mcx1 … ZZ1 [Ia1 Fv1 …] m2 …``), so β(θ) = θ, τ = Y θ and ∂τ/∂θ = Y. Nothing is derived
 symbolically: every function is Newton–Euler over arrays (`physid.models.rigid`), or the generic C
-kernel (`physid.models.codegen.chain_kernel`) when a C compiler works.
+kernel (`physid.models.ckernel`) when a C compiler works.
 """
 
 from __future__ import annotations
@@ -133,9 +133,9 @@ class RigidBodyModel(ChainModel):
     def _c_kernel(self):
         if not self._kernel_tried:
             self._kernel_tried = True
-            from .codegen import chain_kernel
+            from .ckernel import load_kernel
 
-            self._kernel = chain_kernel(self._chain)
+            self._kernel = load_kernel(self._chain)
         return self._kernel
 
     def _arrays(self, *pairs):

@@ -111,32 +111,17 @@ def _evaluator(params, source):
 
 
 def _expression_value(text, values, where) -> float:
+    from ..errors import PhysidError
+    from ..expressions import evaluate_expression  # the safe numeric evaluator (no eval)
+
     try:
-        from ..expressions import evaluate_expression  # the safe numeric evaluator (hostile)
-    except ImportError:  # pragma: no cover - before physid.expressions lands
-        evaluate_expression = None
-    if evaluate_expression is not None:
-        from ..errors import PhysidError
-
-        try:
-            out = evaluate_expression(text, {**values, "pi": math.pi})
-        except PhysidError as exc:
-            raise ModelFileError(f"{where}: {exc}") from None
-        return float(np.asarray(out, dtype=float))
-    import sympy as sp
-
-    from .spec import parse_expression
-
-    syms = {k: sp.Symbol(k) for k in values}
-    expr = parse_expression(
-        text, syms, where, allowed_hint=f"; declared parameters: {sorted(values)}"
-    )
-    try:
-        return float(expr.subs({syms[k]: v for k, v in values.items()}))
-    except (TypeError, ValueError):
-        raise ModelFileError(
-            f"{where}: {text!r} is not a real number at the nominal values."
-        ) from None
+        out = evaluate_expression(text, {**values, "pi": math.pi}, source=where)
+    except PhysidError as exc:
+        raise ModelFileError(f"{where}: {exc}") from None
+    arr = np.asarray(out, dtype=float)
+    if arr.ndim != 0:
+        raise ModelFileError(f"{where}: {text!r} must be a single number.")
+    return float(arr)
 
 
 def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, strict=False):
@@ -163,7 +148,7 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
     ------
     ModelFileError
     """
-    from .spec import _where
+    from ._locate import _where
 
     extra = set(data) - _TOP
     if extra:
