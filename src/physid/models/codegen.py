@@ -9,6 +9,10 @@ Two flavours of generated code:
   floats and the ``math`` module, for the single-state right-hand sides that ODE integrators
   call thousands of times; the overhead of a numpy call (~1 µs) would dominate there.
 
+A C back end (`c_pd_rhs_source`; `build_shared_library` compiles any C source once with the
+system's compiler and loads it with ctypes) serves the closed-loop simulation of symbolic chains;
+rigid-body chains use the fixed generic kernel ``models/c/chain_kernel.c`` built the same way.
+
 The generated *source text* is what the on-disk cache stores (`source_to_function` turns it back
 into a function with ``compile`` + ``exec``), so a warm load never imports sympy.
 """
@@ -30,6 +34,7 @@ __all__ = [
     "SCALAR_NAMESPACE",
     "compiler",
     "build_shared_library",
+    "c_pd_rhs_source",
 ]
 
 
@@ -409,15 +414,19 @@ def compiler() -> str | None:
     return None
 
 
-def build_shared_library(source: str, tag: str):
+def build_shared_library(source, tag: str, *, key: str | None = None, cc="auto"):
     """Compile C ``source`` into a shared library (cached on disk by content) and load it.
 
     Parameters
     ----------
-    source : str
-        C99 source.
+    source : str or callable
+        C99 source, or a function returning it (called only when the library must be built).
     tag : str
         Short name used in the cached file's name (``tag-<hash>.so``).
+    key : str, optional
+        Cache key; default the hash of the source (then ``source`` must be a string).
+    cc : str or None
+        The compiler ("auto": `compiler`); None: use a cached library only.
 
     Returns
     -------
@@ -434,17 +443,22 @@ def build_shared_library(source: str, tag: str):
 
     from .._paths import cache_dir
 
-    key = hashlib.sha256((source + sys.platform + str(sys.version_info[:2])).encode()).hexdigest()[
-        :32
-    ]
-    if key in _LIBRARIES:
-        return _LIBRARIES[key]
+    if key is None:
+        text = source + sys.platform + str(sys.version_info[:2])
+        key = hashlib.sha256(text.encode()).hexdigest()[:32]
     folder = cache_dir()
     lib_path = folder / f"{tag}-{key}.so"
+    if str(lib_path) in _LIBRARIES:
+        return _LIBRARIES[str(lib_path)]
     if not lib_path.exists():
-        cc = compiler()
+        cc = compiler() if cc == "auto" else cc
         if cc is None:
             return None
+        if callable(source):
+            try:
+                source = source()
+            except (AttributeError, TypeError, ValueError, NotImplementedError):
+                return None  # nothing printable as C
         try:
             folder.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=folder) as tmp:
@@ -466,5 +480,113 @@ def build_shared_library(source: str, tag: str):
         lib = ctypes.CDLL(str(lib_path))
     except OSError:
         return None
-    _LIBRARIES[key] = lib
+    _LIBRARIES[str(lib_path)] = lib
     return lib
+
+
+def c_pd_rhs_source(eqs) -> str:
+    """C back end of the symbolic chains: ``void pd_rhs(double *ctx)`` from their equations.
+
+    The same common-subexpression-eliminated M (lower triangle) and h = c + G + F as the numpy
+    back end, printed with `sympy.printing.c.ccode`, with the PD law τ = Kp (r − q) − Kd q̇,
+    the reference's cubic spline (Horner) and a Cholesky solve of M q̈ = τ − h in one function.
+
+    ``ctx`` layout (doubles): ``[t, y (2n), ẏ (2n, written), t0, h, n_int, use_spline, θ (n_p),
+    Kp (n), Kd (n), r_first (n), r_last (n), r_now (n), spline coefficients (n_int × n × 4,
+    c3..c0 per joint)]``. With ``use_spline = 0`` the reference is read from ``r_now`` (filled by
+    the caller). One pointer argument keeps the ctypes call cheap (~1 µs).
+
+    Parameters
+    ----------
+    eqs : physid.models.lagrange.ChainEquations
+        From ``ChainModel.symbolic_equations()``.
+
+    Returns
+    -------
+    str
+        C99 source.
+    """
+    import sympy as sp
+    from sympy.printing.c import ccode
+
+    n = len(eqs.q)
+    n_p = len(eqs.theta)
+    lower = [(i, j) for i in range(n) for j in range(i + 1)]
+    h_exprs = [eqs.coriolis[i] + eqs.gravity[i] + eqs.friction[i] for i in range(n)]
+    exprs = [eqs.mass_matrix[i, j] for i, j in lower] + h_exprs
+    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"))
+    names = {}
+    for i in range(n):
+        names[eqs.q[i]] = sp.Symbol(f"y[{i}]")
+        names[eqs.qd[i]] = sp.Symbol(f"y[{n + i}]")
+    for k, th in enumerate(eqs.theta):
+        names[th] = sp.Symbol(f"TH[{k}]")
+
+    def c(expr) -> str:
+        return ccode(sp.sympify(expr).xreplace(names), standard="c99")
+
+    lines = [
+        "#include <math.h>",
+        f"#define NJ {n}",
+        f"#define NP {n_p}",
+        "void pd_rhs(double *ctx) {",
+        "    const double t = ctx[0];",
+        "    const double *y = ctx + 1;",
+        "    double *dy = ctx + 1 + 2 * NJ;",
+        "    const double *S = ctx + 1 + 4 * NJ;",
+        "    const double t0 = S[0], hk = S[1];",
+        "    const long n_int = (long)S[2];",
+        "    const int use_spline = S[3] != 0.0;",
+        "    const double *TH = S + 4;",
+        "    const double *KP = TH + NP, *KD = KP + NJ, *RF = KD + NJ, *RL = RF + NJ, *RN = "
+        "RL + NJ;",
+        "    const double *COEF = RN + NJ;",
+        "    double r[NJ], M[NJ][NJ], b[NJ], L[NJ][NJ], z[NJ];",
+        "    int i, j, k;",
+        "    if (!use_spline) { for (j = 0; j < NJ; j++) r[j] = RN[j]; }",
+        "    else if (n_int == 0 || t <= t0) { for (j = 0; j < NJ; j++) r[j] = RF[j]; }",
+        "    else if (t >= t0 + n_int * hk) { for (j = 0; j < NJ; j++) r[j] = RL[j]; }",
+        "    else {",
+        "        long iv = (long)((t - t0) / hk);",
+        "        if (iv >= n_int) iv = n_int - 1;",
+        "        const double s = t - (t0 + iv * hk);",
+        "        for (j = 0; j < NJ; j++) {",
+        "            const double *cc = COEF + (iv * NJ + j) * 4;",
+        "            r[j] = ((cc[0] * s + cc[1]) * s + cc[2]) * s + cc[3];  /* Horner */",
+        "        }",
+        "    }",
+    ]
+    for sym, expr in replacements:
+        lines.append(f"    const double {sym} = {c(expr)};")
+    for r, (i, j) in enumerate(lower):
+        lines.append(f"    M[{i}][{j}] = {c(reduced[r])};")
+    for i in range(n):
+        h = c(reduced[len(lower) + i])
+        # b = τ − h with the PD law τ = Kp (r − q) − Kd q̇
+        lines.append(f"    b[{i}] = KP[{i}] * (r[{i}] - y[{i}]) - KD[{i}] * y[{n + i}] - ({h});")
+    lines += [
+        "    /* Cholesky M = L Lᵀ (lower triangle of M is filled), then L z = b, Lᵀ q̈ = z */",
+        "    for (j = 0; j < NJ; j++) {",
+        "        double d = M[j][j];",
+        "        for (k = 0; k < j; k++) d -= L[j][k] * L[j][k];",
+        "        L[j][j] = sqrt(d);",
+        "        for (i = j + 1; i < NJ; i++) {",
+        "            double s = M[i][j];",
+        "            for (k = 0; k < j; k++) s -= L[i][k] * L[j][k];",
+        "            L[i][j] = s / L[j][j];",
+        "        }",
+        "    }",
+        "    for (i = 0; i < NJ; i++) {",
+        "        double s = b[i];",
+        "        for (k = 0; k < i; k++) s -= L[i][k] * z[k];",
+        "        z[i] = s / L[i][i];",
+        "    }",
+        "    for (i = NJ - 1; i >= 0; i--) {",
+        "        double s = z[i];",
+        "        for (k = i + 1; k < NJ; k++) s -= L[k][i] * dy[NJ + k];",
+        "        dy[NJ + i] = s / L[i][i];",
+        "    }",
+        "    for (i = 0; i < NJ; i++) dy[i] = y[NJ + i];",
+        "}",
+    ]
+    return "\n".join(lines) + "\n"

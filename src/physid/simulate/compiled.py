@@ -20,16 +20,9 @@ from __future__ import annotations
 import ctypes
 import hashlib
 import json
-import os
-import shutil
-import subprocess
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
-
-from .._paths import cache_dir
 
 __all__ = ["compiled_pd_rhs", "compiler", "c_source"]
 
@@ -40,107 +33,26 @@ _LIBS: dict[str, ctypes.CDLL] = {}
 
 def compiler() -> str | None:
     """Path of the C compiler used ($CC, else cc, gcc or clang on PATH), or None."""
-    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
-        if name:
-            path = shutil.which(name)
-            if path:
-                return path
-    return None
+    from ..models.codegen import compiler as _compiler
+
+    return _compiler()
 
 
 def c_source(model) -> str:
-    """C source of ``void pd_rhs(double *ctx)``: one buffer in, one buffer out.
+    """C source of the model's closed-loop ``pd_rhs`` (`physid.models.codegen.c_pd_rhs_source`).
 
-    ``ctx`` layout (doubles): ``[t, y (2n), ẏ (2n, written), t0, h, n_int, use_spline, θ (n_p),
-    Kp (n), Kd (n), r_first (n), r_last (n), r_now (n), spline coefficients (n_int × n × 4,
-    c3..c0 per joint)]``. With ``use_spline = 0`` the reference is read from ``r_now`` (filled by
-    the caller). One pointer argument keeps the ctypes call cheap (~1 µs).
+    Parameters
+    ----------
+    model : ChainModel
+        A symbolic (point-mass) chain.
+
+    Returns
+    -------
+    str
     """
-    import sympy as sp
-    from sympy.printing.c import ccode
+    from ..models.codegen import c_pd_rhs_source
 
-    eqs = model.symbolic_equations()
-    n = len(eqs.q)
-    n_p = len(eqs.theta)
-    lower = [(i, j) for i in range(n) for j in range(i + 1)]
-    h_exprs = [eqs.coriolis[i] + eqs.gravity[i] + eqs.friction[i] for i in range(n)]
-    exprs = [eqs.mass_matrix[i, j] for i, j in lower] + h_exprs
-    replacements, reduced = sp.cse(exprs, symbols=sp.numbered_symbols("x"))
-    names = {}
-    for i in range(n):
-        names[eqs.q[i]] = sp.Symbol(f"y[{i}]")
-        names[eqs.qd[i]] = sp.Symbol(f"y[{n + i}]")
-    for k, th in enumerate(eqs.theta):
-        names[th] = sp.Symbol(f"TH[{k}]")
-
-    def c(expr) -> str:
-        return ccode(sp.sympify(expr).xreplace(names), standard="c99")
-
-    lines = [
-        "#include <math.h>",
-        f"#define NJ {n}",
-        f"#define NP {n_p}",
-        "void pd_rhs(double *ctx) {",
-        "    const double t = ctx[0];",
-        "    const double *y = ctx + 1;",
-        "    double *dy = ctx + 1 + 2 * NJ;",
-        "    const double *S = ctx + 1 + 4 * NJ;",
-        "    const double t0 = S[0], hk = S[1];",
-        "    const long n_int = (long)S[2];",
-        "    const int use_spline = S[3] != 0.0;",
-        "    const double *TH = S + 4;",
-        "    const double *KP = TH + NP, *KD = KP + NJ, *RF = KD + NJ, *RL = RF + NJ, *RN = "
-        "RL + NJ;",
-        "    const double *COEF = RN + NJ;",
-        "    double r[NJ], M[NJ][NJ], b[NJ], L[NJ][NJ], z[NJ];",
-        "    int i, j, k;",
-        "    if (!use_spline) { for (j = 0; j < NJ; j++) r[j] = RN[j]; }",
-        "    else if (n_int == 0 || t <= t0) { for (j = 0; j < NJ; j++) r[j] = RF[j]; }",
-        "    else if (t >= t0 + n_int * hk) { for (j = 0; j < NJ; j++) r[j] = RL[j]; }",
-        "    else {",
-        "        long iv = (long)((t - t0) / hk);",
-        "        if (iv >= n_int) iv = n_int - 1;",
-        "        const double s = t - (t0 + iv * hk);",
-        "        for (j = 0; j < NJ; j++) {",
-        "            const double *cc = COEF + (iv * NJ + j) * 4;",
-        "            r[j] = ((cc[0] * s + cc[1]) * s + cc[2]) * s + cc[3];  /* Horner */",
-        "        }",
-        "    }",
-    ]
-    for sym, expr in replacements:
-        lines.append(f"    const double {sym} = {c(expr)};")
-    for r, (i, j) in enumerate(lower):
-        lines.append(f"    M[{i}][{j}] = {c(reduced[r])};")
-    for i in range(n):
-        h = c(reduced[len(lower) + i])
-        # b = τ − h with the PD law τ = Kp (r − q) − Kd q̇
-        lines.append(f"    b[{i}] = KP[{i}] * (r[{i}] - y[{i}]) - KD[{i}] * y[{n + i}] - ({h});")
-    lines += [
-        "    /* Cholesky M = L Lᵀ (lower triangle of M is filled), then L z = b, Lᵀ q̈ = z */",
-        "    for (j = 0; j < NJ; j++) {",
-        "        double d = M[j][j];",
-        "        for (k = 0; k < j; k++) d -= L[j][k] * L[j][k];",
-        "        L[j][j] = sqrt(d);",
-        "        for (i = j + 1; i < NJ; i++) {",
-        "            double s = M[i][j];",
-        "            for (k = 0; k < j; k++) s -= L[i][k] * L[j][k];",
-        "            L[i][j] = s / L[j][j];",
-        "        }",
-        "    }",
-        "    for (i = 0; i < NJ; i++) {",
-        "        double s = b[i];",
-        "        for (k = 0; k < i; k++) s -= L[i][k] * z[k];",
-        "        z[i] = s / L[i][i];",
-        "    }",
-        "    for (i = NJ - 1; i >= 0; i--) {",
-        "        double s = z[i];",
-        "        for (k = i + 1; k < NJ; k++) s -= L[k][i] * dy[NJ + k];",
-        "        dy[NJ + i] = s / L[i][i];",
-        "    }",
-        "    for (i = 0; i < NJ; i++) dy[i] = y[NJ + i];",
-        "}",
-    ]
-    return "\n".join(lines) + "\n"
+    return c_pd_rhs_source(model.symbolic_equations())
 
 
 def _library_key(model) -> str:
@@ -156,39 +68,13 @@ def _library_key(model) -> str:
 
 
 def _load_library(model) -> ctypes.CDLL | None:
+    from ..models.codegen import build_shared_library
+
     key = _library_key(model)
     if key in _LIBS:
         return _LIBS[key]
-    folder = cache_dir()
-    lib_path = folder / f"pdrhs-{key}.so"
-    if not lib_path.exists():
-        cc = compiler()
-        if cc is None:
-            return None
-        try:
-            source = c_source(model)
-        except (AttributeError, TypeError, ValueError, NotImplementedError):
-            return None  # not a chain model with symbolic equations, or not printable as C
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            with tempfile.TemporaryDirectory(dir=folder) as tmp:
-                src = Path(tmp) / "pdrhs.c"
-                src.write_text(source, encoding="utf-8")
-                out = Path(tmp) / "pdrhs.so"
-                proc = subprocess.run(
-                    [cc, "-O2", "-shared", "-fPIC", "-o", str(out), str(src), "-lm"],
-                    capture_output=True,
-                    text=True,
-                    timeout=120,
-                )
-                if proc.returncode != 0:
-                    return None
-                os.replace(out, lib_path)  # atomic: a reader never sees half a library
-        except (OSError, subprocess.SubprocessError):
-            return None
-    try:
-        lib = ctypes.CDLL(str(lib_path))
-    except OSError:
+    lib = build_shared_library(lambda: c_source(model), "pdrhs", key=key, cc=compiler())
+    if lib is None:
         return None
     fn = lib.pd_rhs
     fn.restype = None
