@@ -11,10 +11,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from physid.errors import PhysidError
+from physid.models.library import model_from_spec  # the factory lives in library.py
 from physid.models.spec import (
     ChainSpec,
     check_nominal_values,
-    model_from_spec,
     parse_model_text,
     symbolic_chain,
 )
