@@ -38,6 +38,7 @@ def compute(setup, first, period: float, harmonics: int, progress=None) -> Secti
         "missing": list(setup.missing),
         "missing_reasons": list(setup.reasons),
         "lags": LAGS,
+        "band_percent": 99,  # the whiteness band the report quotes
     }
     if not first:
         results["available"] = False
