@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from physid.analysis import montecarlo as mc
+from physid.analysis import sweep_table
 from physid.analysis.msd_study import msd_sweep
 from physid.errors import InputError
 
@@ -283,7 +284,7 @@ def test_a_parquet_failure_is_recorded_and_the_rest_is_written(tmp_path, monkeyp
     def broken(result):
         raise OverflowError("made to fail")
 
-    monkeypatch.setattr(mc, "_arrow_table", broken)
+    monkeypatch.setattr(sweep_table, "_arrow_table", broken)
     res = mc.run_sweep(toy_trial, GRID, trials=1, seed=0, scheduler="serial", progress=False)
     from matplotlib.figure import Figure
 

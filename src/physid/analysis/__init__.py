@@ -1,7 +1,8 @@
 """Analysis: identifiability, variance-based input design, convergence metrics, Monte-Carlo sweeps.
 
 `montecarlo` is the sweep engine (grid × seeds on a serial, process-pool or Dask backend; Dask
-needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when asked for);
+needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when asked for) and
+`sweep_table` its result table and files;
 `studies` builds its trials from a model, a scenario and an estimator (`model_sweep`: any
 linear-ODE model); `msd_study` is the paper's MSD study on it (`msd_sweep`).
 """
