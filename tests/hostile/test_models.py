@@ -5,15 +5,13 @@ Each case writes its files into a temporary folder and runs ``physid model info`
 or element and the fix. Table format as tests/hostile (case_id, files, argv, exit, regex).
 """
 
-import re
-import warnings
-
 import pytest
 
 import physid
-from physid.cli import main
 from physid.errors import ModelFileError
 from physid.models.urdf import ModelWarning
+
+from ._cases import check_case
 
 
 def urdf(body: str, name: str = "r") -> str:
@@ -312,21 +310,14 @@ CASES = [
 
 
 @pytest.mark.parametrize(("case_id", "files", "regex"), CASES, ids=[c[0] for c in CASES])
-def test_hostile_model_files(case_id, files, regex, tmp_path, capsys):
+def test_hostile_model_files(case_id, files, regex, hostile):
+    """Through the shared framework: exit 2, one error line, the regex, no escaped warning."""
     for name, content in files.items():
         mode = "wb" if isinstance(content, bytes) else "w"
-        with open(tmp_path / name, mode) as fh:
+        with open(hostile.tmp / name, mode) as fh:
             fh.write(content)
-    target = tmp_path / next(iter(reversed(files)))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ModelWarning)
-        status = main(["model", "info", str(target), "--no-base"])
-    err = capsys.readouterr().err
-    assert status == 2, err
-    lines = [line for line in err.splitlines() if line.startswith("physid: error:")]
-    assert len(lines) == 1, err
-    assert re.search(regex, lines[0]), lines[0]
-    assert "Traceback" not in err
+    target = next(iter(reversed(files)))
+    check_case(hostile, ["model", "info", f"{{tmp}}/{target}", "--no-base"], 2, regex)
 
 
 def test_doubtful_inertia_warns_and_strict_refuses(tmp_path):
