@@ -258,7 +258,7 @@ def make_estimator(settings: Mapping[str, Any], model):
             f"{arg('method')} must be one of {list(LINEAR_ODE_METHODS)}; got {method!r}."
         )
     try:
-        from ..estimators import make
+        from ..estimators.registry import make
     except ImportError:  # before the estimator registry: the two linear-ODE estimators
         make = None
     if make is not None:
