@@ -342,6 +342,14 @@ def _register_model(systems) -> None:
     chain.set_defaults(func=run_model)
 
 
+def _is_number_list(text: str) -> bool:
+    """Whether ``text`` is comma-separated numbers (set-points) rather than a file name."""
+    try:
+        return all(float(x) == float(x) for x in text.split(",")) and bool(text.strip())
+    except ValueError:
+        return False
+
+
 def _gains(text, option, n, default):
     import numpy as np
 
@@ -398,7 +406,7 @@ def run_model(args) -> int:
             mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
             mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
             reference = reference + mid
-    elif any(ch.isalpha() for ch in args.reference) or "/" in args.reference:
+    elif not _is_number_list(args.reference):
         rec = load_recording(args.reference)
         names = [f"r{j + 1}" for j in range(n)]
         missing = [c for c in names if c not in rec.names]
