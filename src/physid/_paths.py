@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+from .errors import OutputError, PhysidError
 
 __all__ = ["cache_dir", "atomic_write"]
 
@@ -51,10 +54,19 @@ def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) ->
     Returns
     -------
     Path
+
+    Raises
+    ------
+    OutputError
+        ``path`` is a folder, its folder cannot be created (a file is in the way) or written
+        (permissions, read-only file system, disk full); the message names ``path``.
     """
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _check_writable(path)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    except OSError as exc:
+        raise _output_error(path, exc) from None
     try:
         with os.fdopen(
             fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": ""})
@@ -66,10 +78,61 @@ def atomic_write(path, write: Callable[[Any], None], *, binary: bool = False) ->
         # the umask), so the outputs are as readable as any other file the user writes
         os.chmod(tmp, 0o666 & ~_current_umask())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError) and not isinstance(exc, PhysidError):
+            # a failure of the file system (disk full, folder replaced meanwhile): name the
+            # user's path, not the temporary file
+            raise _output_error(path, exc) from None
         raise
     return path
+
+
+def _output_error(path: Path, exc: OSError) -> OutputError:
+    """An `OutputError` naming ``path`` (the user's), with the cause and the fix."""
+    reason = exc.strerror or type(exc).__name__
+    if isinstance(exc, PermissionError) or exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        fix = (
+            f"the folder {str(path.parent)!r} is not writable ({reason}); choose an output in a "
+            "folder you can write, or change the folder's permissions"
+        )
+    elif exc.errno == errno.ENOSPC:
+        fix = f"the disk is full ({reason}); free space or write elsewhere"
+    else:
+        fix = f"{reason}; check the path"
+    return OutputError(f"cannot write {str(path)!r}: {fix}.")
+
+
+def _check_writable(path: Path) -> None:
+    """Refuse an output path that is a folder, or whose folder cannot be made, naming it."""
+    if path.is_dir():
+        raise OutputError(
+            f"cannot write {str(path)!r}: it is a folder; give a file name, e.g. "
+            f"{str(path / 'out.csv')!r}."
+        )
+    parent = path.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise OutputError(
+            f"cannot write {str(path)!r}: {str(_first_file(parent))!r} is a file, not a folder; "
+            "choose another output path."
+        ) from None
+    except NotADirectoryError:
+        raise OutputError(
+            f"cannot write {str(path)!r}: {str(_first_file(parent))!r} is a file, not a folder; "
+            "choose another output path."
+        ) from None
+    except OSError as exc:
+        raise _output_error(path, exc) from None
+
+
+def _first_file(folder: Path) -> Path:
+    """The first existing non-folder on the way to ``folder`` (what blocks making it)."""
+    for p in [*reversed(folder.parents), folder]:
+        if p.exists() and not p.is_dir():
+            return p
+    return folder

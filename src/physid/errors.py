@@ -44,6 +44,7 @@ __all__ = [
     "DataFileError",
     "ModelFileError",
     "ExpressionError",
+    "OutputError",
     "IdentifiabilityError",
     "EstimationError",
     "SimulationError",
@@ -213,6 +214,12 @@ class ExpressionError(PhysidError, ValueError):
 
 def _rebuild_expression_error(message, reason, names, text, source):
     return ExpressionError(message, reason=reason, names=names, text=text, source=source)
+
+
+class OutputError(PhysidError, OSError):
+    """An output cannot be written where it was asked: the path is a folder, is one of the
+    inputs, or its folder is not writable. The message names the user's path, never a temporary
+    file."""
 
 
 class IdentifiabilityError(PhysidError, ValueError):

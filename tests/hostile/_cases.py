@@ -19,7 +19,8 @@ A room adds its cases as a table in ``tests/hostile/test_<room>.py``::
 the test), and input files built once per session and copied into ``{tmp}`` for each case:
 ``{msd_csv}`` (a 2 s MSD recording t, u, x), ``{msd_npz}`` (the same as .npz), ``{arm_csv}``
 (a 0.3 s closed-loop run of the built-in 4-joint manipulator), ``{short_csv}`` (50 samples of
-one channel), ``{model_toml}`` (a one-joint chain model file). Rooms may add their own with
+one channel), ``{model_toml}`` (a one-joint chain model file), ``{dir_csv}`` (an empty
+folder named ``dir.csv``). Rooms may add their own with
 ``hostile.add_file(name, path)`` before calling `check_case`.
 
 `check_case` asserts physid's promises for the command:
@@ -29,7 +30,8 @@ one channel), ``{model_toml}`` (a one-joint chain model file). Rooms may add the
 * ``message_regex`` is found (`re.search`, DOTALL) in stderr for status ≠ 0, else in
   stdout + stderr;
 * no Python warning (numpy ``RuntimeWarning`` etc.) escaped: warnings are recorded while the
-  command runs, and any recorded warning fails the case;
+  command runs, and any recorded warning, or raw ``...Warning: ...`` text on stderr, fails the
+  case (``physid main`` prints warnings as ``physid: warning: ...`` lines, which are allowed);
 * no input file was changed (the placeholders' files are hashed before and after).
 """
 
@@ -46,6 +48,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = ["CliResult", "HostileEnv", "run_cli", "check_case", "case_ids"]
+
+# "file.py:12: RuntimeWarning: overflow ..." — what Python prints for an unhandled warning
+_RAW_WARNING = re.compile(r"\b\w*Warning: ")
 
 
 @dataclass(frozen=True)
@@ -121,7 +126,10 @@ class HostileEnv:
                 )
             src = Path(self.sources[name]())
             dst = self.tmp / src.name
-            shutil.copyfile(src, dst)
+            if src.is_dir():
+                shutil.copytree(src, dst)
+            else:
+                shutil.copyfile(src, dst)
             self.files[name] = dst
         return self.files[name]
 
@@ -154,6 +162,12 @@ def check_case(env: HostileEnv, argv, expected_exit: int, message_regex: str) ->
     text = res.err if expected_exit != 0 else res.out + res.err
     assert re.search(message_regex, text, re.DOTALL), f"no match for {message_regex!r}\n{shown}"
     assert not res.warnings, "warnings escaped:\n" + "\n".join(res.warnings) + "\n" + shown
+    raw = [
+        line
+        for line in res.err.splitlines()
+        if _RAW_WARNING.search(line) and not line.startswith("physid: warning:")
+    ]
+    assert not raw, f"raw warning text on stderr: {raw}\n{shown}"
     after = env.inputs()
     changed = sorted(n for n in before if before[n] != after.get(n))
     assert not changed, f"input file(s) {changed} were changed by the command\n{shown}"

@@ -58,7 +58,14 @@ def hostile_sources(tmp_path_factory):
         )
         return path
 
+    @functools.cache
+    def dir_csv():
+        path = root / "dir.csv"
+        path.mkdir()
+        return path
+
     return {
+        "dir_csv": dir_csv,
         "msd_csv": msd_csv,
         "msd_npz": msd_npz,
         "arm_csv": arm_csv,

@@ -175,6 +175,14 @@ def variance_factor(
     if np.any(~np.isfinite(Z)) or np.any(Z < 0):
         raise InputError(f"ratio must be finite and >= 0; got {Z.ravel()[:5].tolist()}...")
     lam = _check_forgetting(forgetting)
+    from .._resources import check_memory
+
+    # peak: λ^{k−i} and its square (2 n_λ rows), t, i, age (3 rows), one chunk of g² (≥ rows)
+    check_memory(
+        8.0 * ((k - m) * (2 * lam.size + 3) + 3 * max(_CHUNK_TERMS, k - m)),
+        what=f"variance_factor with samples={k}",
+        fix="lower samples",
+    )
     i = np.arange(m + 1, k + 1)
     t = i * ts
     age = (k - i).astype(float)  # α(i) = k − i (eq. 5 corrected)
@@ -327,6 +335,45 @@ def optimal_ratio(
     return z_opt.reshape(lam.shape), k_opt.reshape(lam.shape), edge.reshape(lam.shape)
 
 
+#: Most terms resonant_response(Z, t_i) one design_input call may evaluate (about a minute).
+MAX_TERMS = 2_000_000_000
+
+
+def _search_grid(lo, hi, natural_frequency, samples, sample_period) -> int:
+    """Points of the dense grid `optimal_ratio` searches (16 per beat period of the record)."""
+    beats = (hi - lo) * natural_frequency * samples * sample_period / (2 * np.pi)
+    return max(400, math.ceil(16 * beats))
+
+
+def _check_request_size(n_lam, n_ratios, ratio_range, w0, ts, samples, horizons) -> None:
+    """Refuse a design whose arrays or work would not fit, before allocating anything.
+
+    Peak memory of `variance_factor` for k rows and n_λ factors: the weights λ^{k−i} and their
+    squares (2 n_λ k doubles), t, i, age (3 k) and one chunk of g² (`_CHUNK_TERMS` doubles, at
+    least k). Work: n_ratios·k terms per curve plus the search grid × k per optimum.
+    """
+    from .._resources import check_memory, format_bytes
+
+    lo, hi = ratio_range
+    rows = max([samples, *horizons])
+    nbytes = 8.0 * (rows * (2 * n_lam + 3) + 3 * max(_CHUNK_TERMS, rows))
+    check_memory(
+        nbytes,
+        what=f"the input design with {rows} samples",
+        fix="lower samples (and horizons; by default they go up to 30 × samples)",
+    )
+    terms = 0.0
+    for h, n in [(samples, n_lam)] + [(h, 1) for h in horizons]:
+        terms += h * n * (n_ratios + _search_grid(lo, hi, w0, h, ts))
+    if terms > MAX_TERMS:
+        raise InputError(
+            f"the input design with samples={samples} and horizons={list(horizons)} evaluates "
+            f"about {terms:.3g} terms (limit {MAX_TERMS:.3g}, about a minute; memory "
+            f"{format_bytes(nbytes)}): the search grid grows with the record's length, so the "
+            "work grows with its square. Lower samples (or give shorter horizons)."
+        )
+
+
 def _check_range(ratio_range) -> tuple[float, float]:
     try:
         lo, hi = (float(v) for v in ratio_range)
@@ -440,6 +487,7 @@ def design_input(
     horizons = tuple(int(h) for h in horizons)
     if any(h <= m for h in horizons):
         raise InputError(f"every horizon must exceed init_samples = {m}; got {list(horizons)}.")
+    _check_request_size(lam.size, n_ratios, (lo, hi), w0, ts, k, horizons)
     kw = dict(natural_frequency=w0, sample_period=ts, init_samples=m)
     Z = np.linspace(lo, hi, n_ratios)
     K = variance_factor(Z, lam, samples=k, **kw)

@@ -27,6 +27,7 @@ import pkgutil
 import signal
 import sys
 import threading
+import warnings
 
 from .. import __version__
 from ..errors import PhysidError
@@ -186,16 +187,28 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return 2
+    from ._common import check_outputs, report_warnings
+
+    caught: list = []
     try:
-        with _sigterm_as_exception():
-            return int(args.func(args) or 0)
+        # warnings (numpy's RuntimeWarnings, physid's own) are collected and printed as
+        # "physid: warning: ..." lines, once each, instead of raw file:line text
+        with _sigterm_as_exception(), warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            check_outputs(args)  # no --out/--plot may name an input file (every verb)
+            status = int(args.func(args) or 0)
+        report_warnings(caught)
+        return status
     except Terminated:
+        report_warnings(caught)
         print("physid: terminated", file=sys.stderr)
         return 143
     except PhysidError as exc:
+        report_warnings(caught)
         print(f"physid: error: {exc.render(argument_flags(parser, args))}", file=sys.stderr)
         return 2
     except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        report_warnings(caught)
         print(f"physid: error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

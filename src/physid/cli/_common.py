@@ -3,22 +3,62 @@
 from __future__ import annotations
 
 import json
+import math
+import os
 import sys
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, OutputError
 
-__all__ = ["float_list", "assignments", "print_json", "progress", "add_resample_option"]
+__all__ = [
+    "float_list",
+    "assignments",
+    "print_json",
+    "progress",
+    "add_resample_option",
+    "OUTPUT_OPTIONS",
+    "check_outputs",
+    "FIGURE_SUFFIXES",
+    "check_figure_path",
+    "report_warnings",
+]
+
+#: File types a figure is written as (`physid.report.style.save_figure` writes PNG).
+FIGURE_SUFFIXES = (".png",)
+
+#: argparse destinations that name files or folders a verb writes (``--out``, ``--plot``, ...).
+#: `check_outputs` refuses any of them that resolves to a file the same command reads.
+OUTPUT_OPTIONS = ("out", "plot", "plots", "html", "report", "json_out", "save")
 
 
 def float_list(text: str, option: str) -> list[float]:
-    """Parse ``"1,2.5,3"`` into floats, naming ``option`` in the error."""
-    try:
-        return [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise InputError(
-            f"{option} expects comma-separated numbers such as 1,2.5,3; got {text!r}."
-        ) from None
+    """Parse ``"1,2.5,3"`` into finite floats, naming ``option`` in the error.
+
+    Spaces around items are ignored; an empty string gives ``[]`` (the caller decides whether
+    that is allowed). An empty item (``"25,,80"``, a trailing comma) and a non-finite value
+    (``nan``, ``inf``) are refused: a typo must not silently drop or poison a value.
+    """
+    if not text.strip():
+        return []
+    items = text.split(",")
+    out = []
+    for k, item in enumerate(items):
+        if not item.strip():
+            raise InputError(
+                f"{option} expects comma-separated numbers such as 1,2.5,3; item {k + 1} of "
+                f"{text!r} is empty. Remove the extra comma."
+            )
+        try:
+            value = float(item)
+        except ValueError:
+            raise InputError(
+                f"{option} expects comma-separated numbers such as 1,2.5,3; got {item.strip()!r} "
+                f"in {text!r}."
+            ) from None
+        if not math.isfinite(value):
+            raise InputError(f"{option} expects finite numbers; got {item.strip()!r} in {text!r}.")
+        out.append(value)
+    return out
 
 
 def assignments(text: str | None, option: str) -> dict[str, float]:
@@ -64,3 +104,120 @@ def add_resample_option(parser) -> None:
         help="interpolate a non-uniformly sampled recording linearly onto a uniform grid "
         "with its mean period (default: refuse it with an error)",
     )
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_outputs(args) -> None:
+    """Refuse an output option that resolves to one of the command's input files.
+
+    Every verb's arguments pass through this once, before the verb runs (`physid.cli.main`
+    calls it). The inputs are every other argument that names an existing file (positional
+    recordings, ``--model``, ...); an output is any destination in `OUTPUT_OPTIONS`. Paths are
+    compared as files (`os.path.samefile`: relative paths, symbolic and hard links included),
+    so ``physid filter same.csv --out ./same.csv`` is refused before anything is read.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed arguments of one verb.
+
+    Raises
+    ------
+    OutputError
+        An output names an input file; the message names both options and the fix.
+    """
+    values = vars(args)
+    outputs = {k: v for k, v in values.items() if k in OUTPUT_OPTIONS and isinstance(v, str)}
+    if not outputs:
+        return
+    inputs = []
+    for key, value in values.items():
+        if key in OUTPUT_OPTIONS or key == "func":
+            continue
+        for item in value if isinstance(value, (list, tuple)) else [value]:
+            if isinstance(item, (str, os.PathLike)) and str(item) and os.path.isfile(item):
+                inputs.append((key, str(item)))
+    for out_key, out in outputs.items():
+        for in_key, path in inputs:
+            if os.path.exists(out) and _same_file(out, path):
+                flag = "--" + out_key.replace("_", "-")
+                what = (
+                    "the input file"
+                    if in_key in ("file", "files", "path")
+                    else (f"the input of {'--' + in_key.replace('_', '-')}")
+                )
+                raise OutputError(
+                    f"{flag} {out!r} is {what} {path!r}; writing it would destroy the input. "
+                    f"Choose another output, e.g. {flag} {_suggest(out)!r}."
+                )
+
+
+def _suggest(path: str) -> str:
+    root, ext = os.path.splitext(path)
+    return f"{root}-out{ext}"
+
+
+def check_figure_path(path: str, option: str) -> str:
+    """Refuse a figure path whose suffix is not ``.png``, before any work is done.
+
+    Parameters
+    ----------
+    path : str
+        The path the user gave.
+    option : str
+        The option's flag (``"--plot"``), named in the message.
+
+    Returns
+    -------
+    str
+        The image format (suffix without the dot, lower case).
+
+    Raises
+    ------
+    InputError
+        ``x.csv``, a missing suffix, ...
+    """
+    suffix = os.path.splitext(str(path))[1].lower()
+    if suffix not in FIGURE_SUFFIXES:
+        root = os.path.splitext(str(path))[0] or "figure"
+        raise InputError(
+            f"{option} {str(path)!r} is not a PNG file name: figures are written as PNG, so the "
+            f"suffix must be {', '.join(FIGURE_SUFFIXES)}; got {suffix or 'none'!r}. For "
+            f"example {option} {root + '.png'!r}."
+        )
+    return suffix[1:]
+
+
+def report_warnings(caught) -> None:
+    """Print recorded warnings as ``physid: warning: ...`` lines on stderr, once per message.
+
+    numpy's floating-point RuntimeWarnings ("overflow encountered in multiply") name no input
+    and no fix; they are summarised as one line per message with a count and a hint. physid's
+    own warnings are printed with their message only (no file and line).
+
+    Parameters
+    ----------
+    caught : list of warnings.WarningMessage
+        From ``warnings.catch_warnings(record=True)``.
+    """
+    counts: dict = {}
+    for w in caught or ():
+        key = (w.category.__name__, str(w.message))
+        counts[key] = counts.get(key, 0) + 1
+    for (category, message), n in counts.items():
+        times = f" ({n} times)" if n > 1 else ""
+        if category == "RuntimeWarning" and "encountered" in message:
+            print(
+                f"physid: warning: numpy: {message}{times}; some intermediate values were "
+                "infinite or undefined (check the scale of the inputs and the results' "
+                "finiteness).",
+                file=sys.stderr,
+            )
+        else:
+            print(f"physid: warning: {message}{times}", file=sys.stderr)

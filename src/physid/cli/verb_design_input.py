@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from ..errors import InputError
-from ._common import float_list, print_json, progress
+from ._common import check_figure_path, float_list, print_json, progress
 
 ORDER = 70
 
@@ -93,6 +93,8 @@ def run(args) -> int:
             f"design-input analyses the mass-spring-damper; got model {args.model!r}. Use 'msd' "
             "(set its ω0 with --natural-frequency)."
         )
+    if args.plot:
+        check_figure_path(args.plot, "--plot")
     lams = float_list(args.forgetting, "--forgetting")
     if not lams:
         raise InputError("--forgetting needs at least one value, e.g. --forgetting 0.99,1.")

@@ -86,6 +86,7 @@ def run(args) -> int:
     else:
         names = list(rec.names)
     data = rec.select(names)
+    _check_output_length(rec.n_samples, args.half_width, args.paper, args.file)
     filt = design_filter(args.kind, args.half_width, args.cutoff, rec.dt)
     try:
         out = filt.apply(data, paper=args.paper)
@@ -117,6 +118,29 @@ def run(args) -> int:
     )
     print(path)
     return 0
+
+
+def _check_output_length(n: int, half_width, paper: bool, file) -> None:
+    """Refuse a filter that would leave fewer than 2 samples (a file physid cannot read back).
+
+    The output holds samples M..n−M−1 of the input (one fewer with ``--paper``): n − 2M rows.
+    """
+    if not isinstance(half_width, int) or half_width < 1:
+        return  # design_filter words the bad value
+    n_out = n - 2 * half_width - (1 if paper else 0)
+    if 0 <= n_out < 2:  # (n_out < 0: shorter than the filter itself, which says so)
+        largest = (n - 2 - (1 if paper else 0)) // 2
+        fix = (
+            f"lower --half-width to at most {largest}" if largest >= 1 else "use a longer recording"
+        )
+        raise InputError(
+            f"{file}: --half-width {half_width} leaves {max(n_out, 0)} output sample(s) of the "
+            f"{n} in the file (the filter's valid range is samples M..n-M-1), and a recording "
+            f"needs at least 2; {fix}, or use a longer recording."
+            if largest >= 1
+            else f"{file}: the file holds {n} samples, too few to filter (a filter of half-width "
+            f"M keeps n - 2M samples, and a recording needs at least 2); {fix}."
+        )
 
 
 _PER_SECOND = re.compile(r"^(?P<base>.*?)/s(?:\^(?P<power>\d+)|(?P<sup>[²³]))?$")

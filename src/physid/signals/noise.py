@@ -33,6 +33,10 @@ __all__ = [
     "alias_frequency",
 ]
 
+#: SNRs [dB] `noise_std_for_snr` accepts: wide enough for any experiment (double precision
+#: resolves about 313 dB), narrow enough that 10**(snr/10) never overflows (it does at ~3083 dB).
+SNR_RANGE_DB = (-300.0, 350.0)
+
 
 def make_rng(rng=None) -> np.random.Generator:
     """Return a `numpy.random.Generator` from ``None``, an int seed, a SeedSequence or a Generator.
@@ -110,6 +114,14 @@ def noise_std_for_snr(x, snr_db: float) -> np.ndarray:
     if not np.isfinite(snr):
         raise InputError(
             f"snr_db must be finite; got {snr_db!r}. Omit the noise instead of SNR = inf."
+        )
+    if not SNR_RANGE_DB[0] <= snr <= SNR_RANGE_DB[1]:
+        # 10**(snr/10) overflows a double beyond ~3083 dB; long before that the noise is below
+        # the rounding of the signal (double precision resolves ~313 dB) or swamps it entirely
+        raise InputError(
+            f"snr_db must lie in [{SNR_RANGE_DB[0]:g}, {SNR_RANGE_DB[1]:g}] dB; got {snr_db!r}. "
+            "Above about 313 dB the noise is smaller than the rounding of the signal in double "
+            "precision: omit the noise for a noise-free signal."
         )
     power = np.mean(arr**2, axis=0)
     if np.any(power == 0):

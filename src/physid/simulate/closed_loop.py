@@ -17,7 +17,6 @@ MΔ = 0.1 s. `paper_manipulator_experiment` reproduces this with ``paper=True`` 
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -285,7 +284,8 @@ def simulate_closed_loop(
         A `Recording` whose ``plot()`` draws the joint responses: ``q1..qn`` [rad],
         ``qd1..qdn`` [rad/s], ``tau1..taun`` [N·m] (the PD torques applied, computed from the
         true state), ``r1..rn`` [rad]; metadata with the gains, the parameters,
-        the integrator settings and statistics (nfev, wall time).
+        the integrator settings and statistics (nfev; no wall-clock time, so that the same run
+        writes the same bytes).
 
     Raises
     ------
@@ -329,14 +329,12 @@ def simulate_closed_loop(
         coulomb_smoothing=coulomb_smoothing,
     )
 
-    start = time.perf_counter()
     try:
         sol = solve_ivp(
             rhs, (float(t[0]), float(t[-1])), y0, method=method, t_eval=t, rtol=rtol, atol=atol
         )
     except ValueError as exc:  # bad method name or tolerances
         raise InputError(f"solve_ivp rejected the settings: {exc}") from None
-    wall = time.perf_counter() - start
     if sol.status != 0 or sol.y.shape[1] != t.size:
         reached = float(sol.t[-1]) if sol.t.size else float(t[0])
         raise SimulationError(
@@ -372,7 +370,8 @@ def simulate_closed_loop(
             "rtol": rtol,
             "atol": atol,
             "nfev": int(sol.nfev),
-            "wall_seconds": wall,
+            # no wall-clock time here: the metadata goes into the data file, and the same run
+            # must give the same bytes (issue 16, determinism); callers time the call themselves
             "backend": getattr(rhs, "backend", backend),
             "message": str(sol.message),
         },
