@@ -174,3 +174,27 @@ def test_simulate_msd_twice_gives_identical_bytes(hostile):
         assert res.code == 0, res.err
         outs.append(path.read_bytes())
     assert outs[0] == outs[1]
+
+
+def test_numpy_warnings_become_one_physid_warning_line(hostile, monkeypatch):
+    """Raw RuntimeWarnings (file:line text) never reach stderr; each becomes one clean line."""
+    import numpy as np
+
+    import physid.cli.verb_filter as verb
+
+    real = verb.run
+
+    def noisy(args):
+        for _ in range(3):
+            np.array([1e308]) * 10  # overflow encountered in multiply
+        return real(args)
+
+    monkeypatch.setattr(verb, "run", noisy)
+    res = check_case(
+        hostile,
+        [*_FILTER, "--out", "{tmp}/o.csv"],
+        0,
+        r"physid: warning: numpy: overflow encountered in multiply( \(\d times\))?; some "
+        r"intermediate values were infinite or undefined",
+    )
+    assert res.err.count("physid: warning:") == 1

@@ -401,10 +401,13 @@ def _expression_values(expressions, names, theta, cov_free, free_idx):
     symbols = [sp.Symbol(n) for n in names]
     env = dict(zip(names, symbols, strict=True))
     values, errors = {}, {}
+    from ..errors import ExpressionError
+    from ..expressions import parse_expression
+
     for expr_text in expressions:
-        try:
-            expr = sp.sympify(expr_text, locals=env)
-        except (sp.SympifyError, SyntaxError, TypeError):
+        try:  # the whitelist parser, never sympify: the names may come from a user's file
+            expr = parse_expression(str(expr_text), env)
+        except ExpressionError:
             continue
         if not expr.free_symbols <= set(symbols):
             continue

@@ -172,13 +172,16 @@ def _parse_monomials(
     """Exponent vectors of the beta names that are monomials in the parameters (others skipped)."""
     import sympy as sp
 
+    from ..errors import ExpressionError
+    from ..expressions import parse_expression
+
     symbols = {n: sp.Symbol(n) for n in names}
     out = []
     for text in beta_names:
-        try:
-            expr = sp.sympify(text, locals=symbols)
+        try:  # parsed by the whitelist, never sympify'd: names may come from a user's file
+            expr = parse_expression(str(text), symbols)
             poly = sp.Poly(expr, *symbols.values())
-        except (sp.SympifyError, sp.PolynomialError, TypeError, SyntaxError):
+        except (ExpressionError, sp.PolynomialError):
             continue
         if len(poly.terms()) != 1:
             continue
