@@ -194,7 +194,7 @@ def _accuracy_rows(snrs, seeds, duration, configs):
             err_a = []
             for r in recs:
                 res = algebraic_estimates(r["u"], r["x"], r.dt, model, window=window, final=final)
-                err_a.append(abs(res.parameters["natural_frequency"] / OMEGA0 - 1))
+                err_a.append(abs(res.derived["natural_frequency"] / OMEGA0 - 1))
             t_a = (time.perf_counter() - t0) / len(recs)
             ea, es = float(np.mean(err_a)), float(np.mean(err_s))
             rows.append(

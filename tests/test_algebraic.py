@@ -173,8 +173,8 @@ def test_msd_noise_free_exact_rule_within_1e6():
     assert res.success
     assert res.parameters["theta1"] == pytest.approx(th1, rel=1e-6)
     assert res.parameters["theta2"] == pytest.approx(th2, rel=1e-6)
-    assert res.parameters["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
-    assert res.parameters["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
+    assert res.derived["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
+    assert res.derived["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
     # every valid window, not just the median
     est = res.estimates[res.valid]
     assert np.max(np.abs(est / [th1, th2] - 1)) < 1e-6
@@ -220,7 +220,7 @@ def test_known_coefficients_move_to_the_right_hand_side():
     )
     assert res.names == ("theta2",)
     assert res.parameters["theta2"] == pytest.approx(th2, rel=1e-6)
-    assert res.parameters["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
+    assert res.derived["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
     # the input gain as a third unknown
     res3 = algebraic_estimates(
         2.5 * u, y, DT, msd_model(), window=0.05, unknown=("theta1", "theta2", "b0")
@@ -568,7 +568,7 @@ def test_pooled_least_squares_final_estimate():
         noisy = y + 0.01 * np.std(y) * rng.standard_normal(y.size)
         for rule in err:
             res = algebraic_estimates(u, noisy, DT, msd_model(), window=0.05, final=rule)
-            err[rule].append(abs(res.parameters["natural_frequency"] / OMEGA0 - 1))
+            err[rule].append(abs(res.derived["natural_frequency"] / OMEGA0 - 1))
     assert np.mean(err["lstsq"]) < 0.5 * np.mean(err["median"])
     with pytest.raises(InputError, match="final must be one of"):
         algebraic_estimates(u, y, DT, msd_model(), final="mean")
@@ -599,7 +599,9 @@ def test_estimator_fit_recording_and_result_object():
     assert np.nanmax(np.abs(omega[res.valid] / OMEGA0 - 1)) < 1e-6
     assert np.allclose(res.series("b0"), 1.0)
     d = json.loads(json.dumps(res.to_dict()))
-    assert set(d["parameters"]) == {"theta1", "theta2", "natural_frequency", "damping_ratio"}
+    assert set(d["parameters"]) == {"theta1", "theta2"}  # fitted only (result schema)
+    assert set(d["derived"]) == {"natural_frequency", "damping_ratio"}
+    assert d["units"]["theta2"] == "1/s^2" and d["units"]["natural_frequency"] == "rad/s"
     assert "estimates" not in d and d["success"] is True
     assert "theta1" in res.summary()
     fig = res.plot(truth={"theta1": th1, "theta2": th2})
@@ -607,8 +609,11 @@ def test_estimator_fit_recording_and_result_object():
     # the same through fit_arrays and a 'y' channel
     rec_y = Recording.from_columns(t, {"u": u, "y": y})
     r2 = AlgebraicEstimator(msd_model(), window=0.05).fit(rec_y).result_
-    r3 = AlgebraicEstimator(msd_model(), window=0.05).fit_arrays(u, y, DT).result_
+    r3 = AlgebraicEstimator(msd_model(), window=0.05).fit_arrays(t, u=u, y=y).result_
     np.testing.assert_array_equal(r2.estimates, r3.estimates)
+    with pytest.warns(DeprecationWarning, match="fit_arrays"):
+        r4 = AlgebraicEstimator(msd_model(), window=0.05).fit_arrays(u, y, DT).result_
+    np.testing.assert_array_equal(r2.estimates, r4.estimates)
 
 
 def test_inputs_are_not_mutated():
@@ -664,4 +669,4 @@ def test_known_without_unknown_estimates_the_remaining_coefficients():
     res = algebraic_estimates(u, y, DT, msd_model(), known={"theta1": th1})
     assert res.names == ("theta2",)
     assert res.parameters["theta2"] == pytest.approx(th2, rel=1e-6)
-    assert res.parameters["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
+    assert res.derived["damping_ratio"] == pytest.approx(0.3, rel=1e-6)

@@ -55,7 +55,9 @@ def test_algebraic_json(msd_csv, capsys):
     out = _json(capsys)
     assert set(out) >= {"parameters", "success", "message", "valid_fraction"}
     p = out["parameters"]
-    assert set(p) == {"theta1", "theta2", "natural_frequency", "damping_ratio"}
+    assert set(p) == {"theta1", "theta2"}  # fitted only; ω0 and ζ are derived
+    assert set(out) >= {"stderr", "units", "derived"}
+    p = {**p, **out["derived"]}
     # CSV keeps ~16 significant digits, so the exact-rule accuracy survives the round trip
     assert p["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-6)
     assert p["damping_ratio"] == pytest.approx(ZETA, rel=1e-5)
@@ -84,7 +86,7 @@ def test_algebraic_options_and_text_summary(msd_csv, capsys):
     assert "AlgebraicResult: success" in text and "natural_frequency" in text
     assert main([*argv, "--json"]) == 0
     # Simpson on a 60-sample window: coarser than the exact rule but within 1e-3
-    assert _json(capsys)["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-3)
+    assert _json(capsys)["derived"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-3)
 
 
 def test_unknown_and_known(msd_csv, capsys):
@@ -102,16 +104,19 @@ def test_unknown_and_known(msd_csv, capsys):
         )
         == 0
     )
-    p = _json(capsys)["parameters"]
-    assert set(p) == {"theta2", "natural_frequency", "damping_ratio"}
+    out = _json(capsys)
+    p = out["parameters"]
+    assert set(p) == {"theta2"}
+    p = {**p, **out["derived"]}
     assert p["theta2"] == pytest.approx(OMEGA0**2, rel=1e-6)
 
 
 def test_rls_method(msd_csv, capsys):
     assert main(["estimate", str(msd_csv), "--method", "rls", "--forgetting", "1.0", "--json"]) == 0
     out = _json(capsys)
-    assert set(out["parameters"]) >= {"theta1", "theta2", "natural_frequency", "damping_ratio"}
-    assert out["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
+    assert set(out["parameters"]) == {"theta1", "theta2"}
+    assert set(out["derived"]) == {"natural_frequency", "damping_ratio"}
+    assert out["derived"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
 
 
 def test_third_order_model_file(tmp_path, capsys):
@@ -206,8 +211,10 @@ def test_known_without_unknown_estimates_the_rest(msd_csv, capsys, method):
     theta1 = 2 * ZETA * OMEGA0
     argv = ["estimate", str(msd_csv), "--method", method, "--known", f"theta1={theta1!r}"]
     assert main([*argv, "--json"]) == 0
-    p = _json(capsys)["parameters"]
-    assert set(p) == {"theta2", "natural_frequency", "damping_ratio"}
+    out = _json(capsys)
+    p = out["parameters"]
+    assert set(p) == {"theta2"}
+    p = {**p, **out["derived"]}
     assert p["theta2"] == pytest.approx(OMEGA0**2, rel=1e-3 if method == "rls" else 1e-6)
     assert p["damping_ratio"] == pytest.approx(ZETA, rel=1e-3)
 
@@ -215,7 +222,7 @@ def test_known_without_unknown_estimates_the_rest(msd_csv, capsys, method):
 def test_rls_init_samples_option(msd_csv, capsys):
     argv = ["estimate", str(msd_csv), "--method", "rls", "--init-samples", "5", "--json"]
     assert main(argv) == 0
-    assert _json(capsys)["parameters"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
+    assert _json(capsys)["derived"]["natural_frequency"] == pytest.approx(OMEGA0, rel=1e-2)
     assert main(["estimate", str(msd_csv), "--init-samples", "5"]) == 2
     assert "--init-samples do(es) not apply to --method algebraic" in capsys.readouterr().err
 
@@ -264,5 +271,5 @@ def test_resample_accepts_a_jittered_record(tmp_path, capsys):
     assert "--resample" in capsys.readouterr().err
     assert main(["estimate", str(path), "--method", "algebraic", "--resample", "--json"]) == 0
     out = _json(capsys)
-    assert out["parameters"]["natural_frequency"] == pytest.approx(12.0, rel=1e-3)
-    assert out["parameters"]["damping_ratio"] == pytest.approx(0.3, rel=1e-2)
+    assert out["derived"]["natural_frequency"] == pytest.approx(12.0, rel=1e-3)
+    assert out["derived"]["damping_ratio"] == pytest.approx(0.3, rel=1e-2)

@@ -221,8 +221,8 @@ def test_noise_free_msd_recovery(theta1, theta2, omega1, lam):
     assert res.success
     assert abs(res.parameters["theta2"] / theta2 - 1) < 1e-6
     assert abs(res.parameters["theta1"] - theta1) * omega0 / theta2 < 1e-6  # θ1 ẋ against θ2 x
-    assert abs(res.parameters["natural_frequency"] / omega0 - 1) < 1e-6
-    assert res.parameters["damping_ratio"] == pytest.approx(theta1 / (2 * omega0), abs=1e-6)
+    assert abs(res.derived["natural_frequency"] / omega0 - 1) < 1e-6
+    assert res.derived["damping_ratio"] == pytest.approx(theta1 / (2 * omega0), abs=1e-6)
     assert res.estimates.shape == (rec.n_samples, 2)
     assert res.covariance.shape == (rec.n_samples, 2, 2)
     first = res.init_end
@@ -249,7 +249,7 @@ def test_general_linear_ode_unknown_input_gain_and_known_damping():
     np.testing.assert_allclose([res.parameters[k] for k in res.names], [6.0, 100.0, 1.0], rtol=1e-6)
     only = RecursiveLeastSquares("msd", unknown=("theta2",), known={"theta1": 6.0}).fit(rec).result_
     assert only.parameters["theta2"] == pytest.approx(100.0, rel=1e-6)
-    assert only.parameters["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
+    assert only.derived["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
 
 
 def test_differential_prefilter_recovers_within_its_window_bias():
@@ -268,7 +268,9 @@ def test_result_json_and_plot():
     res = est.result_
     d = res.to_dict()
     json.dumps(d, allow_nan=False)
-    assert set(d["parameters"]) == {"theta1", "theta2", "natural_frequency", "damping_ratio"}
+    assert set(d["parameters"]) == {"theta1", "theta2"}  # fitted only (result schema)
+    assert set(d["derived"]) == {"natural_frequency", "damping_ratio"}
+    assert set(d["stderr"]) == {"theta1", "theta2"} and d["units"]["theta1"] == "1/s"
     assert "estimates" not in d and d["success"] is True
     assert est.valid_fraction == res.valid_fraction and res.covariance.shape == (rec.n_samples, 2)
     assert "theta2" in res.summary()
@@ -436,7 +438,7 @@ def test_streaming_estimator_on_raw_samples_equals_batch_fit(two_tone_record, fo
     rel = np.abs(streamed[finite] - batch.estimates[finite]) / np.abs(batch.estimates[finite])
     assert rel.max() <= 1e-9
     omega = np.concatenate([up.natural_frequency for up in ups])
-    assert omega[-1] == pytest.approx(batch.parameters["natural_frequency"], rel=1e-12)
+    assert omega[-1] == pytest.approx(batch.derived["natural_frequency"], rel=1e-12)
     assert np.concatenate([up.t for up in ups]) == pytest.approx(rec.t, abs=1e-12)
     assert online.theta == pytest.approx(batch.estimates[-1], rel=1e-9)
 

@@ -1,9 +1,10 @@
 """``physid estimate F --model msd|MODEL.toml --method algebraic|rls``: linear ODE coefficients.
 
 The algebraic method is the sliding-window estimator of `physid.estimators.algebraic`; rls is the
-recursive least squares of `physid.estimators.recursive`. ``--json`` prints ``parameters``
-(for the MSD: theta1, theta2, natural_frequency, damping_ratio; the model's coefficient names
-otherwise), ``success``, ``message`` and ``valid_fraction``.
+recursive least squares of `physid.estimators.recursive`. ``--json`` prints ``parameters`` (the fitted coefficients), ``derived``
+(for the MSD: natural_frequency, damping_ratio), ``stderr`` (None with ``stderr_reason`` where
+not defined), ``units``, ``success``, ``message``, ``valid_fraction`` and ``fit_percent``;
+``--save RESULT.json`` writes the result file that ``physid validate`` reads.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--method",
-        choices=["algebraic", "rls"],
+        choices=["algebraic", "rls"],  # the registry's linear-ODE methods
         default="algebraic",
         help="estimator (default algebraic)",
     )
@@ -123,6 +124,13 @@ def register(subparsers) -> None:
     )
     add_resample_option(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    parser.add_argument(
+        "--save",
+        default=None,
+        metavar="RESULT.json",
+        help="write the result file (parameters, units, settings, model) that 'physid validate' "
+        "reads",
+    )
     parser.set_defaults(func=run)
 
 
@@ -163,23 +171,30 @@ def run(args) -> int:
     progress(
         f"estimate: {args.method} on {args.file} ({rec.n_samples} samples, model {args.model})"
     )
-    if args.method == "algebraic":
-        from ..estimators.algebraic import AlgebraicEstimator
+    from ..estimators.registry import make
 
-        est = AlgebraicEstimator(model, **_options(args, _ALGEBRAIC_ONLY), **common)
-    else:
-        from ..estimators.recursive import RecursiveLeastSquares
-
-        est = RecursiveLeastSquares(model, **_options(args, _RLS_ONLY), **common)
+    options = _options(args, _ALGEBRAIC_ONLY if args.method == "algebraic" else _RLS_ONLY)
+    est = make(args.method, model, **options, **common)
     result = est.fit(rec).result_
+    if args.save:
+        from ..estimators.results import save_result
+
+        save_result(result, args.save, model=args.model, recording=args.file)
+        progress(f"estimate: result written to {args.save}")
     if args.json:
         print_json(
             {
                 "method": args.method,
+                "names": list(result.names),
                 "parameters": result.parameters,
+                "derived": result.derived,
+                "stderr": result.stderr,
+                "stderr_reason": result.stderr_reason,
+                "units": result.units,
                 "success": result.success,
                 "message": result.message,
                 "valid_fraction": result.valid_fraction,
+                "fit_percent": result.fit_percent,
             }
         )
     else:

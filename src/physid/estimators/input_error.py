@@ -55,6 +55,7 @@ from ..models.identifiability import (
     structural_identifiability,
     svd_tall,
 )
+from .base import EstimatorMixin
 from .results import ResultMixin
 
 __all__ = [
@@ -332,8 +333,25 @@ class InputErrorResult(ResultMixin):
     at_bound: tuple[str, ...]
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
+    units: dict[str, str] = field(default_factory=dict)
 
+    method = "input-error"
     _history_fields = ("history", "cost_history", "t", "residuals")
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The fitted (free) parameters (the result schema's ``names``; also ``free``)."""
+        return self.free
+
+    @property
+    def derived(self) -> dict[str, float]:
+        """Derived quantities: the identified combinations (expression -> value)."""
+        return dict(self.combinations)
+
+    @property
+    def stderr_reason(self) -> str | None:
+        """None: input-error always reports (nominal) standard errors, see ``stderr``."""
+        return None
 
     def summary(self) -> str:
         """Estimates with standard errors, J, evaluations and the identifiability findings."""
@@ -420,7 +438,7 @@ def _expression_values(expressions, names, theta, cov_free, free_idx):
 
 
 # ---------------------------------------------------------------------- estimator
-class InputErrorEstimator:
+class InputErrorEstimator(EstimatorMixin):
     """Identify the physical parameters of a chain model by the input-error (inverse-model) method.
 
     Parameters
@@ -912,6 +930,7 @@ class InputErrorEstimator:
             at_bound=at_bound,
             t=t_valid,
             residuals=e_hat,
+            units=dict(getattr(model, "units", {}) or {}),
         )
         self.structural_ = structural
         self.numeric_before_ = before

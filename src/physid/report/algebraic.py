@@ -31,7 +31,7 @@ def _spans(mask: np.ndarray):
 
 @styled
 def plot_algebraic(
-    result, names: Sequence[str] | None = None, truth: Mapping[str, float] | None = None
+    result, names: Sequence[str] | None = None, truth: Mapping[str, float] | None = None, ax=None
 ):
     """Plot per-window estimates against the window end time ``t0``.
 
@@ -42,6 +42,8 @@ def plot_algebraic(
         Series to plot (default: the estimated coefficients, plus ω0 and ζ for the MSD).
     truth : mapping name -> value, optional
         Reference values drawn as dashed lines.
+    ax : matplotlib Axes, optional
+        Draw the first series there (its figure is returned); other series are skipped.
 
     Returns
     -------
@@ -52,12 +54,16 @@ def plot_algebraic(
     """
     from matplotlib.figure import Figure
 
+    finals = {**dict(result.parameters), **dict(getattr(result, "derived", {}))}
     if names is None:
         names = list(result.names)
-        if "natural_frequency" in result.parameters:
+        if "natural_frequency" in finals:
             names += ["natural_frequency", "damping_ratio"]
-    fig = Figure(figsize=(FULL_WIDTH, panel_height(len(names), 2.0)), layout="constrained")
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+    if ax is not None:
+        fig, axes, names = ax.figure, [ax], list(names)[:1]
+    else:
+        fig = Figure(figsize=(FULL_WIDTH, panel_height(len(names), 2.0)), layout="constrained")
+        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
     t = result.t
     invalid = ~np.asarray(result.valid, dtype=bool)
     for ax, name in zip(axes, names, strict=True):

@@ -9,8 +9,7 @@ import numpy as np
 
 from ...analysis import metrics
 from ...analysis.msd_study import MSD_NATURAL_FREQUENCY
-from ...estimators.algebraic import AlgebraicEstimator
-from ...estimators.recursive import RecursiveLeastSquares
+from ...estimators.registry import make
 from ...simulate import PAPER_MSD
 
 #: Root seed of every record of this study.
@@ -41,12 +40,12 @@ def say(progress: Callable[[str], None] | None, message: str) -> None:
 
 
 def algebraic(rec, window: float = WINDOW, **options):
-    return AlgebraicEstimator("msd", window=window, **options).fit(rec).result_
+    return make("algebraic", "msd", window=window, **options).fit(rec).result_
 
 
 def rls(rec, forgetting: float = 1.0, **options):
     options.setdefault("covariance", "diagonal")
-    return RecursiveLeastSquares("msd", forgetting=forgetting, **options).fit(rec).result_
+    return make("rls", "msd", forgetting=forgetting, **options).fit(rec).result_
 
 
 def trace(result):
@@ -56,7 +55,7 @@ def trace(result):
 def convergence(result, truth=W0) -> dict[str, float]:
     t, omega, valid = trace(result)
     out = metrics.convergence_times(t, omega, truth, valid=valid)
-    final = float(result.parameters.get("natural_frequency", math.nan))
+    final = float(result.derived.get("natural_frequency", math.nan))
     out["final_estimate"] = final
     out["final_relative_error"] = abs(final - truth) / truth if math.isfinite(final) else math.nan
     return out

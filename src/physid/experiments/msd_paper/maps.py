@@ -10,7 +10,7 @@ import numpy as np
 
 from ...analysis import metrics
 from ...analysis.msd_study import msd_sweep
-from ...estimators.algebraic import AlgebraicEstimator
+from ...estimators.registry import make
 from ...simulate import msd_paper_scenario
 from ..data import FigureData, SectionData, Table
 from ._common import KEYS, SEED, TITLES, W0, WINDOW, algebraic, convergence, num, say
@@ -253,7 +253,7 @@ def window_search(quick: bool) -> dict[str, Any]:
         seed = None if snr is None else SEED  # a seed only where there is noise to seed
         rec = msd_paper_scenario(ratio=10.0, snr_db=snr, duration=duration, seed=seed)
         search = metrics.shortest_window(
-            lambda T: AlgebraicEstimator("msd", window=T), rec, windows, W0
+            lambda T: make("algebraic", "msd", window=T), rec, windows, W0
         )
         expanding = convergence(algebraic(rec, expanding=True))
         out[name] = {

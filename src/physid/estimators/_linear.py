@@ -1,0 +1,193 @@
+"""Helpers shared by the linear-ODE estimators' results (algebraic, recursive).
+
+Units and derived quantities of a linear ODE's coefficients, and the model's prediction on a
+recording (open-loop simulation from the recording's input, with the initial state fitted by least
+squares, as MATLAB's ``compare`` does with ``InitialCondition = 'estimate'``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..models.linear_ode import LinearODEModel, natural_frequency_damping
+
+#: Units of the derived quantities.
+DERIVED_UNITS = {
+    "natural_frequency": "rad/s",
+    "damping_ratio": "1",
+    "mass": "kg",
+    "damping": "N*s/m",
+    "stiffness": "N/m",
+}
+
+
+def _power(unit: str, k: int) -> str:
+    if k == 0:
+        return unit or "1"
+    tail = "1/s" if k == 1 else f"1/s^{k}"
+    return tail if not unit or unit == "1" else f"{unit}/s^{k}" if k > 1 else f"{unit}/s"
+
+
+def coefficient_units(model: LinearODEModel, names) -> dict[str, str]:
+    """Unit of each coefficient in ``names``: the model file's, else ``a_i``: ``1/s^(n−i)``.
+
+    ``b_j`` without a declared unit is ``[y]/([u]·s^(n−j))``, written with ``y`` and ``u`` when the
+    channel units are not known.
+    """
+    n = model.order
+    out = {}
+    for name in names:
+        unit = model.units.get(name, "")
+        if not unit:
+            if name in model.a_names:
+                unit = _power("", n - list(model.a_names).index(name))
+            elif name in model.b_names:
+                k = n - list(model.b_names).index(name)
+                unit = f"{model.output_name}/({model.input_name}*s^{k})"
+        out[name] = unit
+    return out
+
+
+def derived_quantities(model: LinearODEModel, values: Mapping[str, float], fitted) -> dict:
+    """Natural frequency, damping ratio (and m, c, k with a force input) of an MSD-form model.
+
+    Parameters
+    ----------
+    model : LinearODEModel
+    values : mapping
+        Every coefficient's value (fitted and known).
+    fitted : sequence of str
+        The fitted names (m, c, k are derived only when ``b0`` was fitted or is ``1/m`` by unit).
+
+    Returns
+    -------
+    dict
+        Empty for models that are not of the MSD form ``ẍ + θ1 ẋ + θ2 x = b0 u``.
+    """
+    if not model.is_msd:
+        return {}
+    th1, th2 = values.get("theta1"), values.get("theta2")
+    if th1 is None or th2 is None:
+        return {}
+    omega0, zeta = natural_frequency_damping(float(th1), float(th2))
+    out = {"natural_frequency": float(omega0), "damping_ratio": float(zeta)}
+    b0 = values.get("b0")
+    force_input = "b0" in fitted or model.units.get("b0", "") in ("1/kg", "kg^-1")
+    if force_input and b0 is not None and np.isfinite(b0) and b0 > 0:
+        m = 1.0 / float(b0)
+        out.update({"mass": m, "damping": float(th1) * m, "stiffness": float(th2) * m})
+    return out
+
+
+def simulate_prediction(
+    model: LinearODEModel, values: Mapping[str, float], t, u, y=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Open-loop output of the model with coefficient ``values`` driven by ``u``.
+
+    With the measured ``y`` given, the initial output derivatives are fitted by least squares
+    (the free responses from each unit initial state are linear in it), so a held-out record that
+    does not start at rest is compared fairly.
+
+    Returns
+    -------
+    y_hat : ndarray, shape (n_samples,)
+        NaN when the identified model cannot be simulated (unstable beyond overflow).
+    x0 : ndarray, shape (order,)
+        The initial output derivatives used.
+    """
+    from ..simulate.linear import simulate_linear_ode
+
+    params = {k: float(v) for k, v in values.items() if k in model.parameter_names}
+    t = np.asarray(t, dtype=float)
+    n = model.order
+    x0 = np.zeros(n)
+    try:
+        with np.errstate(all="ignore"):
+            y_hat = np.asarray(simulate_linear_ode(model, t, input=u, params=params)["x"], float)
+            if y is not None and np.all(np.isfinite(y_hat)):
+                free = np.column_stack(
+                    [
+                        simulate_linear_ode(model, t, input=None, x0=np.eye(n)[k], params=params)[
+                            "x"
+                        ]
+                        for k in range(n)
+                    ]
+                )
+                if np.all(np.isfinite(free)):
+                    x0 = np.linalg.lstsq(free, np.asarray(y, float) - y_hat, rcond=None)[0]
+                    y_hat = y_hat + free @ x0
+    except Exception:  # an unstable or degenerate identified model: no prediction
+        return np.full(t.size, np.nan), x0
+    return y_hat, x0
+
+
+def predict_recording(model: LinearODEModel, values: Mapping[str, float], recording):
+    """`Recording` with the model's input channel and the predicted output channel."""
+    from ..signals.recording import Recording
+
+    in_name, out_name = model.recording_channels(recording.names)
+    u = np.asarray(recording[in_name], dtype=float)
+    y = np.asarray(recording[out_name], dtype=float)
+    y_hat, x0 = simulate_prediction(model, values, recording.t, u, y)
+    return Recording(
+        np.asarray(recording.t, dtype=float),
+        np.column_stack([u, y_hat]),
+        [in_name, out_name],
+        metadata={"prediction": "open-loop simulation", "initial_state": x0.tolist()},
+    )
+
+
+def check_distinct_channels(input_name: str, output_name: str) -> None:
+    """Refuse a model whose input and output are the same recording channel."""
+    from ..errors import InputError
+
+    if input_name == output_name:
+        raise InputError(
+            f"the model's input and output are the same channel {input_name!r}, so the record "
+            "cannot excite anything (every linear ODE with b = a fits it); give the input and "
+            "the output their own channels (input = ..., output = ... under [ode])."
+        )
+
+
+def check_distinct_signals(u, y) -> None:
+    """Refuse an input that is (numerically) a multiple of the output: no information."""
+    from ..errors import EstimationError
+
+    u = np.asarray(u, dtype=float)
+    y = np.asarray(y, dtype=float)
+    u = u - u.mean()  # constant records are the excitation checks' business
+    y = y - y.mean()
+    nu, ny = float(np.linalg.norm(u)), float(np.linalg.norm(y))
+    if nu <= 1e-12 * np.sqrt(u.size) * float(np.abs(u).max(initial=0.0)) or ny == 0.0:
+        return
+    cos = abs(float(u @ y)) / (nu * ny)
+    if cos > 1.0 - 1e-12:
+        raise EstimationError(
+            "the input and the output are the same signal up to a factor (|cos| = "
+            f"{cos:.15f}); the recording's input channel is probably mapped to the output "
+            "column. A linear ODE driven by its own output is not excited: check the channel "
+            "names (input/output of the model, --map)."
+        )
+
+
+def check_known_finite(known) -> None:
+    """Refuse known coefficient values that are not finite numbers, naming them."""
+    from ..errors import InputError
+
+    bad = {}
+    for name, value in dict(known or {}).items():
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            continue  # split_coefficients names non-numbers
+        if not np.isfinite(v):
+            bad[name] = v
+    if bad:
+        raise InputError(
+            f"known values must be finite numbers; got {bad} for {sorted(bad)}. A known "
+            "coefficient is held at its value in every equation, so NaN or inf makes every "
+            "estimate NaN: give its value (known={'theta1': 0.0167}) or estimate it (leave it out "
+            "of known)."
+        )
