@@ -9,6 +9,8 @@ not defined), ``units``, ``success``, ``message``, ``valid_fraction`` and ``fit_
 
 from __future__ import annotations
 
+import sys
+
 from ..errors import InputError
 from ._common import add_resample_option, assignments, print_json, progress
 
@@ -199,4 +201,6 @@ def run(args) -> int:
         )
     else:
         print(result.summary())
+    if not result.success:
+        print(f"physid: estimate failed: {result.message}", file=sys.stderr)
     return 0 if result.success else 1

@@ -1,0 +1,614 @@
+"""Is the identified model any good? Cross-validation on held-out data and residual analysis.
+
+Three tests, the ones robotics and system-identification practice use:
+
+(a) **Inverse-model cross-test** — the forces/torques the model predicts from the held-out motion,
+    against the measured ones: relative error ``‖τ̂ − τ‖ / ‖τ‖`` per channel and overall
+    (``‖τ̂ − τ‖_F / ‖τ‖_F`` over all channels), computed on the same filtered (and, for
+    input-error, decimated by the filter's valid range) signals the fit used: the robotics
+    convention (Gautier; Swevers et al.). For a linear ODE the "force" is the input ``u`` and the
+    derivatives come from the state-variable filter at the RLS fit's cut-off (the algebraic
+    estimator does not filter; its cross-test uses the RLS default cut-off, and says so).
+(b) **Output-error test** — the identified model simulated on the held-out input (open loop for a
+    linear ODE, with the initial state fitted by least squares as MATLAB ``compare`` does; closed
+    loop with the recording's PD controller ``kp``, ``kd`` and reference ``r`` for chains), and the
+    fit ``100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` per output (MATLAB ``compare``'s NRMSE fit) and the
+    relative error ``‖y − ŷ‖ / ‖y‖``.
+(c) **Residual analysis** (MATLAB ``resid``) — the normalised autocorrelation of the residual at
+    lags 1…25 and its cross-correlation with the input at lags −25…25, against the 99 % band
+    ``± 2.576 / √N`` of a white residual independent of the input, and a one-line verdict. The
+    residual is the output error of (b) for linear ODEs and the inverse-model error of (a) for
+    chains.
+
+Relative errors are fractions (0.01 = 1 %); fits are percent, as MATLAB prints them.
+
+`load_result` reads the result file written by ``physid estimate --save`` (or
+`physid.estimators.results.save_result`); `validate` runs the three tests.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import DataFileError, InputError
+from ..estimators.results import RESULT_FORMAT, jsonable
+
+__all__ = [
+    "LoadedResult",
+    "ValidationReport",
+    "load_result",
+    "validate",
+    "residual_analysis",
+    "fit_percent",
+    "MAX_LAG",
+    "BAND_Z",
+]
+
+#: Lags of the residual tests (MATLAB ``resid``'s default).
+MAX_LAG = 25
+#: Two-sided 99 % quantile of the standard normal: the band is ``± BAND_Z / √N``.
+BAND_Z = 2.5758293035489004
+
+_LINEAR_METHODS = ("algebraic", "rls")
+
+
+def fit_percent(y, y_hat) -> float:
+    """MATLAB ``compare``'s fit: ``100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` [%].
+
+    Parameters
+    ----------
+    y, y_hat : array_like, shape (n_samples,)
+        Measured and predicted output.
+
+    Returns
+    -------
+    float
+        100 for a perfect prediction, 0 for one no better than the mean, negative when worse;
+        NaN when ``y`` is constant or ``ŷ`` is not finite.
+
+    Examples
+    --------
+    >>> fit_percent([0.0, 1.0, 2.0], [0.0, 1.0, 2.0]), fit_percent([0.0, 1.0, 2.0], [1.0, 1.0, 1.0])
+    (100.0, 0.0)
+    """
+    y = np.asarray(y, dtype=float)
+    y_hat = np.asarray(y_hat, dtype=float)
+    spread = float(np.linalg.norm(y - y.mean()))
+    if spread == 0.0 or not np.all(np.isfinite(y_hat)):
+        return float("nan")
+    return 100.0 * (1.0 - float(np.linalg.norm(y - y_hat)) / spread)
+
+
+def _relative(err, ref) -> float:
+    den = float(np.linalg.norm(ref))
+    return float(np.linalg.norm(err)) / den if den > 0 else float("nan")
+
+
+# --------------------------------------------------------------------------- residual analysis
+def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[str, Any]:
+    """Whiteness and independence tests of a residual (MATLAB ``resid``).
+
+    Parameters
+    ----------
+    residual : array_like, shape (n_samples,) or (n_samples, n_outputs)
+        Prediction errors; each column is tested.
+    inputs : array_like, shape (n_samples,) or (n_samples, n_inputs), optional
+        The input(s) for the cross-correlation test.
+    max_lag : int
+        Lags ``1..max_lag`` (autocorrelation) and ``−max_lag..max_lag`` (cross-correlation).
+
+    Returns
+    -------
+    dict
+        ``lags`` (the cross-correlation lags), ``band`` (``BAND_Z / √N``, the 99 % band),
+        ``autocorrelation`` (per residual column: lags 0..max_lag, 1 at lag 0),
+        ``cross_correlation`` (per residual × input pair: lags −max_lag..max_lag),
+        ``autocorrelation_outside`` / ``cross_correlation_outside`` (lags outside the band),
+        ``white``, ``independent`` (bool) and a one-line ``verdict``.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> r = residual_analysis(rng.normal(size=5000), rng.normal(size=5000))
+    >>> r["white"], r["independent"]
+    (True, True)
+    """
+    e = np.asarray(residual, dtype=float)
+    e = e[:, None] if e.ndim == 1 else e
+    n = e.shape[0]
+    if n <= 2 * max_lag + 1:
+        raise InputError(
+            f"residual_analysis needs more than {2 * max_lag + 1} samples for max_lag="
+            f"{max_lag}; got {n}. Use a longer held-out record."
+        )
+    e = e - e.mean(axis=0)
+    band = BAND_Z / np.sqrt(n)
+    lags = np.arange(-max_lag, max_lag + 1)
+
+    def xcorr(a, b):  # r_ab(k) = Σ a(t+k) b(t) / √(Σa² Σb²), k = −L..L (biased, as resid)
+        full = np.correlate(a, b, mode="full")  # index n-1 is lag 0
+        den = np.sqrt(float(a @ a) * float(b @ b))
+        mid = n - 1
+        seg = full[mid - max_lag : mid + max_lag + 1]
+        return seg / den if den > 0 else np.full(seg.size, np.nan)
+
+    auto = [xcorr(e[:, j], e[:, j])[max_lag:] for j in range(e.shape[1])]
+    auto_out = [int(np.count_nonzero(np.abs(a[1:]) > band)) for a in auto]
+    cross, cross_out = [], []
+    if inputs is not None:
+        u = np.asarray(inputs, dtype=float)
+        u = u[:, None] if u.ndim == 1 else u
+        u = u - u.mean(axis=0)
+        for j in range(e.shape[1]):
+            for k in range(u.shape[1]):
+                c = xcorr(e[:, j], u[:, k])
+                cross.append(c)
+                cross_out.append(int(np.count_nonzero(np.abs(c) > band)))
+    # With 25 (51) independent lags, a white residual leaves about 0.25 (0.5) of them outside the
+    # 99 % band, so one lag outside is no evidence (26 % (40 %) chance). A test fails when 2 or
+    # more lags are outside (chance 2.6 % (9 %)) or one is outside the Bonferroni band
+    # z = Φ⁻¹(1 − 0.005 / n_lags) (family-wise 1 %).
+    from scipy.stats import norm
+
+    def fails(values, n_lags):
+        strict = norm.ppf(1.0 - 0.005 / n_lags) / np.sqrt(n)
+        v = np.abs(np.asarray(values))
+        return int(np.count_nonzero(v > band)) >= 2 or bool(np.any(v > strict))
+
+    white = not any(fails(a[1:], max_lag) for a in auto)
+    independent = not any(fails(c, 2 * max_lag + 1) for c in cross)
+    if white and independent:
+        verdict = (
+            "residual is white and uncorrelated with the input (99 % band): the model explains "
+            "the data"
+        )
+    elif not independent:
+        verdict = (
+            "residual is correlated with the input (outside the 99 % band at "
+            f"{max(cross_out)} lags): the model misses part of the input-output dynamics"
+        )
+    else:
+        verdict = (
+            f"residual is not white (autocorrelation outside the 99 % band at {max(auto_out)} "
+            "lags): unmodelled dynamics or coloured noise; the input-output part may be fine"
+        )
+    return {
+        "lags": lags,
+        "band": float(band),
+        "autocorrelation": auto,
+        "cross_correlation": cross,
+        "autocorrelation_outside": auto_out,
+        "cross_correlation_outside": cross_out,
+        "white": bool(white),
+        "independent": bool(independent),
+        "verdict": verdict,
+    }
+
+
+# --------------------------------------------------------------------------- result files
+@dataclass(frozen=True)
+class LoadedResult:
+    """A result read back from its file: enough to predict and validate.
+
+    Attributes
+    ----------
+    method : str
+        ``"algebraic"``, ``"rls"``, ``"input-error"``, …
+    model : LinearODEModel or ChainModel
+        The model, loaded from the file's reference (or ``model=`` given to `load_result`).
+    parameters, derived, stderr, units : dict
+        As in the result schema (``stderr`` may be None).
+    data : dict
+        The whole file.
+    """
+
+    method: str
+    model: Any
+    parameters: dict[str, float]
+    derived: dict[str, float] = field(default_factory=dict)
+    stderr: dict[str, float] | None = None
+    units: dict[str, str] = field(default_factory=dict)
+    data: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    @property
+    def is_linear(self) -> bool:
+        """Whether the model is a linear ODE (algebraic / RLS results)."""
+        return hasattr(self.model, "a_names")
+
+    @property
+    def coefficients(self) -> dict[str, float]:
+        """Every coefficient value of a linear ODE result (known and fitted)."""
+        return {**dict(self.data.get("known") or {}), **self.parameters}
+
+    def predict(self, recording):
+        """The model's prediction on ``recording`` (see `validate` for what is predicted).
+
+        Parameters
+        ----------
+        recording : Recording
+            Held-out data.
+
+        Returns
+        -------
+        Recording
+            Linear ODE: the input and the simulated output. Chains: the inverse-model torques
+            ``tau1..`` on the filtered signals (time = the filter's valid samples).
+        """
+        if self.is_linear:
+            from ..estimators._linear import predict_recording
+
+            return predict_recording(self.model, self.coefficients, recording)
+        from ..signals.recording import Recording
+
+        t, _, tau_hat = _chain_inverse(self, recording)
+        names = [f"tau{j + 1}" for j in range(tau_hat.shape[1])]
+        return Recording(t, tau_hat, names, metadata={"prediction": "inverse model, filtered"})
+
+
+def load_result(path, *, model=None) -> LoadedResult:
+    """Read a result file written by ``physid estimate --save`` / `save_result`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON result file.
+    model : str, Path or model object, optional
+        The model, when the file does not name one (or to override it).
+
+    Returns
+    -------
+    LoadedResult
+
+    Raises
+    ------
+    DataFileError
+        The file is not JSON or not a physid result file.
+    InputError
+        No model is named (pass ``model=``; CLI ``--model``).
+    """
+    from ..models import load_model
+
+    p = Path(path)
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DataFileError(
+            f"cannot read the result file {str(p)!r}: {exc}. Give the file written by "
+            "`physid estimate ... --save RESULT.json` (or `--json > RESULT.json`)."
+        ) from None
+    if not isinstance(data, dict) or not isinstance(data.get("parameters"), dict):
+        raise DataFileError(
+            f"{str(p)!r} is not a physid result file (no 'parameters' object); write one with "
+            "`physid estimate ... --save RESULT.json`."
+        )
+    if data.get("format", RESULT_FORMAT) != RESULT_FORMAT:
+        raise DataFileError(f"{str(p)!r} has format {data.get('format')!r}, not {RESULT_FORMAT!r}.")
+    ref = model if model is not None else data.get("model") or data.get("model_name")
+    if not ref:
+        raise InputError(
+            f"the result file {str(p)!r} names no model; pass model=... (CLI --model MODEL)."
+        )
+    mdl = load_model(ref) if isinstance(ref, (str, Path)) else ref
+    method = str(data.get("method", ""))
+    if not method:
+        method = "algebraic" if hasattr(mdl, "a_names") else "input-error"
+    params = {k: float(v) for k, v in data["parameters"].items() if v is not None}
+    if len(params) != len(data["parameters"]):
+        bad = [k for k, v in data["parameters"].items() if v is None]
+        raise DataFileError(f"{str(p)!r}: parameter(s) {bad} are null (the fit failed).")
+    return LoadedResult(
+        method=method,
+        model=mdl,
+        parameters=params,
+        derived=dict(data.get("derived") or {}),
+        stderr=data.get("stderr"),
+        units=dict(data.get("units") or {}),
+        data=data,
+    )
+
+
+# --------------------------------------------------------------------------- the tests
+@dataclass(frozen=True)
+class ValidationReport:
+    """Outcome of `validate`.
+
+    Attributes
+    ----------
+    relative_error : dict
+        Inverse-model cross-test: ``"overall"`` and one entry per force/torque channel
+        (fractions).
+    fit_percent : dict
+        Output-error fit per output channel [%] (MATLAB ``compare``).
+    output_relative_error : dict
+        Output-error ``‖y − ŷ‖ / ‖y‖`` per output channel (fractions).
+    residual : dict
+        `residual_analysis` of the residual named in ``residual["of"]``.
+    notes : tuple of str
+        How each number was computed (filters, skipped tests and why).
+    series : dict
+        Arrays for the plots (not in ``to_dict``).
+    """
+
+    relative_error: dict[str, float]
+    fit_percent: dict[str, float]
+    output_relative_error: dict[str, float]
+    residual: dict[str, Any]
+    notes: tuple[str, ...] = ()
+    series: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (the ``physid validate --json`` object).
+
+        Returns
+        -------
+        dict
+            ``relative_error``, ``fit_percent``, ``output_relative_error``, ``residual``,
+            ``notes``.
+        """
+        return jsonable(
+            {
+                "relative_error": self.relative_error,
+                "fit_percent": self.fit_percent,
+                "output_relative_error": self.output_relative_error,
+                "residual": self.residual,
+                "notes": list(self.notes),
+            }
+        )
+
+    def summary(self) -> str:
+        """Human-readable lines: the three tests and the verdict.
+
+        Returns
+        -------
+        str
+        """
+        lines = ["validation on held-out data"]
+        if self.relative_error:
+            parts = ", ".join(f"{k} {v:.4g}" for k, v in self.relative_error.items())
+            lines.append(f"  (a) inverse model, relative error: {parts}")
+        for k, v in self.fit_percent.items():
+            rel = self.output_relative_error.get(k, float("nan"))
+            lines.append(f"  (b) output error {k}: fit {v:.2f} %, relative error {rel:.4g}")
+        if self.residual:
+            lines.append(f"  (c) {self.residual.get('verdict', '')}")
+        lines.extend(f"  note: {n}" for n in self.notes)
+        return "\n".join(lines)
+
+    def plot(self, out_dir) -> dict[str, str]:
+        """Write PNG figures and a small HTML page into ``out_dir``.
+
+        Parameters
+        ----------
+        out_dir : str or Path
+            Folder (created if missing).
+
+        Returns
+        -------
+        dict
+            name -> path of each file written (``index.html`` and the PNGs).
+        """
+        from ..report.validation import write_validation_plots
+
+        return write_validation_plots(self, out_dir)
+
+
+def _linear_inverse(loaded, recording):
+    """Inverse-model test of a linear ODE: û from the filtered output (and input derivatives)."""
+    from ..estimators.recursive import (
+        default_prefilter_cutoff,
+        state_variable_filter,
+        svf_transient_samples,
+    )
+
+    model = loaded.model
+    values = loaded.coefficients
+    in_name, out_name = model.recording_channels(recording.names)
+    dt = recording.dt
+    cutoff = (loaded.data.get("prefilter_cutoff") if loaded.method == "rls" else None) or None
+    note = (
+        f"the state-variable filter of the fit ({cutoff:g} Hz)"
+        if cutoff
+        else "the state-variable filter at the RLS default cut-off (the algebraic estimator "
+        "does not filter)"
+    )
+    if not cutoff:
+        from ..estimators.recursive import _model_frequency
+
+        cutoff = default_prefilter_cutoff(dt, _model_frequency(model))
+    n, m = model.order, model.input_order
+    highest = max(n, m)
+    order = highest + 1
+    derivs = state_variable_filter(
+        np.column_stack([recording[out_name], recording[in_name]]), dt, cutoff, highest, order
+    )
+    skip = min(svf_transient_samples(cutoff, dt, order), derivs.shape[0] // 2)
+    yd, ud = derivs[skip:, 0, :], derivs[skip:, 1, :]
+    # Σ a_i y^(i) (a_n = 1) = Σ b_j u^(j)  ⇒  û_f = (Σ a_i y_f^(i) − Σ_{j≥1} b_j u_f^(j)) / b_0
+    lhs = yd[:, n].copy()
+    for i, name in enumerate(model.a_names):
+        lhs += values[name] * yd[:, i]
+    for j, name in enumerate(model.b_names[1:], start=1):
+        lhs -= values[name] * ud[:, j]
+    b0 = values[model.b_names[0]]
+    u_hat = lhs / b0 if b0 != 0 else np.full(lhs.shape, np.nan)
+    u_f = ud[:, 0]
+    t = np.asarray(recording.t)[skip:]
+    return in_name, t, u_f, u_hat, f"inverse model on {note}; first {skip} samples dropped"
+
+
+def _chain_inverse(loaded, recording):
+    """(t, τ_f, τ̂) of a chain result on the held-out recording, filtered as in the fit."""
+    from ..estimators.input_error import InputErrorEstimator
+
+    d = loaded.data
+    settings = {
+        k: d[k] for k in ("half_width", "cutoff", "torque", "derivatives") if d.get(k) is not None
+    }
+    est = InputErrorEstimator(loaded.model, **settings)
+    t, qf, qdf, qddf, tau_f = est.filtered_signals(recording)[:5]
+    params = {**dict(d.get("fixed") or {}), **loaded.parameters}
+    params = {k: v for k, v in params.items() if k in loaded.model.parameter_names}
+    tau_hat = np.asarray(loaded.model.inverse_dynamics(qf, qdf, qddf, params), dtype=float)
+    return t, tau_f, tau_hat
+
+
+def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> ValidationReport:
+    """Validate an identified model on held-out data: tests (a), (b), (c) of the module docstring.
+
+    Parameters
+    ----------
+    result : LoadedResult, fitted result object, or path to a result file
+        The identified model.
+    recording : Recording
+        Held-out data with the channels and sample period the fit used.
+    model : str or model, optional
+        The model, where the result file does not name it.
+    max_lag : int
+        Lags of the residual tests.
+
+    Returns
+    -------
+    ValidationReport
+
+    Raises
+    ------
+    InputError
+        The held-out recording lacks a channel of the model or has another sample period.
+    """
+    loaded = _as_loaded(result, model)
+    _check_sampling(loaded, recording)
+    notes: list[str] = []
+    series: dict[str, Any] = {}
+    rel: dict[str, float] = {}
+    fits: dict[str, float] = {}
+    out_rel: dict[str, float] = {}
+    residual: dict[str, Any] = {}
+    if loaded.is_linear:
+        in_name, t_f, u_f, u_hat, note = _linear_inverse(loaded, recording)
+        rel = {"overall": _relative(u_hat - u_f, u_f), in_name: _relative(u_hat - u_f, u_f)}
+        notes.append(f"(a) {note}")
+        series["inverse"] = (t_f, {in_name: (u_f, u_hat)})
+        pred = loaded.predict(recording)
+        out_name = pred.names[1]
+        y = np.asarray(recording[out_name], dtype=float)
+        y_hat = np.asarray(pred[out_name], dtype=float)
+        fits[out_name] = fit_percent(y, y_hat)
+        out_rel[out_name] = _relative(y - y_hat, y)
+        notes.append(
+            "(b) open-loop simulation on the held-out input, initial state fitted by least squares"
+        )
+        series["output"] = (np.asarray(recording.t), {out_name: (y, y_hat)})
+        if np.all(np.isfinite(y_hat)):
+            residual = residual_analysis(y - y_hat, recording[in_name], max_lag=max_lag)
+            residual["of"] = f"output error of {out_name}"
+        else:
+            notes.append("(c) skipped: the identified model cannot be simulated (unstable)")
+    else:
+        t_f, tau_f, tau_hat = _chain_inverse(loaded, recording)
+        names = [f"tau{j + 1}" for j in range(tau_f.shape[1])]
+        rel = {"overall": _relative(tau_hat - tau_f, tau_f)}
+        rel.update(
+            {nm: _relative(tau_hat[:, j] - tau_f[:, j], tau_f[:, j]) for j, nm in enumerate(names)}
+        )
+        notes.append(
+            "(a) inverse model on the filtered signals of the fit (half_width "
+            f"{loaded.data.get('half_width')}, cutoff {loaded.data.get('cutoff')} rad/sample), "
+            "valid samples only"
+        )
+        series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
+        fits, out_rel, note = _chain_output_error(loaded, recording, series)
+        notes.append(note)
+        residual = residual_analysis(tau_hat - tau_f, max_lag=max_lag)
+        residual["of"] = "inverse-model torque error (filtered)"
+    if residual:
+        series["residual"] = residual
+    return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series)
+
+
+def _chain_output_error(loaded, recording, series):
+    """Closed-loop re-simulation with the recording's PD controller (needs kp, kd and r)."""
+    meta = dict(getattr(recording, "metadata", {}) or {})
+    model = loaded.model
+    nj = int(model.n_joints)
+    r_names = [f"r{j + 1}" for j in range(nj)]
+    q_names = [f"q{j + 1}" for j in range(nj)]
+    if "kp" not in meta or "kd" not in meta or not all(n in recording.names for n in r_names):
+        return (
+            {},
+            {},
+            (
+                "(b) skipped: closed-loop re-simulation needs the controller gains kp, kd in the "
+                "recording's metadata and the reference channels r1..rn"
+            ),
+        )
+    from ..simulate.closed_loop import simulate_closed_loop
+
+    d = loaded.data
+    params = {**dict(d.get("fixed") or {}), **loaded.parameters}
+    params = {k: v for k, v in params.items() if k in model.parameter_names}
+    t = np.asarray(recording.t, dtype=float)
+    reference = np.column_stack([recording[n] for n in r_names])
+    q0 = np.array([recording[n][0] for n in q_names])
+    try:
+        sim = simulate_closed_loop(
+            model,
+            kp=meta["kp"],
+            kd=meta["kd"],
+            reference=reference,
+            t=t,
+            q0=q0,
+            params=params,
+        )
+    except Exception as exc:  # a diverging identified model: report, do not crash
+        return {}, {}, f"(b) closed-loop re-simulation failed: {exc}"
+    fits, rel, data = {}, {}, {}
+    for n in q_names:
+        y, y_hat = np.asarray(recording[n]), np.asarray(sim[n])
+        fits[n] = fit_percent(y, y_hat)
+        rel[n] = _relative(y - y_hat, y)
+        data[n] = (y, y_hat)
+    series["output"] = (t, data)
+    return fits, rel, "(b) closed-loop simulation with the recording's kp, kd and reference"
+
+
+def _as_loaded(result, model) -> LoadedResult:
+    if isinstance(result, LoadedResult):
+        return result
+    if isinstance(result, (str, Path)):
+        return load_result(result, model=model)
+    data = result.to_dict()
+    mdl = model if model is not None else getattr(result, "model", None)
+    if mdl is None:
+        mdl = data.get("model_name")
+    if isinstance(mdl, (str, Path)):
+        from ..models import load_model
+
+        mdl = load_model(mdl)
+    if mdl is None:
+        raise InputError("validate needs the model: pass model=... (CLI --model MODEL).")
+    return LoadedResult(
+        method=str(data.get("method", "")),
+        model=mdl,
+        parameters={k: float(v) for k, v in dict(result.parameters).items()},
+        derived=dict(data.get("derived") or {}),
+        stderr=data.get("stderr"),
+        units=dict(data.get("units") or {}),
+        data=data,
+    )
+
+
+def _check_sampling(loaded: LoadedResult, recording) -> None:
+    fit_dt = (loaded.data.get("settings") or {}).get("dt", loaded.data.get("dt"))
+    if fit_dt is None:
+        return
+    dt = recording.dt
+    if not np.isclose(dt, float(fit_dt), rtol=1e-6, atol=0):
+        raise InputError(
+            f"the held-out recording is sampled every {dt:g} s but the fit used {float(fit_dt):g} s; "
+            "resample it (--resample, or Recording.resample) to the fit's period, or refit."
+        )
