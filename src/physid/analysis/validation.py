@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import DataFileError, InputError
+from ..errors import DataFileError, InputError, arg
 from ..estimators.results import RESULT_FORMAT, jsonable
 
 __all__ = [
@@ -279,19 +279,19 @@ def load_result(path, *, model=None) -> LoadedResult:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise DataFileError(
             f"cannot read the result file {str(p)!r}: {exc}. Give the file written by "
-            "`physid estimate ... --save RESULT.json` (or `--json > RESULT.json`)."
+            "physid.estimators.results.save_result (the estimate command's save option)."
         ) from None
     if not isinstance(data, dict) or not isinstance(data.get("parameters"), dict):
         raise DataFileError(
             f"{str(p)!r} is not a physid result file (no 'parameters' object); write one with "
-            "`physid estimate ... --save RESULT.json`."
+            "physid.estimators.results.save_result (the estimate command's save option)."
         )
     if data.get("format", RESULT_FORMAT) != RESULT_FORMAT:
         raise DataFileError(f"{str(p)!r} has format {data.get('format')!r}, not {RESULT_FORMAT!r}.")
     ref = model if model is not None else data.get("model") or data.get("model_name")
     if not ref:
         raise InputError(
-            f"the result file {str(p)!r} names no model; pass model=... (CLI --model MODEL)."
+            f"the result file {str(p)!r} names no model; pass {arg('model', '...', cli='MODEL')}."
         )
     mdl = load_model(ref) if isinstance(ref, (str, Path)) else ref
     method = str(data.get("method", ""))
@@ -331,7 +331,7 @@ class ValidationReport:
     notes : tuple of str
         How each number was computed (filters, skipped tests and why).
     series : dict
-        Arrays for the plots (not in ``to_dict``).
+        Arrays for the plots (`physid.report.validation.write_validation_plots`; not in ``to_dict``).
     """
 
     relative_error: dict[str, float]
@@ -378,23 +378,6 @@ class ValidationReport:
             lines.append(f"  (c) {self.residual.get('verdict', '')}")
         lines.extend(f"  note: {n}" for n in self.notes)
         return "\n".join(lines)
-
-    def plot(self, out_dir) -> dict[str, str]:
-        """Write PNG figures and a small HTML page into ``out_dir``.
-
-        Parameters
-        ----------
-        out_dir : str or Path
-            Folder (created if missing).
-
-        Returns
-        -------
-        dict
-            name -> path of each file written (``index.html`` and the PNGs).
-        """
-        from ..report.validation import write_validation_plots
-
-        return write_validation_plots(self, out_dir)
 
 
 def _linear_inverse(loaded, recording):
@@ -590,7 +573,7 @@ def _as_loaded(result, model) -> LoadedResult:
 
         mdl = load_model(mdl)
     if mdl is None:
-        raise InputError("validate needs the model: pass model=... (CLI --model MODEL).")
+        raise InputError(f"validate needs the model: pass {arg('model', '...', cli='MODEL')}.")
     return LoadedResult(
         method=str(data.get("method", "")),
         model=mdl,
@@ -610,5 +593,5 @@ def _check_sampling(loaded: LoadedResult, recording) -> None:
     if not np.isclose(dt, float(fit_dt), rtol=1e-6, atol=0):
         raise InputError(
             f"the held-out recording is sampled every {dt:g} s but the fit used {float(fit_dt):g} s; "
-            "resample it (--resample, or Recording.resample) to the fit's period, or refit."
+            "resample it to the fit's period (Recording.resample), or refit."
         )

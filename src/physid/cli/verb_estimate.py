@@ -83,10 +83,11 @@ def register(subparsers) -> None:
     )
     alg.add_argument(
         "--final",
-        choices=["lstsq", "median"],
+        choices=["lstsq", "median", "bias-compensated"],
         default=None,
-        help="final estimate: pooled least squares over the valid windows (lstsq), or their "
-        "median (default lstsq)",
+        help="final estimate: pooled least squares over the valid windows (lstsq), their "
+        "median, or bias-compensated least squares over every full window (unbiased at low SNR) "
+        "(default lstsq)",
     )
     rls = parser.add_argument_group("rls method")
     rls.add_argument(

@@ -54,7 +54,9 @@ def run(args) -> int:
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
     report = validate(loaded, rec)
     if args.plot:
-        written = report.plot(args.plot)
+        from ..report.validation import write_validation_plots
+
+        written = write_validation_plots(report, args.plot)
         progress(f"validate: figures in {written['index']}")
     if args.json:
         print_json(report.to_dict())

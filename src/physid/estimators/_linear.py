@@ -168,7 +168,7 @@ def check_distinct_signals(u, y) -> None:
             "the input and the output are the same signal up to a factor (|cos| = "
             f"{cos:.15f}); the recording's input channel is probably mapped to the output "
             "column. A linear ODE driven by its own output is not excited: check the channel "
-            "names (input/output of the model, --map)."
+            "names (the model's input and output, the channel map)."
         )
 
 

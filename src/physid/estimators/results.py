@@ -164,9 +164,10 @@ class ResultMixin:
     ``_private_fields``. ``method`` names the estimator (``"algebraic"``, ``"rls"``, …).
     """
 
+    # (no ``method`` default here: a dataclass subclass with a ``method`` field would inherit it
+    # as the field's default)
     _history_fields: tuple[str, ...] = ()
     _private_fields: tuple[str, ...] = ()
-    method: str = ""
 
     # ------------------------------------------------------------------ schema accessors
     def _schema(self) -> dict[str, Any]:
@@ -199,7 +200,7 @@ class ResultMixin:
         out: dict[str, Any] = {
             "format": RESULT_FORMAT,
             "format_version": RESULT_FORMAT_VERSION,
-            "method": self.method or type(self).__name__,
+            "method": getattr(self, "method", "") or type(self).__name__,
         }
         out.update(jsonable(self._schema()))
         fields = dataclasses.fields(self) if dataclasses.is_dataclass(self) else ()
