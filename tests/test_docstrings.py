@@ -45,19 +45,6 @@ def _public_names():
 
 
 NAMES = _public_names()
-#: Built by string concatenation (``__doc__`` None) until room `estim`'s conversion to literal
-#: docstrings lands (issue 12 item 1); remove this set then.
-PENDING = {
-    "physid.estimators.AlgebraicEstimator",
-    "physid.estimators.StreamingAlgebraicEstimator",
-    "physid.estimators.algebraic_estimates",
-}
-CASES = [
-    pytest.param(n, marks=pytest.mark.xfail(reason="room estim converts it", strict=False))
-    if n in PENDING
-    else n
-    for n in NAMES
-]
 
 
 def _resolve(path):
@@ -116,7 +103,7 @@ def _problems(path):
     return problems
 
 
-@pytest.mark.parametrize("path", CASES)
+@pytest.mark.parametrize("path", NAMES)
 def test_public_name_has_a_numpydoc_docstring(path):
     assert not _problems(path), f"{path}: " + "; ".join(_problems(path))
 
