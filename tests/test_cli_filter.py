@@ -19,7 +19,8 @@ DT = 1e-3
 def csv_file(tmp_path):
     t = DT * np.arange(400)
     data = np.column_stack([t**2, 3 * t, np.sin(2 * np.pi * 5 * t)])
-    rec = Recording(t, data, ("q1", "q2", "tau1"), ("rad", "m/s", "N·m"))
+    # qd2: a rate in m/s (a q channel must be an angle or a length: the loader checks it)
+    rec = Recording(t, data, ("q1", "qd2", "tau1"), ("rad", "m/s", "N·m"))
     return save_recording(rec, tmp_path / "in.csv")
 
 
@@ -35,18 +36,18 @@ def test_second_derivative_of_selected_channels(tmp_path, csv_file, capsys):
         "--cutoff",
         "0.3",
         "--channels",
-        "q1,q2",
+        "q1,qd2",
         "--out",
         str(out),
     ]
     assert main(argv) == 0
     assert capsys.readouterr().out.strip() == str(out)
     res = load_recording(out)
-    assert res.names == ("q1_ddot", "q2_ddot")
+    assert res.names == ("q1_ddot", "qd2_ddot")
     assert res.units == ("rad/s^2", "m/s^3")
     np.testing.assert_allclose(res.t, DT * np.arange(50, 350), rtol=0, atol=1e-15)
     np.testing.assert_allclose(res["q1_ddot"], 2.0, rtol=1e-9)  # d²/dt² t² = 2 exactly
-    np.testing.assert_allclose(res["q2_ddot"], 0.0, atol=1e-6)
+    np.testing.assert_allclose(res["qd2_ddot"], 0.0, atol=1e-6)
     assert res.metadata["filter"]["half_width"] == 50
 
 
@@ -69,7 +70,7 @@ def test_lowpass_all_channels_paper_length_matches_api(tmp_path, csv_file):
         == 0
     )
     res = load_recording(out)
-    assert res.names == ("q1", "q2", "tau1") and res.units == ("rad", "m/s", "N·m")
+    assert res.names == ("q1", "qd2", "tau1") and res.units == ("rad", "m/s", "N·m")
     src = load_recording(csv_file)
     want = design_filter("lowpass", 20, 0.2, src.dt).apply(src.data, paper=True)
     np.testing.assert_array_equal(res.data, want)
@@ -84,7 +85,7 @@ def test_first_derivative_units(tmp_path, csv_file):
     )
     res = load_recording(out)
     assert res.units == ("rad/s", "m/s^2", "N·m/s")
-    np.testing.assert_allclose(res["q2_dot"], 3.0, rtol=1e-9)
+    np.testing.assert_allclose(res["qd2_dot"], 3.0, rtol=1e-9)
 
 
 @pytest.mark.parametrize(
@@ -122,7 +123,8 @@ def test_resample_option_interpolates_non_uniform_file(tmp_path, capsys):
     out = tmp_path / "o.csv"
     argv = ["filter", str(src), "--kind", "first", "--half-width", "20", "--out", str(out)]
     assert main(argv) == 2
-    assert "Pass --resample to interpolate" in capsys.readouterr().err
+    err = capsys.readouterr().err  # CLI users are told the flag, not the Python keyword
+    assert "Pass --resample to interpolate" in err and "resample=True" not in err
     assert main([*argv, "--resample"]) == 0
     res = load_recording(out)
     # linear data: interpolation onto the uniform grid is exact, and the slope is 3

@@ -173,7 +173,8 @@ def test_resample_and_keep_non_uniform(tmp_path):
         ("# only a comment\n\n", r"the file is empty"),
         ("t,x\n", r"the header is there but there are no data rows"),
         ("t,x\n0,1\n", r"holds only 1 sample"),
-        ("time,x\n0,1\n1,2\n", r"no time column 't' in the header 'time,x' \(line 1\)"),
+        ("a,x\n0,1\n1,2\n", r"no time column or variable: .* the file has \['a', 'x'\]"),
+        ("time,Time,x\n0,0,1\n1,1,2\n", r"several variables could be the time: \['time', 'Time'\]"),
         ("t\n0\n1\n", r"has a time column 't' but no channels"),
         ("t,x\n0,1\n1,abc\n2,3\n", r"non-numeric cell 'abc' in column 'x' at line 3"),
         ("t,x\n0,1\n1,\n", r"empty cell in column 'x' at line 3"),
@@ -185,7 +186,8 @@ def test_resample_and_keep_non_uniform(tmp_path):
         ("t,x\n0,1\n0,2\n", r"not strictly increasing"),
         ("t,x,x\n0,1,2\n1,2,3\n", r"duplicate channel name 'x' \(channels 1 and 2\)"),
         ("t,x,t\n0,1,2\n1,2,3\n", r"'t' appears twice"),
-        ("t [min],x\n0,1\n1,2\n", r"time column has unit 'min'.*Convert the column to seconds"),
+        ("t [m],x\n0,1\n1,2\n", r"time column has unit 'm' \(a length\), not a time.*seconds"),
+        ("t [fortnight],x\n0,1\n1,2\n", r"time column has unit 'fortnight': unknown unit"),
         ("t, x \n0,1\n1,2\n2,3\n", None),  # spaces around names are stripped: loads
     ],
 )
@@ -206,8 +208,9 @@ def test_non_uniform_sampling_reports_worst_deviation(tmp_path):
         r"\(line 5\) is 0\.15 s against a mean period of 0\.1 s \(worst relative deviation 0\.5, "
         r"tolerance 0\.001\)\. "
         r"Pass resample=True to interpolate onto a uniform grid",
-    ):
+    ) as info:
         load_recording(_write(tmp_path, text))
+    assert "--resample" not in str(info.value)  # Python users get the keyword, the CLI its flag
 
 
 @pytest.mark.parametrize(
@@ -263,7 +266,7 @@ def test_save_errors(tmp_path, rec):
 
 def test_npz_and_mat_structure_errors(tmp_path):
     np.savez(tmp_path / "a.npz", x=np.arange(3.0))
-    with pytest.raises(DataFileError, match=r"no variable 't' \(time in s\); found \['x'\]"):
+    with pytest.raises(DataFileError, match=r"no time column or variable: .*the file has \['x'\]"):
         load_recording(tmp_path / "a.npz")
     np.savez(tmp_path / "b.npz", t=np.arange(3.0), x=np.arange(4.0))
     with pytest.raises(DataFileError, match=r"variable 'x' has shape \(4,\); channels must have"):
@@ -296,3 +299,129 @@ def test_csv_loader_loads_or_raises_physid_error(tmp_path, text):
         return
     assert isinstance(rec, Recording)
     assert np.all(np.isfinite(rec.data)) and np.all(np.diff(rec.t) > 0)
+
+
+# ------------------------------------------------------------------------------- hostile files
+# (issue 16: each of these failed on the loader before the channel-map/units rework)
+def test_npz_is_never_unpickled_and_object_channels_are_named(tmp_path):
+    t = np.arange(5.0)
+    np.savez(tmp_path / "o.npz", t=t, x=np.array([1, "a", None, 2, 3], dtype=object))
+    with pytest.raises(DataFileError, match=r"'x' holds a Python object array \(physid never"):
+        load_recording(tmp_path / "o.npz")
+
+
+@pytest.mark.parametrize("kind", ["garbage", "truncated", "npy", "empty"])
+def test_damaged_npz_files_give_a_clear_error_without_allow_pickle(tmp_path, kind):
+    path = tmp_path / f"{kind}.npz"
+    good = tmp_path / "good.npz"
+    np.savez(good, t=np.arange(50.0), x=np.arange(50.0))
+    payload = {
+        "garbage": bytes(range(256)) * 3,
+        "truncated": good.read_bytes()[: good.stat().st_size // 2],
+        "npy": b"\x93NUMPY\x01\x00" + b"\x00" * 40,
+        "empty": b"",
+    }[kind]
+    path.write_bytes(payload)
+    with pytest.raises(DataFileError, match=r"(not an NPZ|not a readable NPZ|single \.npy)") as e:
+        load_recording(path)
+    assert "allow_pickle" not in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("value", "pattern"),
+    [
+        (np.ones(5) + 1j, r"variable 'x' holds complex numbers \(dtype complex128\)"),
+        (np.array(["a"] * 5), r"variable 'x' holds text \(shape \(5,\)\)"),
+    ],
+)
+def test_complex_and_string_channels_are_refused_naming_channel_and_type(tmp_path, value, pattern):
+    np.savez(tmp_path / "c.npz", t=np.arange(5.0), x=value, y=np.arange(5.0))
+    with pytest.raises(DataFileError, match=pattern):
+        load_recording(tmp_path / "c.npz")
+    scipy.io.savemat(tmp_path / "c.mat", {"t": np.arange(5.0), "x": value, "y": np.arange(5.0)})
+    with pytest.raises(DataFileError, match=r"variable 'x' holds (complex numbers|text)"):
+        load_recording(tmp_path / "c.mat")
+
+
+def test_matlab_cell_channel_is_refused_and_a_text_note_ignored(tmp_path):
+    cells = np.empty((5, 1), dtype=object)
+    cells[:, 0] = ["a", "b", "c", "d", "e"]
+    scipy.io.savemat(tmp_path / "c.mat", {"t": np.arange(5.0), "x": cells, "y": np.arange(5.0)})
+    with pytest.raises(DataFileError, match=r"variable 'x' holds (text|a cell)"):
+        load_recording(tmp_path / "c.mat")
+    scipy.io.savemat(tmp_path / "n.mat", {"t": np.arange(5.0), "y": np.arange(5.0), "note": "hi"})
+    rec = load_recording(tmp_path / "n.mat")
+    assert rec.names == ("y",) and rec.metadata["ignored_variables"] == ["note"]
+
+
+def test_huge_values_are_named_not_blamed_as_nan(tmp_path):
+    path = tmp_path / "big.csv"
+    path.write_text("t,u,x\n0,1,0\n0.1,1e308,1\n0.2,1,2\n")
+    with pytest.raises(
+        DataFileError,
+        match=r"channel 'u' holds 1e\+308 at data row 2 \(line 3\) .*beyond ±1e\+150.*fill value",
+    ) as e:
+        load_recording(path)
+    assert "nan" not in str(e.value)
+
+
+def test_two_dimensional_time_blames_t(tmp_path):
+    np.savez(tmp_path / "t2.npz", t=np.zeros((5, 2)), u=np.ones(5))
+    with pytest.raises(
+        DataFileError, match=r"the time 't' has shape \(5, 2\); it must be a vector"
+    ):
+        load_recording(tmp_path / "t2.npz")
+
+
+def test_unreadable_file_says_how_to_fix_it(tmp_path, monkeypatch):
+    path = tmp_path / "locked.csv"
+    path.write_text("t,x\n0,1\n1,2\n")
+
+    def denied(*args, **kwargs):  # what open() does on a chmod 000 file for a non-root user
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(physid.signals.io, "_open", denied)
+    with pytest.raises(DataFileError, match=r"permission denied.*chmod u\+r .*locked\.csv"):
+        load_recording(path)
+
+
+_NAME = st.text(
+    alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\r\x00"),
+    min_size=1,
+    max_size=12,
+).filter(lambda s: s.strip() == s and s != "t" and not physid.signals.io._READ_CHANNEL.match(s))
+_SI_UNITS = st.sampled_from(["", "m", "rad", "N", "N·m", "N*m", "m/s", "rad/s^2", "V", "kg", "Hz"])
+_VALUE = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e150, max_value=1e150)
+
+
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    names=st.lists(_NAME, min_size=1, max_size=4, unique_by=lambda s: s.lower()),
+    units=st.lists(_SI_UNITS, min_size=4, max_size=4),
+    values=st.lists(_VALUE, min_size=12, max_size=12),
+    suffix=st.sampled_from([".csv", ".npz"]),
+)
+def test_write_read_round_trips_names_units_and_values_bit_for_bit(
+    tmp_path, names, units, values, suffix
+):
+    # names with commas, quotes, newlines, brackets ('pos [deg]' without unit) all come back
+    names = [n for n in names if n.lower() not in ("t", "time")] or ["x"]
+    k = len(names)
+    n = len(values) // k
+    data = np.array(values[: n * k]).reshape(n, k)
+    rec = Recording(1e-3 * np.arange(n), data, names, units[:k])
+    back = load_recording(save_recording(rec, tmp_path / f"r{suffix}"))
+    assert back.names == rec.names and back.units == rec.units
+    np.testing.assert_array_equal(back.t, rec.t)
+    assert back.data.tobytes() == rec.data.tobytes()
+
+
+def test_csv_names_with_separators_and_brackets_are_quoted(tmp_path):
+    rec = Recording([0.0, 1.0], np.zeros((2, 3)), ["a,b", 'say "hi"', "pos [deg]"], ["m", "", ""])
+    path = save_recording(rec, tmp_path / "q.csv")
+    assert path.read_text().splitlines()[1] == 't [s],"a,b [m]","say ""hi""",pos [deg] []'
+    assert load_recording(path).names == rec.names
+    with pytest.raises(DataFileError, match=r"a carriage return in a name"):
+        save_recording(Recording([0.0, 1.0], [0.0, 1.0], ["a\rb"]), tmp_path / "r.csv")

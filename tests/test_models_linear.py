@@ -38,7 +38,11 @@ def test_msd_defaults_follow_the_paper():
 
 def test_msd_force_input_has_gain_one_over_mass():
     model = msd_model(mass=2.0, damping=0.4, stiffness=50.0, input="force")
-    assert model.parameters == pytest.approx({"theta2": 25.0, "theta1": 0.2, "b0": 0.5})
+    # the force form carries its physical parameters m, c, k besides the coefficients
+    assert model.parameters == pytest.approx(
+        {"theta2": 25.0, "theta1": 0.2, "b0": 0.5, "m": 2.0, "c": 0.4, "k": 50.0}
+    )
+    assert model.unknown == ("theta2", "theta1", "b0")
     assert load_model("msd", mass=2.0, input="force").parameters["b0"] == 0.5
 
 

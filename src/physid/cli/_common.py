@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import sys
 from typing import Any
 
@@ -21,6 +22,10 @@ __all__ = [
     "FIGURE_SUFFIXES",
     "check_figure_path",
     "report_warnings",
+    "add_recording_options",
+    "read_recording",
+    "cli_words",
+    "check_recording_units",
 ]
 
 #: File types a figure is written as (`physid.report.style.save_figure` writes PNG).
@@ -221,3 +226,195 @@ def report_warnings(caught) -> None:
             )
         else:
             print(f"physid: warning: {message}{times}", file=sys.stderr)
+
+
+def add_recording_options(parser) -> None:
+    """The options of every verb that reads a recording (use with `read_recording`).
+
+    ``--map``, ``--decimal``, ``--delimiter``, ``--resample`` and ``--detrend``; see
+    docs/your-data.md.
+    """
+    group = parser.add_argument_group("reading the recording (docs/your-data.md)")
+    group.add_argument(
+        "--map",
+        dest="channel_map",
+        default=None,
+        metavar="NAME=SOURCE,...",
+        help="channel map: which column/variable (or arithmetic over them and over scalars of "
+        "the file) each channel physid needs comes from, e.g. t=time,q1=qm,tau1=gtau*vir; a "
+        "MATLAB struct field is data.pos; a unit may follow in brackets: tau1=35.15*vir [N]",
+    )
+    group.add_argument(
+        "--decimal",
+        choices=[".", ","],
+        default=".",
+        help="decimal mark of a CSV file (default '.'); with ',' the separator is ';' or a tab",
+    )
+    group.add_argument(
+        "--delimiter",
+        default=None,
+        metavar="SEP",
+        help="CSV separator: ',', ';' or tab (default: recognised from the header)",
+    )
+    add_resample_option(group)
+    group.add_argument(
+        "--detrend",
+        nargs="?",
+        const="*",
+        default=None,
+        metavar="CHANNELS",
+        help="subtract the mean of every channel (or of the comma-separated CHANNELS) before "
+        "fitting: removes a constant sensor offset and the input's mean together (MATLAB's "
+        "detrend(data, 0)); the alternative to estimating an offset in the model",
+    )
+
+
+# library messages name Python keywords; the command line shows its own flags instead
+_CLI_WORDS = (
+    (
+        re.compile(
+            r"Pass resample=True to (.*?) \(or uniform_rtol=None to keep the time vector as "
+            r"it is\)\."
+        ),
+        r"Pass --resample to \1.",
+    ),
+    (re.compile(r"resample=True"), "--resample"),
+    (re.compile(r"channels=\{'([^']*)': '([^']*)'\}"), r"--map '\1=\2'"),
+    (re.compile(r"channels\['([^']*)'\] = '([^']*)'"), r"--map \1=\2"),
+    (re.compile(r"channels\['([^']*)'\]"), r"--map \1"),
+    (re.compile(r"channels=\{\.\.\.\}"), "--map"),
+    (re.compile(r"channels="), "--map "),
+    (re.compile(r"decimal=','"), "--decimal ,"),
+    (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
+    (re.compile(r"delimiter=';'"), "--delimiter ';'"),
+)
+
+
+def cli_words(message: str) -> str:
+    """Reword a library message for the command line (``resample=True`` → ``--resample``)."""
+    for pattern, repl in _CLI_WORDS:
+        message = pattern.sub(repl, message)
+    return message
+
+
+def read_recording(args, path=None, *, model=None):
+    """Read the verb's recording with the options of `add_recording_options`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        With ``channel_map``, ``decimal``, ``delimiter``, ``resample`` and ``detrend`` (missing
+        attributes take their defaults, so verbs with only ``--resample`` work too).
+    path : str, optional
+        The file (default ``args.file``).
+    model : model, optional
+        When given, the recording's units are checked against it (`check_recording_units`):
+        a force where the model wants u = F/m is an error, never a silent wrong answer. Its
+        model file's ``[recording]`` table is the channel map, which ``--map`` entries
+        override.
+
+    Returns
+    -------
+    Recording
+
+    Raises
+    ------
+    PhysidError
+        Whatever `physid.signals.load_recording` raises, with the message in CLI words
+        (``--resample``, ``--map``).
+    """
+    from ..errors import PhysidError
+    from ..signals import load_recording
+    from ..signals.io import parse_channel_map
+
+    path = getattr(args, "file", None) if path is None else path
+    try:
+        channels = _model_channel_map(args, model)
+        given = parse_channel_map(getattr(args, "channel_map", None))
+        if given:
+            channels = {**(channels or {}), **given}  # --map entries override the model file's
+        rec = load_recording(
+            path,
+            channels or None,
+            resample=bool(getattr(args, "resample", False)),
+            decimal=getattr(args, "decimal", ".") or ".",
+            delimiter=getattr(args, "delimiter", None),
+        )
+        if model is not None:
+            check_recording_units(model, rec)
+        detrend = getattr(args, "detrend", None)
+        if detrend:
+            names = None if detrend == "*" else [n.strip() for n in detrend.split(",") if n.strip()]
+            rec = rec.detrend(names)
+    except PhysidError as exc:
+        raise _reworded(exc) from None
+    return rec
+
+
+def _model_channel_map(args, model) -> dict:
+    """The ``[recording]`` table of the model file named by ``--model`` (empty if none)."""
+    mapping = getattr(model, "recording_map", None)
+    if mapping:
+        return dict(mapping)
+    name = getattr(args, "model", None)
+    if isinstance(name, str) and name.lower().endswith(".toml"):
+        from pathlib import Path
+
+        from ..models.spec import read_recording_map
+
+        if Path(name).is_file():
+            return read_recording_map(name)
+    return {}
+
+
+_RECORDING_FLAGS = {"resample": "--resample", "decimal": "--decimal", "delimiter": "--delimiter"}
+
+
+def _reworded(exc):
+    """The error with its message in CLI words (argument marks rendered, keywords → flags)."""
+    render = getattr(exc, "render", None)
+    shown = render(_RECORDING_FLAGS) if callable(render) else str(exc)
+    text = cli_words(shown)
+    if text == str(exc):
+        return exc
+    try:
+        new = type(exc)(text)
+    except TypeError:  # an error class with required keywords: keep it as it is
+        return exc
+    for key, value in vars(exc).items():
+        if key not in ("template", "arguments"):  # the new text is final: no marks to render
+            setattr(new, key, value)
+    return new
+
+
+def check_recording_units(model, rec) -> None:
+    """Refuse channel units that contradict the model (see `LinearODEModel.check_units`).
+
+    Chain models: a prismatic joint's ``q``/``tau`` must be a length [m] / force [N], a
+    revolute joint's an angle [rad] / torque [N·m]. Channels without a unit are not checked.
+    """
+    check = getattr(model, "check_units", None)
+    if callable(check):
+        check(rec)
+        return
+    joint_types = getattr(model, "joint_types", None)
+    if not joint_types:
+        return
+    from ..errors import InputError
+    from ..units import parse_unit
+
+    for j, kind in enumerate(joint_types, start=1):
+        prismatic = str(kind).lower().startswith("p")
+        for stem, want in (("q", ("m", "rad")), ("tau", ("N", "N·m"))):
+            name = f"{stem}{j}"
+            if name not in rec.names or not rec.unit(name):
+                continue
+            expected = want[0] if prismatic else want[1]
+            if parse_unit(rec.unit(name)).dimension != parse_unit(expected).dimension:
+                joint = "prismatic" if prismatic else "revolute"
+                raise InputError(
+                    f"channel {name!r} is in {rec.unit(name)}, but joint {j} of the model is "
+                    f"{joint}, so {name} must be in {expected}; check the joint type in the "
+                    "model or the channel's unit (map it: --map "
+                    f"{name}=GAIN*SOURCE [{expected}])."
+                )

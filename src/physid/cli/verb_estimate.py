@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from ._common import add_resample_option, assignments, print_json, progress
+from ._common import add_recording_options, assignments, print_json, progress, read_recording
 
 ORDER = 40
 
@@ -125,7 +125,7 @@ def register(subparsers) -> None:
         metavar="NAME=VALUE,...",
         help="values of known coefficients overriding the model's",
     )
-    add_resample_option(parser)
+    add_recording_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.add_argument(
         "--save",
@@ -143,7 +143,6 @@ def _options(args, names) -> dict:
 
 def run(args) -> int:
     from ..models import load_model
-    from ..signals import load_recording
 
     other = _RLS_ONLY if args.method == "algebraic" else _ALGEBRAIC_ONLY
     stray = [k for k in other if getattr(args, k) is not None]
@@ -160,7 +159,7 @@ def run(args) -> int:
             "physid estimate needs 'msd' or a TOML file of kind 'linear_ode'. Use "
             "'physid identify' for chains."
         )
-    rec = load_recording(args.file, resample=args.resample)
+    rec = read_recording(args, args.file, model=model)
     common = {}
     if args.unknown is not None:
         common["unknown"] = tuple(n.strip() for n in args.unknown.split(",") if n.strip())

@@ -11,7 +11,7 @@ import math
 import re
 
 from ..errors import InputError, PhysidError
-from ._common import add_resample_option, progress
+from ._common import add_recording_options, progress, read_recording
 
 ORDER = 60
 
@@ -64,7 +64,7 @@ def register(subparsers) -> None:
         action="store_true",
         help="drop one more sample at the end, like the paper's loop i = M+1..NN-M-1",
     )
-    add_resample_option(parser)
+    add_recording_options(parser)
     parser.add_argument("--out", metavar="G", required=True, help="output file (.csv or .npz)")
     parser.set_defaults(func=run)
 
@@ -76,9 +76,9 @@ def run(args) -> int:
     from applying the filter (e.g. a record shorter than 2M + 1 samples) name the input file.
     """
     from ..filters import design_filter
-    from ..signals import Recording, load_recording, save_recording
+    from ..signals import Recording, save_recording
 
-    rec = load_recording(args.file, resample=bool(args.resample))
+    rec = read_recording(args, args.file)
     if args.channels:
         names = [n.strip() for n in args.channels.split(",") if n.strip()]
         if not names:

@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import warnings
 
-from ._common import add_resample_option, assignments, float_list, print_json, progress
+from ._common import (
+    add_recording_options,
+    assignments,
+    float_list,
+    print_json,
+    progress,
+    read_recording,
+)
 
 ORDER = 30
 
@@ -92,7 +99,7 @@ def register(subparsers) -> None:
         help="derivative filters built from the low-pass (default; no filter bias), or the "
         "paper's Filtr1/Filtr2 (to reproduce its numbers, m1*l1**2 biased by ~3 %%)",
     )
-    add_resample_option(p)
+    add_recording_options(p)
     p.add_argument(
         "--max-nfev", type=int, default=200, help="budget of residual evaluations (default: 200)"
     )
@@ -110,7 +117,7 @@ def run(args) -> int:
     if args.kinetic is not None:
         options["kinetic"] = args.kinetic
     model = physid.load_model(args.model, **options)
-    recording = physid.load_recording(args.recording, resample=args.resample)
+    recording = read_recording(args, args.recording, model=model)
     estimator = InputErrorEstimator(
         model,
         half_width=args.half_width,

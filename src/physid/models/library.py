@@ -22,7 +22,7 @@ __all__ = [
 ]
 
 #: Names `load_model` accepts besides file paths.
-BUILTIN_MODELS = ("manipulator", "msd", "arm6")
+BUILTIN_MODELS = ("manipulator", "msd", "msd-force", "arm6")
 
 
 def manipulator_spec():
@@ -88,7 +88,8 @@ def load_model(name_or_path, **options):
         Rigid-body models (URDF, sidecars, rigid-body chains): ``strict`` (bool: refuse
         physically doubtful inertias instead of warning).
         ``"msd"``: ``mass`` [kg], ``damping`` [N·s/m], ``stiffness`` [N/m], ``input``
-        ("normalised" | "force"). Unknown options raise `InputError`.
+        ("normalised" | "force"); ``"msd-force"`` is ``"msd"`` with ``input="force"`` (u = F [N],
+        m, c and k estimated). Unknown options raise `InputError`.
 
     Returns
     -------
@@ -112,6 +113,11 @@ def load_model(name_or_path, **options):
         if name_or_path == "manipulator":
             allowed = {"kinetic", "cache"}
             builder = manipulator_model
+        elif name_or_path == "msd-force":  # u = F [N]: m, c, k estimated (msd_model docs)
+            allowed = {"mass", "damping", "stiffness"}
+
+            def builder(**kw):
+                return msd_model(input="force", **kw)
         else:
             allowed = {"mass", "damping", "stiffness", "input"}
             builder = msd_model

@@ -5,11 +5,21 @@ The mass–spring–damper of Oueslati et al. (eq. 1) is the order-2 case
     ẍ + θ1 ẋ + θ2 x = b0 u,   θ1 = c/m = 2ζω0,   θ2 = k/m = ω0²,
 
 with u the force divided by the mass (b0 = 1, the paper's and physid's recording convention) or
-the force itself (b0 = 1/m). The conversions between (m, c, k), (θ1, θ2, b0) and (ω0, ζ) live here
-as module functions.
+the force itself (b0 = 1/m, the force-input form whose m, c and k are parameters). The
+conversions between (m, c, k), (θ1, θ2, b0) and (ω0, ζ) live here as module functions.
+
+Coefficients in physical terms
+------------------------------
+A coefficient may be an expression of physical parameters (``a = ["k/m", "c/m"]``,
+``b = ["1/m"]``). The estimators estimate the coefficients, which enter the equation linearly;
+`LinearODEModel.physical_from_coefficients` maps them back to the physical parameters where
+those are identifiable, and names the combinations that are when they are not (k/m and c/m
+without a force measurement).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,6 +29,7 @@ from .spec import LinearODESpec
 
 __all__ = [
     "LinearODEModel",
+    "PhysicalParameters",
     "as_linear_ode_model",
     "linear_ode_state_space",
     "normalised_coefficients",
@@ -67,6 +78,20 @@ class LinearODEModel:
         Names estimated by default (``identify = true``).
     input_name, output_name : str
         Recording channel names of u and y ("u", "x" for the MSD).
+    expressions : dict
+        Coefficient name → expression over physical parameters (``{"theta2": "k/m"}``); empty
+        when every coefficient is a parameter itself.
+    physical_names : tuple of str
+        The physical parameters the expressions use (``("m", "c", "k")``).
+    physical_unknown : tuple of str
+        The physical parameters to identify (``identify = true``).
+    input_unit, output_unit : str
+        SI units the model expects of u and y (``""``: not checked); see `check_units`.
+    output_offset : str or None
+        Name of the parameter o of a measured output y_m = y + o (a sensor bias), or None.
+        The equation in the measured output is Σ a_i y_m^(i) = Σ b_j u^(j) + a_0 o.
+    recording_map : dict
+        The model file's ``[recording]`` channel map (empty if none).
     """
 
     def __init__(
@@ -81,9 +106,23 @@ class LinearODEModel:
         input_name: str = "u",
         output_name: str = "x",
         description: str = "",
+        expressions: dict | None = None,
+        physical_unknown=None,
+        input_unit: str = "",
+        output_unit: str = "",
+        output_offset: str | None = None,
+        recording_map: dict | None = None,
     ):
         a_names = tuple(a_names)
         b_names = tuple(b_names)
+        expressions = {str(k): str(v) for k, v in (expressions or {}).items()}
+        parameters = dict(parameters)
+        bad = [k for k in expressions if k not in a_names + b_names]
+        if bad:
+            raise InputError(f"expressions given for {bad}, which are not coefficients.")
+        physical_names = _expression_parameters(expressions, parameters)
+        for coef, text in expressions.items():  # nominal coefficient values from the physics
+            parameters[coef] = _evaluate(text, parameters, coef)
         if not a_names:
             raise InputError("a_names must name at least a_0 (order n ≥ 1).")
         if not b_names:
@@ -118,25 +157,172 @@ class LinearODEModel:
         self.input_name = input_name
         self.output_name = output_name
         self.description = description
+        self.expressions = expressions
+        self.physical_names = physical_names
+        candidates = physical_names + (
+            (output_offset,) if output_offset and output_offset not in physical_names else ()
+        )
+        if physical_unknown is None:
+            physical_unknown = candidates
+        self.physical_unknown = tuple(p for p in candidates if p in set(physical_unknown))
+        if expressions and unknown is None:
+            # a coefficient is estimated when its expression involves a parameter to identify
+            self.unknown = tuple(
+                c
+                for c in self.coefficient_names
+                if c not in expressions
+                or set(_names_of(expressions[c])) & set(self.physical_unknown)
+            )
+        self.input_unit = str(input_unit or "")
+        self.output_unit = str(output_unit or "")
+        if output_offset is not None and output_offset not in self._nominal:
+            raise InputError(
+                f"output_offset {output_offset!r} is not a parameter of {name!r}; declare it "
+                f"(parameters: {list(self.parameter_names)})."
+            )
+        self.output_offset = output_offset
+        self.recording_map = dict(recording_map or {})
+        self._inverse = None
 
     @classmethod
     def from_spec(cls, spec: LinearODESpec) -> LinearODEModel:
-        """Build from a parsed TOML specification."""
+        """Build from a parsed TOML specification (coefficients may be expressions)."""
+        expressions = dict(getattr(spec, "expressions", ()) or ())
+        identify = tuple(p.name for p in spec.parameters if p.identify)
+        offset = getattr(spec, "output_offset", None)
         return cls(
             spec.name,
             spec.a,
             spec.b,
             {p.name: p.value for p in spec.parameters},
             units={p.name: p.unit for p in spec.parameters},
-            unknown=tuple(p.name for p in spec.parameters if p.identify),
+            unknown=None if expressions else tuple(n for n in identify if n != offset),
             input_name=spec.input_name,
             output_name=spec.output_name,
             description=spec.description,
+            expressions=expressions,
+            physical_unknown=identify,
+            input_unit=getattr(spec, "input_unit", ""),
+            output_unit=getattr(spec, "output_unit", ""),
+            output_offset=offset,
+            recording_map=dict(getattr(spec, "recording", ()) or ()),
         )
 
     @property
     def parameters(self) -> dict:
         return dict(self._nominal)
+
+    @property
+    def physical_parameters(self) -> dict:
+        """Nominal values of the physical parameters the coefficient expressions use."""
+        return {k: self._nominal[k] for k in self.physical_names}
+
+    @property
+    def offset_unknown(self) -> bool:
+        """True when the model has an output offset to estimate (``identify = true``)."""
+        return self.output_offset is not None and self.output_offset in self.physical_unknown
+
+    # ------------------------------------------------------------------ units
+    def check_units(self, recording) -> None:
+        """Refuse a recording whose input or output unit contradicts the model.
+
+        Parameters
+        ----------
+        recording : Recording
+            Its ``unit(name)`` of the model's input and output channels; channels without a
+            unit, and models without ``input_unit``/``output_unit``, are not checked.
+
+        Raises
+        ------
+        InputError
+            E.g. a force [N] in ``u`` for the built-in ``msd``, whose u is F/m [m/s²]: the
+            message names the force-input model and the channel map that fix it.
+
+        Examples
+        --------
+        >>> from physid.signals import Recording
+        >>> rec = Recording([0.0, 1.0], [[1.0, 0.0], [2.0, 0.1]], ["u", "x"], ["N", "m"])
+        >>> msd_model(input="force").check_units(rec)  # a force, as that model wants
+        """
+        from ..units import dimension_name, parse_unit
+
+        try:
+            in_name, out_name = self.recording_channels(recording.names)
+        except InputError:
+            return  # the estimator names the missing channels
+        for channel, want, role in (
+            (in_name, self.input_unit, "input"),
+            (out_name, self.output_unit, "output"),
+        ):
+            have = recording.unit(channel)
+            if not want or not have:
+                continue
+            try:
+                u_have, u_want = parse_unit(have), parse_unit(want)
+            except InputError:
+                continue
+            if u_have.dimension == u_want.dimension:
+                continue
+            fix = (
+                f"give the {role} in {want}"
+                if not self.is_msd
+                else (
+                    "to estimate the mass too, use the force-input model "
+                    "load_model('msd-force'), or divide by a "
+                    f"known mass: channels={{'u': 'u/MASS [{want}]'}}"
+                    if want != "N"
+                    else "the built-in load_model('msd') takes u = F/m [m/s^2]"
+                )
+            )
+            raise InputError(
+                f"channel {channel!r} is in {have} ({dimension_name(u_have.dimension)}), but "
+                f"model {self.name!r} takes its {role} {channel} in {want} "
+                f"({dimension_name(u_want.dimension)}"
+                f"{'; u = F/m, the normalised input of Oueslati et al.' if self.is_msd and want != 'N' else ''}"
+                f"); {fix}."
+            )
+
+    # ------------------------------------------------------------------ physical parameters
+    def physical_from_coefficients(self, coefficients, covariance=None) -> PhysicalParameters:
+        """Map estimated coefficients back to the physical parameters of the expressions.
+
+        Solves ``expression_i(p) = coefficient_i`` for the physical parameters to identify
+        (the others at their nominal values), exactly where the map is invertible; where it is
+        not (fewer independent coefficients than unknowns, e.g. ``a = ["k/m", "c/m"]`` with
+        ``b = ["1"]``: u = F/m carries no scale), only the combinations the coefficients are
+        are reported, with their values.
+
+        Parameters
+        ----------
+        coefficients : mapping of str to float
+            Estimated coefficients by name (missing ones take their nominal value).
+        covariance : array_like, shape (k, k), optional
+            Covariance of the estimated coefficients, ordered like ``names`` of
+            ``coefficients`` as given (its iteration order); the physical parameters' standard
+            errors follow by the delta method, σ_p = sqrt(diag(J⁺ Σ J⁺ᵀ)) with J = ∂c/∂p at
+            the solution.
+
+        Returns
+        -------
+        PhysicalParameters
+            ``values``, ``stderr`` (None without ``covariance``), ``identifiable``,
+            ``unidentifiable``, ``combinations`` (expression text → value) and ``message``.
+
+        Raises
+        ------
+        InputError
+            An unknown coefficient name, a non-finite value, or a covariance of the wrong shape.
+
+        Examples
+        --------
+        >>> model = msd_model(input="force")  # θ2 = k/m, θ1 = c/m, b0 = 1/m
+        >>> out = model.physical_from_coefficients({"theta2": 25.0, "theta1": 0.2, "b0": 0.5})
+        >>> {k: round(v, 12) for k, v in out.values.items()}
+        {'m': 2.0, 'c': 0.4, 'k': 50.0}
+        >>> msd_model().physical_from_coefficients({"theta2": 25.0}).values
+        {}
+        """
+        return _physical_from_coefficients(self, coefficients, covariance)
 
     @property
     def is_msd(self) -> bool:
@@ -229,7 +415,13 @@ class LinearODEModel:
         names = list(self.parameter_names)
         nominal = [self._nominal[k] for k in names]
         theta = parameter_vector(params, names, nominal, model=self.name)
-        return dict(zip(names, theta.tolist(), strict=True))
+        values = dict(zip(names, theta.tolist(), strict=True))
+        # physical values given: the coefficients follow from the expressions (unless given)
+        if isinstance(params, dict) and self.expressions and set(params) & set(self.physical_names):
+            for coef, text in self.expressions.items():
+                if coef not in params:
+                    values[coef] = _evaluate(text, values, coef)
+        return values
 
     def coefficients(self, params=None) -> tuple[np.ndarray, np.ndarray]:
         """(a, b): a of shape (n + 1,) with a[n] = 1 (ascending powers), b of shape (m + 1,)."""
@@ -432,14 +624,18 @@ def msd_model(
     mass, damping, stiffness : float
         m [kg], c [N·s/m], k [N/m]; defaults are the paper's 3 kg, 0.05 N·s/m, 400 N/m.
     input : {"normalised", "force"}
-        "normalised": u = F/m [m/s²] (b0 = 1, the recording convention); "force": u = F [N]
-        (b0 = 1/m).
+        "normalised": u = F/m [m/s²] (b0 = 1, the recording convention; θ1 and θ2 estimated).
+        "force": u = F [N], the model "msd-force" with physical parameters m, c, k and
+        coefficients θ2 = k/m, θ1 = c/m, b0 = 1/m, all three estimated so that m, c and k follow
+        from `LinearODEModel.physical_from_coefficients`; ``mass``, ``damping`` and
+        ``stiffness`` are then only nominal values.
 
     Returns
     -------
     LinearODEModel
-        ``a_names = ("theta2", "theta1")``, ``b_names = ("b0",)``,
-        ``unknown = ("theta1", "theta2")``.
+        ``a_names = ("theta2", "theta1")``, ``b_names = ("b0",)``; ``unknown =
+        ("theta1", "theta2")`` (normalised) or ``("theta2", "theta1", "b0")`` (force).
+        ``input_unit`` "m/s^2" or "N" and ``output_unit`` "m" (see `LinearODEModel.check_units`).
 
     Example
     -------
@@ -450,18 +646,44 @@ def msd_model(
     if input not in ("normalised", "force"):
         raise InputError(f"input must be 'normalised' (u = F/m) or 'force' (u = F); got {input!r}.")
     p = msd_from_physical(mass, damping, stiffness)
-    b0 = 1.0 if input == "normalised" else p["b0"]
+    description = (
+        f"mass-spring-damper m={mass} kg, c={damping} N·s/m, k={stiffness} N/m, input={input}"
+    )
+    if input == "force":
+        # m ẍ + c ẋ + k x = F: θ2 = k/m, θ1 = c/m, b0 = 1/m, all three estimated, so that m, c
+        # and k follow (physical_from_coefficients); the mass is a parameter, not a hidden 3 kg
+        return LinearODEModel(
+            "msd-force",
+            ("theta2", "theta1"),
+            ("b0",),
+            {"m": float(mass), "c": float(damping), "k": float(stiffness)},
+            units={
+                "theta1": "1/s",
+                "theta2": "1/s^2",
+                "b0": "1/kg",
+                "m": "kg",
+                "c": "N·s/m",
+                "k": "N/m",
+            },
+            input_name="u",
+            output_name="x",
+            description=description,
+            expressions={"theta2": "k/m", "theta1": "c/m", "b0": "1/m"},
+            input_unit="N",
+            output_unit="m",
+        )
     return LinearODEModel(
         "msd",
         ("theta2", "theta1"),
         ("b0",),
-        {"theta2": p["theta2"], "theta1": p["theta1"], "b0": b0},
-        units={"theta1": "1/s", "theta2": "1/s^2", "b0": "1" if input == "normalised" else "1/kg"},
+        {"theta2": p["theta2"], "theta1": p["theta1"], "b0": 1.0},
+        units={"theta1": "1/s", "theta2": "1/s^2", "b0": "1"},
         unknown=("theta1", "theta2"),
         input_name="u",
         output_name="x",
-        description=f"mass-spring-damper m={mass} kg, c={damping} N·s/m, k={stiffness} N/m, "
-        f"input={input}",
+        description=description,
+        input_unit="m/s^2",
+        output_unit="m",
     )
 
 
@@ -494,3 +716,233 @@ def as_linear_ode_model(model) -> LinearODEModel:
             "manipulator) are identified with physid.estimators.input_error."
         )
     return model
+
+
+# ---------------------------------------------------------------------------------------------
+# coefficients as expressions of physical parameters
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PhysicalParameters:
+    """Physical parameters recovered from estimated linear-ODE coefficients.
+
+    Attributes
+    ----------
+    values : dict
+        Identifiable physical parameter → value (SI).
+    stderr : dict or None
+        Their standard errors (delta method), None without a coefficient covariance.
+    identifiable : tuple of str
+    unidentifiable : tuple of str
+        Parameters the coefficients do not determine (a scale the data cannot see).
+    combinations : dict
+        Expression text → value: what the coefficients do determine (``{"k/m": 133.3}``).
+    message : str
+        One line: what was recovered, or which parameters are not identifiable and the fix.
+    """
+
+    values: dict = field(default_factory=dict)
+    stderr: dict | None = None
+    identifiable: tuple = ()
+    unidentifiable: tuple = ()
+    combinations: dict = field(default_factory=dict)
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict of the fields."""
+        return {
+            "values": dict(self.values),
+            "stderr": None if self.stderr is None else dict(self.stderr),
+            "identifiable": list(self.identifiable),
+            "unidentifiable": list(self.unidentifiable),
+            "combinations": dict(self.combinations),
+            "message": self.message,
+        }
+
+
+def _names_of(text: str) -> tuple[str, ...]:
+    from ..expressions import expression_names
+
+    names, _ = expression_names(text)
+    return tuple(n for n in names if n != "pi")
+
+
+def _expression_parameters(expressions: dict, parameters: dict) -> tuple[str, ...]:
+    used: list[str] = []
+    for coef, text in expressions.items():
+        for name in _names_of(text):
+            if name not in parameters:
+                raise InputError(
+                    f"the expression {text!r} of coefficient {coef!r} uses {name!r}, which is not "
+                    f"a parameter; declare it (parameters: {sorted(parameters)})."
+                )
+            if name not in used:
+                used.append(name)
+    return tuple(n for n in parameters if n in used)  # in the order they were declared
+
+
+def _evaluate(text: str, values: dict, coef: str) -> float:
+    from ..expressions import evaluate_expression
+
+    with np.errstate(all="ignore"):
+        value = float(evaluate_expression(text, {k: float(v) for k, v in values.items()}))
+    if not np.isfinite(value):
+        raise InputError(
+            f"coefficient {coef!r} = {text!r} is {value} at the parameter values "
+            f"{ {k: values[k] for k in _names_of(text)} }; give nominal values at which it is "
+            "finite (no division by zero)."
+        )
+    return value
+
+
+class _Inverse:
+    """Sympy forms of the coefficient expressions, their Jacobian and (when found) the inverse."""
+
+    def __init__(self, model: LinearODEModel, equations: tuple, unknown: tuple):
+        import sympy
+
+        from ..expressions import parse_expression
+
+        symbols = {n: sympy.Symbol(n, real=True) for n in model.physical_names}
+        self.equations, self.unknown = equations, unknown
+        exprs = [parse_expression(model.expressions[c], symbols) for c in equations]
+        unknown_syms = [symbols[n] for n in unknown]
+        known_syms = [symbols[n] for n in model.physical_names if n not in unknown]
+        args = unknown_syms + known_syms
+        self.known = tuple(str(s) for s in known_syms)
+        self.f = sympy.lambdify(args, exprs, modules="numpy")
+        jac = sympy.Matrix(exprs).jacobian(unknown_syms)
+        self.jac = sympy.lambdify(args, jac, modules="numpy")
+        self.solutions = None
+        if len(equations) == len(unknown) <= 6 and all(
+            e.is_rational_function(*unknown_syms) for e in exprs
+        ):
+            rhs = [sympy.Symbol(f"_c{i}") for i in range(len(exprs))]
+            try:
+                sols = sympy.solve(
+                    [e - r for e, r in zip(exprs, rhs, strict=True)], unknown_syms, dict=True
+                )
+            except (NotImplementedError, ValueError, TypeError):  # pragma: no cover - sympy
+                sols = []
+            self.solutions = [
+                sympy.lambdify(rhs + known_syms, [sol.get(s, s) for s in unknown_syms])
+                for sol in sols
+                if all(s in sol for s in unknown_syms)
+            ]
+
+
+def _physical_from_coefficients(model: LinearODEModel, coefficients, covariance):
+    if not isinstance(coefficients, dict):
+        try:
+            coefficients = dict(coefficients)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"coefficients must be a mapping name -> value; got {type(coefficients).__name__}."
+            ) from None
+    order = list(coefficients)
+    bad = [n for n in order if n not in model.coefficient_names]
+    if bad:
+        raise InputError(
+            f"coefficients has unknown name(s) {bad}; the model's coefficients are "
+            f"{list(model.coefficient_names)}."
+        )
+    given = {}
+    for n in order:
+        try:
+            given[n] = float(coefficients[n])
+        except (TypeError, ValueError):
+            raise InputError(
+                f"coefficients[{n!r}] must be a number; got {coefficients[n]!r}."
+            ) from None
+    unknown = tuple(p for p in model.physical_unknown if p != model.output_offset)
+    equations = tuple(
+        c
+        for c in model.expressions
+        if c in given and set(_names_of(model.expressions[c])) & set(unknown)
+    )
+    combos = {model.expressions[c]: given[c] for c in equations}
+    if not model.expressions or not unknown or not equations:
+        return PhysicalParameters(
+            combinations=combos,
+            message="the model's coefficients are its parameters (no physical expressions)"
+            if not model.expressions
+            else "no estimated coefficient involves a physical parameter to identify",
+        )
+    bad_values = {k: v for k, v in given.items() if not np.isfinite(v)}
+    if bad_values:
+        return PhysicalParameters(
+            combinations=combos,
+            unidentifiable=unknown,
+            message=f"the coefficients {bad_values} are not finite; no physical parameters.",
+        )
+    key = (equations, unknown)
+    if model._inverse is None or (model._inverse.equations, model._inverse.unknown) != key:
+        model._inverse = _Inverse(model, equations, unknown)
+    inv = model._inverse
+    nominal = np.array([model._nominal[p] for p in unknown])
+    known = [model._nominal[p] for p in inv.known]
+    jac0 = np.atleast_2d(np.asarray(inv.jac(*nominal, *known), dtype=float))
+    sv = np.linalg.svd(jac0, compute_uv=False)
+    rank = int(np.sum(sv > 1e-9 * max(sv.max(), 1e-300)))
+    if rank < len(unknown):
+        words = ", ".join(f"{t} = {v:.6g}" for t, v in combos.items())
+        return PhysicalParameters(
+            unidentifiable=unknown,
+            combinations=combos,
+            message=(
+                f"{', '.join(unknown)} are not identifiable from the coefficients: only "
+                f"{len(combos)} combination(s) are ({words}); the input carries no scale. "
+                'Measure the input in physical units (a force: b = ["1/m"]) or fix '
+                f"{len(unknown) - rank} of them (identify = false)."
+            ),
+        )
+    target = np.array([given[c] for c in equations])
+    solution = None
+    for sol in inv.solutions or ():
+        with np.errstate(all="ignore"):
+            cand = np.asarray(sol(*target, *known), dtype=complex).reshape(-1)
+        if np.all(np.isfinite(cand)) and np.all(
+            np.abs(cand.imag) <= 1e-12 * (1 + np.abs(cand.real))
+        ):
+            cand = cand.real
+            if solution is None or np.linalg.norm(
+                (cand - nominal) / (np.abs(nominal) + 1e-300)
+            ) < np.linalg.norm((solution - nominal) / (np.abs(nominal) + 1e-300)):
+                solution = cand
+    if solution is None:  # no closed form: least squares from the nominal values
+        from scipy.optimize import least_squares
+
+        def residual(p):
+            return (np.asarray(inv.f(*p, *known), dtype=float) - target) / (np.abs(target) + 1e-300)
+
+        fit = least_squares(residual, nominal, x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        solution = fit.x if fit.success and np.max(np.abs(fit.fun)) < 1e-8 else None
+    if solution is None:
+        return PhysicalParameters(
+            unidentifiable=unknown,
+            combinations=combos,
+            message="no physical parameters reproduce the estimated coefficients; check the "
+            "expressions and the estimates.",
+        )
+    values = dict(zip(unknown, solution.tolist(), strict=True))
+    stderr = None
+    if covariance is not None:
+        cov = np.asarray(covariance, dtype=float)
+        if cov.shape != (len(order), len(order)):
+            raise InputError(
+                f"covariance must be ({len(order)}, {len(order)}), ordered like the coefficients "
+                f"{order}; got shape {cov.shape}."
+            )
+        idx = [order.index(c) for c in equations]
+        jac = np.atleast_2d(np.asarray(inv.jac(*solution, *known), dtype=float))
+        pinv = np.linalg.pinv(jac)  # dp = J⁺ dc (J has full column rank here)
+        cov_p = pinv @ cov[np.ix_(idx, idx)] @ pinv.T
+        stderr = dict(zip(unknown, np.sqrt(np.clip(np.diag(cov_p), 0, None)).tolist(), strict=True))
+    return PhysicalParameters(
+        values=values,
+        stderr=stderr,
+        identifiable=unknown,
+        combinations=combos,
+        message=f"{', '.join(unknown)} recovered from {', '.join(equations)}",
+    )

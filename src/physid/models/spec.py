@@ -24,7 +24,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..errors import ModelFileError
+from ..errors import ModelFileError, PhysidError
 from ._locate import _line_of, _parameter_line, _parameter_where, _where  # noqa: F401
 
 __all__ = [
@@ -33,6 +33,7 @@ __all__ = [
     "ChainSpec",
     "LinearODESpec",
     "read_model_file",
+    "read_recording_map",
     "parse_model_text",
     "dh_transform",
     "RESERVED_NAMES",
@@ -246,6 +247,13 @@ class LinearODESpec:
     output_name: str = "x"
     description: str = ""
     source: str = "<built-in>"
+    #: coefficient name -> expression over parameters, for coefficients written as expressions
+    expressions: tuple = ()
+    output_offset: str | None = None
+    input_unit: str = ""
+    output_unit: str = ""
+    #: the [recording] table: channel -> file variable or expression (see docs/your-data.md)
+    recording: tuple = ()
 
 
 # ---------------------------------------------------------------------------------------------
@@ -471,6 +479,7 @@ def _parse_chain(data, text, source, name, params) -> ChainSpec:
         "kinetic_energy",
         "parameters",
         "joints",
+        "recording",  # the channel map, read by read_recording_map (docs/your-data.md)
     }
     extra = set(data) - allowed_top
     if extra:
@@ -596,7 +605,7 @@ def _parse_chain(data, text, source, name, params) -> ChainSpec:
 
 
 def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
-    allowed_top = {"name", "kind", "description", "parameters", "ode"}
+    allowed_top = {"name", "kind", "description", "parameters", "ode", "recording"}
     extra = set(data) - allowed_top
     if extra:
         raise ModelFileError(
@@ -611,23 +620,67 @@ def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
             f"b = [b_0, ..., b_m] (parameter names; a_n = 1)."
         )
     names = {p.name for p in params}
-    out = {}
+    allowed_ode = {"a", "b", "input", "output", "output_offset", "input_unit", "output_unit"}
+    extra = set(ode) - allowed_ode
+    if extra:
+        raise ModelFileError(
+            f"{_where(source, text, 'ode', sorted(extra)[0], table='ode')}: unknown key(s) "
+            f"{sorted(extra)} in [ode]; allowed: {sorted(allowed_ode)}."
+        )
+    out: dict = {}
+    expressions: dict = {}
     for key in ("a", "b"):
         where = _where(source, text, f"ode.{key}", key, table="ode")
         seq = ode.get(key)
-        if not isinstance(seq, list) or not seq or not all(isinstance(s, str) for s in seq):
-            example = '["theta2", "theta1"]' if key == "a" else '["b0"]'
-            raise ModelFileError(
-                f"{where}: {key} must be a non-empty list of parameter names, e.g. {example}; "
-                f"got {seq!r}."
+        if (
+            not isinstance(seq, list)
+            or not seq
+            or not all(
+                isinstance(s, str) or (isinstance(s, (int, float)) and not isinstance(s, bool))
+                for s in seq
             )
-        for s in seq:
-            if s not in names:
+        ):
+            example = '["theta2", "theta1"] or ["k/m", "c/m"]' if key == "a" else '["1/m"]'
+            raise ModelFileError(
+                f"{where}: {key} must be a non-empty list of parameter names or expressions of "
+                f"them, e.g. {example}; got {seq!r}."
+            )
+        coefs = []
+        for i, entry in enumerate(seq):
+            entry_text = repr(float(entry)) if not isinstance(entry, str) else entry.strip()
+            if entry_text in names:
+                coefs.append(entry_text)
+                continue
+            from ..expressions import expression_names
+
+            from ..expressions import FUNCTION_NAMES
+
+            try:
+                used, called = expression_names(entry_text, source=f"{where}[{i}]")
+            except PhysidError as exc:
+                raise ModelFileError(str(exc)) from None
+            bad_calls = [f for f in called if f not in FUNCTION_NAMES]
+            if bad_calls:
                 raise ModelFileError(
-                    f"{where}: unknown symbol {s!r} in ode.{key}; declare it under [parameters] "
-                    f"({s} = {{ value = ..., identify = true }}). Known: {sorted(names)}."
+                    f"{where}: unknown function(s) {bad_calls} in ode.{key} (entry {i}: "
+                    f"{entry_text!r}); allowed: {', '.join(FUNCTION_NAMES)}."
                 )
-        out[key] = tuple(seq)
+            unknown_names = [u for u in used if u not in names and u != "pi"]
+            if unknown_names:
+                shown = repr(unknown_names[0]) if len(unknown_names) == 1 else unknown_names
+                raise ModelFileError(
+                    f"{where}: unknown symbol "
+                    f"{shown} in "
+                    f"ode.{key} (entry {i}: {entry_text!r}); declare each under [parameters] "
+                    f"({unknown_names[0]} = {{ value = ..., identify = true }}). Known: "
+                    f"{sorted(names)}."
+                )
+            coef = f"{key}{i}"
+            while coef in names or coef in expressions:
+                coef += "_"
+            expressions[coef] = entry_text
+            coefs.append(coef)
+        out[key] = tuple(coefs)
     if len(out["b"]) > len(out["a"]):
         raise ModelFileError(
             f"{_where(source, text, 'ode.b', 'b', table='ode')}: the input order m = "
@@ -635,6 +688,32 @@ def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
             f"must be below the output order n = {len(out['a'])} (a strictly proper model); drop "
             f"entries from b or add entries to a."
         )
+    offset = ode.get("output_offset")
+    if offset is not None and (not isinstance(offset, str) or offset not in names):
+        raise ModelFileError(
+            f"{_where(source, text, 'ode.output_offset', 'output_offset', table='ode')}: "
+            f'output_offset must name a declared parameter (e.g. output_offset = "offset" '
+            f'with offset = {{ value = 0.0, unit = "m" }} under [parameters]); got {offset!r}.'
+        )
+    if offset is not None and offset in set(out["a"] + out["b"]):
+        raise ModelFileError(
+            f"{_where(source, text, 'ode.output_offset', 'output_offset', table='ode')}: "
+            f"output_offset {offset!r} is also a coefficient; declare a separate parameter."
+        )
+    units = {}
+    for key in ("input_unit", "output_unit"):
+        value = ode.get(key, "")
+        if not isinstance(value, str):
+            raise ModelFileError(f'{source}: ode.{key} must be a unit string such as "N".')
+        if value:
+            from ..units import parse_unit
+
+            try:
+                parse_unit(value)
+            except PhysidError as exc:
+                where = _where(source, text, f"ode.{key}", key, table="ode")
+                raise ModelFileError(f"{where}: {exc}") from None
+        units[key] = value
     return LinearODESpec(
         name=name,
         parameters=params,
@@ -644,7 +723,62 @@ def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
         output_name=str(ode.get("output", "x")),
         description=str(data.get("description", "")),
         source=source,
+        expressions=tuple(expressions.items()),
+        output_offset=offset,
+        input_unit=units["input_unit"],
+        output_unit=units["output_unit"],
+        recording=tuple(_parse_recording(data, text, source).items()),
     )
+
+
+def _parse_recording(data: dict, text: str, source: str) -> dict:
+    """The ``[recording]`` table: channel = "file variable or expression" (a channel map)."""
+    table = data.get("recording", {})
+    if not isinstance(table, dict):
+        raise ModelFileError(
+            f'{source}: [recording] must be a table of channel = "source", e.g. t = "time", '
+            'q1 = "qm", tau1 = "gtau*vir".'
+        )
+    out = {}
+    for key, value in table.items():
+        if not isinstance(value, str) or not value.strip():
+            where = _where(source, text, f"recording.{key}", key, table="recording")
+            raise ModelFileError(
+                f"{where}: recording.{key} must be a string naming a variable of the file or an "
+                f'expression over them, e.g. {key} = "gtau*vir"; got {value!r}.'
+            )
+        out[str(key)] = value.strip()
+    return out
+
+
+def read_recording_map(path) -> dict:
+    """The ``[recording]`` channel map of a model file (empty if it has none).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.toml`` model file (chain or linear ODE).
+
+    Returns
+    -------
+    dict
+        channel → source text, for `physid.load_recording(path, channels=...)`.
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be read, is not TOML, or the table is malformed.
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelFileError(f"cannot read model file {str(path)!r}: {exc}.") from None
+    tomllib = _tomllib()
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelFileError(f"{path}: not valid TOML: {exc}.") from None
+    return _parse_recording(data, text, str(path))
 
 
 # ---------------------------------------------------------------------------------------------

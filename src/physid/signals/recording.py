@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from .._validate import as_1d, as_2d, check_finite, check_time, sample_period
-from ..errors import InputError, SamplingError, ShapeError
+from ..errors import InputError, MissingDependencyError, SamplingError, ShapeError
 
 __all__ = ["Recording"]
 
@@ -19,6 +19,27 @@ __all__ = ["Recording"]
 def _frozen(arr: np.ndarray) -> np.ndarray:
     arr.setflags(write=False)
     return arr
+
+
+def _pandas(what: str):
+    try:
+        import pandas as pd
+    except ImportError:
+        raise MissingDependencyError(
+            f'{what} needs pandas, which is not installed; run pip install "physid[pandas]" '
+            "(or pip install pandas)."
+        ) from None
+    return pd
+
+
+def _numeric_column(values, what: str) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "biuf":
+        raise InputError(
+            f"column {what} holds {arr.dtype} values, not real numbers; convert it "
+            "(e.g. df[col].astype(float)) or drop it."
+        )
+    return arr.astype(float)
 
 
 @dataclass(frozen=True, eq=False)
@@ -404,6 +425,191 @@ class Recording:
         meta = dict(self.metadata)
         meta["resampled_from"] = {"n_samples": self.n_samples, "dt": float(dt)}
         return Recording(t_new, data, self.names, self.units, meta)
+
+    def detrend(self, names: Iterable[str] | None = None, kind: str = "constant") -> Recording:
+        """Return a recording with the mean (or the least-squares line) of channels removed.
+
+        The explicit alternative to estimating an offset (``output_offset`` in a linear-ODE
+        model file): ``kind="constant"`` removes a sensor bias together with the input's mean,
+        like MATLAB's ``detrend(data, 0)`` on input and output; ``"linear"`` also removes a
+        drift. Removing the mean of the input and the output of a linear ODE keeps the
+        equation true when the record starts and ends at rest; otherwise the remaining DC
+        mismatch biases the static gain (estimate the offset instead).
+
+        Parameters
+        ----------
+        names : iterable of str or None
+            Channels to detrend (default: all).
+        kind : {"constant", "linear"}
+
+        Returns
+        -------
+        Recording
+            With ``metadata["detrended"] = {name: removed mean [unit]}`` (the mean of the
+            removed line for ``"linear"``).
+
+        Raises
+        ------
+        InputError
+            An unknown channel or kind.
+
+        Examples
+        --------
+        >>> rec = Recording([0.0, 1.0, 2.0], [[1.0, 5.0], [2.0, 5.0], [3.0, 5.0]], ["x", "u"])
+        >>> rec.detrend(["x"])["x"].tolist()
+        [-1.0, 0.0, 1.0]
+        """
+        if kind not in ("constant", "linear"):
+            raise InputError(f"kind must be 'constant' or 'linear'; got {kind!r}.")
+        names = list(self.names) if names is None else list(names)
+        missing = [n for n in names if n not in self.names]
+        if missing or not names:
+            raise InputError(
+                f"detrend: the recording has no channel(s) {missing or names}; it has "
+                f"{list(self.names)}."
+            )
+        idx = [self.names.index(n) for n in names]
+        data = np.array(self.data, copy=True)
+        block = data[:, idx]
+        if kind == "constant":
+            trend = np.broadcast_to(block.mean(axis=0), block.shape)
+        else:  # least-squares line per channel: [1, t - t̄] @ coef, centred for conditioning
+            tc = self.t - self.t.mean()
+            basis = np.column_stack([np.ones_like(tc), tc])
+            coef, *_ = np.linalg.lstsq(basis, block, rcond=None)
+            trend = basis @ coef
+        data[:, idx] = block - trend
+        meta = dict(self.metadata)
+        meta["detrended"] = {
+            n: float(m) for n, m in zip(names, np.mean(trend, axis=0).tolist(), strict=True)
+        }
+        meta["detrend_kind"] = kind
+        return Recording(self.t, data, self.names, self.units, meta)
+
+    # ---------------------------------------------------------------- pandas
+    @classmethod
+    def from_dataframe(
+        cls,
+        df,
+        time: str | None = None,
+        *,
+        units: Mapping[str, str] | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ) -> Recording:
+        """Build a recording from a pandas DataFrame (pandas is optional).
+
+        Parameters
+        ----------
+        df : pandas.DataFrame
+            One column per channel; a unit may follow a column name in brackets
+            (``"pos [mm]"``) and is converted to SI like a file header.
+        time : str or None
+            The time column [s] (its unit, if written ``"time [ms]"``, is converted). None: the
+            index, which may be a numeric index [s] or a TimedeltaIndex / DatetimeIndex
+            (seconds from the first row).
+        units : mapping of str to str, optional
+            Units of columns (override bracketed units).
+        metadata : mapping, optional
+
+        Returns
+        -------
+        Recording
+            Channels in SI units (``metadata["original_units"]`` lists the converted ones).
+
+        Raises
+        ------
+        MissingDependencyError
+            pandas is not installed (``pip install "physid[pandas]"``).
+        InputError
+            ``time`` is not a column, a column is not numeric, a unit is unknown.
+
+        Examples
+        --------
+        >>> import pandas as pd  # doctest: +SKIP
+        >>> df = pd.DataFrame({"t": [0.0, 0.1], "pos [mm]": [1.0, 2.0]})  # doctest: +SKIP
+        >>> Recording.from_dataframe(df, time="t")["pos"].tolist()  # doctest: +SKIP
+        [0.001, 0.002]
+        """
+        pd = _pandas("Recording.from_dataframe")
+        from ..units import parse_unit
+
+        if not isinstance(df, pd.DataFrame):
+            raise InputError(f"df must be a pandas DataFrame; got {type(df).__name__}.")
+        columns = [str(c) for c in df.columns]
+        units = dict(units or {})
+
+        def split(label: str) -> tuple[str, str]:
+            from .io import _split_header_cell
+
+            name, unit = _split_header_cell(label)
+            return name, units.get(name, units.get(label, unit))
+
+        if time is None:
+            index = df.index
+            if isinstance(index, pd.DatetimeIndex | pd.TimedeltaIndex):
+                t = np.asarray((index - index[0]) / pd.Timedelta(seconds=1), dtype=float)
+            else:
+                t = _numeric_column(index.to_numpy(), "the index")
+            labels = columns
+        else:
+            if str(time) not in columns:
+                raise InputError(
+                    f"time={time!r} is not a column of the DataFrame; its columns are {columns}; "
+                    "pass time=None to use the index."
+                )
+            label = str(time)
+            _, t_unit = split(label)
+            t = _numeric_column(df[df.columns[columns.index(label)]].to_numpy(), repr(label))
+            u = parse_unit(t_unit)
+            if u.si and u.dimension != (0, 0, 1, 0, 0):
+                raise InputError(f"the time column {label!r} has unit {t_unit!r}, not a time.")
+            t = t * u.scale
+            labels = [c for c in columns if c != label]
+        names, cols, si_units, original = [], [], [], {}
+        for label in labels:
+            name, unit = split(label)
+            values = _numeric_column(df[df.columns[columns.index(label)]].to_numpy(), repr(label))
+            u = parse_unit(unit)
+            names.append(name)
+            cols.append(values * u.scale if u.scale != 1.0 else values)
+            si_units.append(u.si)
+            if u.si != unit:
+                original[name] = unit
+        meta = dict(metadata or {})
+        if original:
+            meta["original_units"] = original
+        data = np.column_stack(cols) if cols else np.empty((t.size, 0))
+        return cls(t, data, tuple(names), tuple(si_units), meta)
+
+    def to_dataframe(self, *, units_in_names: bool = False):
+        """The channels as a pandas DataFrame indexed by time ``t`` [s] (pandas is optional).
+
+        Parameters
+        ----------
+        units_in_names : bool
+            Name the columns ``"q1 [rad]"`` instead of ``"q1"`` (`from_dataframe` reads both).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Index ``t`` [s]; ``df.attrs`` holds ``units`` and ``metadata``.
+
+        Raises
+        ------
+        MissingDependencyError
+            pandas is not installed (``pip install "physid[pandas]"``).
+        """
+        pd = _pandas("Recording.to_dataframe")
+        cols = [
+            f"{n} [{u}]" if units_in_names and u else n
+            for n, u in zip(self.names, self.units, strict=True)
+        ]
+        df = pd.DataFrame(
+            np.array(self.data), columns=cols, index=pd.Index(self.t.copy(), name="t")
+        )
+        df.attrs["units"] = dict(zip(self.names, self.units, strict=True))
+        df.attrs["metadata"] = dict(self.metadata)
+        return df
 
     # ---------------------------------------------------------------- export
     def to_dict(self) -> dict[str, Any]:
