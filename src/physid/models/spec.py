@@ -651,9 +651,7 @@ def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
             if entry_text in names:
                 coefs.append(entry_text)
                 continue
-            from ..expressions import expression_names
-
-            from ..expressions import FUNCTION_NAMES
+            from ..expressions import FUNCTION_NAMES, expression_names
 
             try:
                 used, called = expression_names(entry_text, source=f"{where}[{i}]")

@@ -57,8 +57,8 @@ import numpy as np
 from .._paths import atomic_write
 from .._validate import UNIFORM_RTOL
 from ..errors import DataFileError, InputError, MissingDependencyError, PhysidError, arg
-from .recording import Recording
 from ..units import dimension_name, expected_dimensions, parse_unit
+from .recording import Recording
 
 __all__ = [
     "load_recording",
