@@ -313,7 +313,7 @@ def test_cli_refuses_a_force_for_the_normalised_msd(force_log, capsys):
     assert main(["estimate", str(force_log), "--model", "msd", "--map", "u=F,x=pos"]) == 2
     err = capsys.readouterr().err
     assert "channel 'u' is in N (a force), but model 'msd' takes its input u in m/s^2" in err
-    assert "--model msd-force" in err and "--map 'u=u/MASS [m/s^2]'" in err
+    assert "--model msd-force" in err and "--map 'u=F/MASS [m/s^2]'" in err
     assert "load_model" not in err  # CLI words only
     argv = ["estimate", str(force_log), "--model", "msd", "--map", "u=F/3 [m/s^2],x=pos"]
     assert main(argv) == 0

@@ -64,26 +64,27 @@ def load_model(name_or_path, **options):
     return _load_model(name_or_path, **options)
 
 
-def load_recording(path, **options):
-    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5.
+def load_recording(path, channels=None, **options):
+    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5, in SI units.
 
     Parameters
     ----------
     path : str or path
         The file.
+    channels : mapping of str to str, optional
+        The channel map (``{"t": "time", "q1": "qm", "tau1": "gtau*vir"}``).
     **options
-        Passed on to `physid.signals.load_recording` (see there).
+        Passed on to `physid.signals.load_recording` (``resample``, ``decimal``,
+        ``delimiter``, ``uniform_rtol``; see there).
 
     Returns
     -------
     Recording
         Time, named channels (SI units), metadata.
-
-    See `physid.signals.load_recording` for the options.
     """
     from .signals import load_recording as _load_recording
 
-    return _load_recording(path, **options)
+    return _load_recording(path, channels, **options)
 
 
 def __getattr__(name):

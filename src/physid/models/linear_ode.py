@@ -263,13 +263,15 @@ class LinearODEModel:
                 continue
             if u_have.dimension == u_want.dimension:
                 continue
+            source = dict(recording.metadata.get("channel_map") or {}).get(channel, channel)
+            source = source.split("[")[0].strip()
             fix = (
                 f"give the {role} in {want}"
                 if not self.is_msd
                 else (
                     "to estimate the mass too, use the force-input model "
-                    "load_model('msd-force'), or divide by a "
-                    f"known mass: channels={{'u': 'u/MASS [{want}]'}}"
+                    "load_model('msd-force'), or divide the force by a "
+                    f"known mass in the map: channels={{{channel!r}: '{source}/MASS [{want}]'}}"
                     if want != "N"
                     else "the built-in load_model('msd') takes u = F/m [m/s^2]"
                 )
