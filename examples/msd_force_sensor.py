@@ -69,11 +69,12 @@ def main() -> None:
     phys = model.physical_from_coefficients(coefs, covariance=cov)
     truth = {"m": MASS, "c": DAMPING, "k": STIFFNESS}
     units = {"m": "kg", "c": "N·s/m", "k": "N/m"}
+    digits = {"m": 4, "c": 3, "k": 1}
     for name in ("m", "c", "k"):
         se = f" ± {phys.stderr[name]:.2g}" if phys.stderr else ""
         err = 100 * abs(phys.values[name] / truth[name] - 1)
         print(
-            f"{name} = {phys.values[name]:.4g}{se} {units[name]} "
+            f"{name} = {phys.values[name]:.{digits[name]}f}{se} {units[name]} "
             f"(true {truth[name]:g}, error {err:.2f} %)"
         )
     worst = max(abs(phys.values[n] / truth[n] - 1) for n in ("m", "k"))
