@@ -35,7 +35,7 @@ u = "gain*volt"
 
 
 def _model(text=_FORCE_FILE):
-    from physid.models.spec import model_from_spec
+    from physid.models.library import model_from_spec
 
     return model_from_spec(parse_model_text(text, source="axis.toml"))
 

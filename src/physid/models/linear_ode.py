@@ -696,8 +696,8 @@ def as_linear_ode_model(model) -> LinearODEModel:
     `physid.estimators.input_error`).
     """
     if isinstance(model, str):  # "msd" or a model file, read here (library imports this module)
-        if model == "msd":
-            model = msd_model()
+        if model in ("msd", "msd-force"):
+            model = msd_model(input="force" if model == "msd-force" else "normalised")
         else:
             from pathlib import Path
 

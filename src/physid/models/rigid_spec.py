@@ -39,6 +39,7 @@ _JOINT_KEYS = (
     | set(DRIVE_KEYS)
 )
 _TOP = {
+    "recording",  # the channel map, read by spec.read_recording_map (docs/your-data.md)
     "name",
     "kind",
     "description",
