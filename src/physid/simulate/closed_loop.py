@@ -385,10 +385,18 @@ def simulate_closed_loop(
             "seed": int(rng) if isinstance(rng, (int, np.integer)) else None,
         }
     meta.update(dict(metadata or {}))
+    # units per joint: a prismatic joint moves in m and is driven by a force in N
+    units = {}
+    for j, kind in enumerate(getattr(model, "joint_types", None) or (), start=1):
+        lin = str(kind) == "prismatic"
+        units.update(
+            {f"q{j}": "m" if lin else "rad", f"qd{j}": "m/s" if lin else "rad/s",
+             f"tau{j}": "N" if lin else "N*m", f"r{j}": "m" if lin else "rad"}
+        )  # fmt: skip
     return ClosedLoopRecording.from_columns(
         t,
         {"q": q_meas, "qd": qd, "tau": tau, "r": r},
-        units={"q": "rad", "qd": "rad/s", "tau": "N*m", "r": "rad"},
+        units=units or {"q": "rad", "qd": "rad/s", "tau": "N*m", "r": "rad"},
         metadata=meta,
     )
 
