@@ -11,7 +11,7 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 
 from __future__ import annotations
 
-from ._common import add_resample_option, print_json, progress
+from ._common import add_recording_options, print_json, progress, read_recording
 
 ORDER = 45
 
@@ -37,7 +37,7 @@ def register(subparsers) -> None:
         metavar="MODEL",
         help="the model, where the result file does not name it ('msd', a model file, ...)",
     )
-    add_resample_option(parser)
+    add_recording_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.add_argument(
         "--plot", default=None, metavar="DIR", help="write PNG figures and DIR/index.html"
@@ -47,10 +47,10 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ..analysis.validation import load_result, validate
-    from ..signals import load_recording
 
     loaded = load_result(args.result, model=args.model)
-    rec = load_recording(args.file, resample=args.resample)
+    # the held-out file is read like the fit's (--map, units, --detrend; checked against the model)
+    rec = read_recording(args, args.file, model=getattr(loaded, "model", None))
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
     report = validate(loaded, rec)
     if args.plot:
