@@ -25,7 +25,14 @@ _HATCHES = ("", "//", "..", "xx")
 
 @styled
 def plot_excitation(
-    t, q, limits: Mapping, random: Sequence[float], designed_cond=None, *, title: str | None = None
+    t,
+    q,
+    limits: Mapping,
+    random: Sequence[float],
+    designed_cond=None,
+    *,
+    used: int | None = None,
+    title: str | None = None,
 ) -> Figure:
     """Joint trajectories with their position limits, and condition numbers.
 
@@ -39,6 +46,9 @@ def plot_excitation(
         Condition numbers of random trajectories.
     designed_cond : float, optional
         Condition number of the designed trajectory.
+    used : int, optional
+        Index (from 0) of the random trajectory drawn above, when no designed one is given; its
+        bar is highlighted.
     title : str, optional
 
     Returns
@@ -66,6 +76,9 @@ def plot_excitation(
     values = list(random)
     labels = [f"random {i + 1}" for i in range(len(values))]
     colours = [COLORS[5]] * len(values)
+    if used is not None and designed_cond is None:
+        colours[used] = COLORS[1]
+        labels[used] += " (drawn above)"
     if designed_cond is not None:
         values = [designed_cond, *values]
         labels = ["designed", *labels]
@@ -78,7 +91,8 @@ def plot_excitation(
         lw=1.0,
         label="median of the random trajectories",
     )
-    ax.set_yscale("log")
+    if max(values) > 20 * min(values):
+        ax.set_yscale("log")
     ax.set_xticks(range(len(values)), labels, rotation=90, fontsize=7)
     ax.set_xlabel("trajectory [–]")
     ax.set_ylabel("condition number [–]")

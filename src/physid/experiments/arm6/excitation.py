@@ -10,20 +10,14 @@ import numpy as np
 from ..data import FigureData, SectionData, Table
 from ._common import DT, KEYS, TITLES, fourier_reference, say
 
+#: Wall-time budget of the excitation design [s], by quick mode.
+DESIGN_SECONDS = {True: 8.0, False: 30.0}
+
 
 def _base_cond(model, idim, info, q, qd, qdd, every: int = 10) -> float:
     """Condition number of the base regressor at every ``every``-th sample (columns scaled)."""
     y = np.asarray(model.regressor(q[::every], qd[::every], qdd[::every]), dtype=float)
     return float(idim.condition_number(y[..., info.columns]))
-
-
-def _first(obj, *names, default=None):
-    for n in names:
-        if isinstance(obj, dict) and n in obj:
-            return obj[n]
-        if hasattr(obj, n):
-            return getattr(obj, n)
-    return default
 
 
 def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, Any]]:
@@ -53,35 +47,37 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
 
     idim = importlib.import_module("physid.estimators.idim")
     model = setup.model
-    say(progress, f"condition numbers of {n_random} random trajectories")
     info = idim.base_regressor_info(model)  # the base set: computed once
-    random = []
-    for seed in range(1, n_random + 1):
-        q, qd, qdd = fourier_reference(model, period, harmonics, seed, t)
-        random.append(_base_cond(model, idim, info, q, qd, qdd))
     designed = None
+    random: list[float] = []
     if setup.excitation is not None:
         say(progress, "designing the excitation (condition number of the base regressor)")
         try:
-            res = setup.excitation(model, harmonics=harmonics, period=period, dt=DT)
-            rec = _first(res, "recording", "reference", "trajectory")
-            if rec is not None and hasattr(rec, "select"):
-                qn = rec.channels("r") or rec.channels("q")
-                q = rec.select(qn)
-                qd = np.gradient(q, DT, axis=0)
-                qdd = np.gradient(qd, DT, axis=0)
-                t = rec.t
-            else:
-                q = np.asarray(_first(res, "q"))
-                qd = np.asarray(_first(res, "qd"))
-                qdd = np.asarray(_first(res, "qdd"))
+            res = setup.excitation(
+                model,
+                harmonics=harmonics,
+                period=period,
+                n_random=n_random,
+                max_seconds=DESIGN_SECONDS[quick],
+                seed=0,
+            )
+            q, qd, qdd = res.trajectory(t)
             designed = {"q": q, "qd": qd, "qdd": qdd, "t": t}
-            results["designed_condition_number"] = _base_cond(model, idim, info, q, qd, qdd)
-            reported = _first(res, "condition_number")
-            if reported is not None:
-                results["designer_condition_number"] = float(reported)
+            random = [float(c) for c in res.random_condition_numbers]
+            results["designed_condition_number"] = float(res.condition_number)
+            results["design_seconds"] = float(res.seconds)
+            results["design_evaluations"] = int(res.nfev)
+            results["criterion"] = str(res.criterion)
+            results["condition_number_at_record_samples"] = _base_cond(
+                model, idim, info, q, qd, qdd
+            )
         except Exception as exc:  # say what failed, show no number
             results["design_error"] = f"{type(exc).__name__}: {exc}"
+    if not random:
+        say(progress, f"condition numbers of {n_random} random trajectories")
+        for seed in range(1, n_random + 1):
+            q, qd, qdd = fourier_reference(model, period, harmonics, seed, t)
+            random.append(_base_cond(model, idim, info, q, qd, qdd))
     results["available"] = True
     results["random_condition_numbers"] = random
     results["random_median"] = float(np.median(random))
@@ -90,8 +86,8 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
         trajectory = designed
     else:  # the best random trajectory stands in, and the report says so
         best = int(np.argmin(random)) + 1
-        q, qd, qdd = fourier_reference(model, period, harmonics, best, np.arange(0.0, period, DT))
-        trajectory = {"q": q, "qd": qd, "qdd": qdd, "t": np.arange(0.0, period, DT)}
+        q, qd, qdd = fourier_reference(model, period, harmonics, best, t)
+        trajectory = {"q": q, "qd": qd, "qdd": qdd, "t": t}
         results["stand_in_seed"] = best
         results["stand_in_condition_number"] = float(min(random))
     trajectory["designed"] = designed is not None

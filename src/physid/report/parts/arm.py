@@ -51,7 +51,9 @@ def overview(sd, r) -> ReportSection:
             f"Measured: over {r['n_seeds']} noisy records the {r['n_base']} base parameters "
             f"of the {r['n_joints']}-joint arm come out with a mean relative bias of "
             f"{100 * r['iv_bias']:.2g} % by IDIM-IV against {100 * r['ols_bias']:.2g} % by "
-            "IDIM-OLS (well-excited parameters)"
+            "IDIM-OLS (well-excited parameters"
+            + ("; this few seeds do not separate bias from scatter" if r["n_seeds"] < 5 else "")
+            + ")"
             + (
                 f"; the held-out torque is predicted within {100 * r['held_out_error_iv']:.2g} %."
                 if "held_out_error_iv" in r
@@ -96,10 +98,11 @@ def excitation(sd, r) -> ReportSection:
                 d["limits"],
                 d["random"],
                 d["designed_cond"],
+                used=None if d["designed"] else r["stand_in_seed"] - 1,
                 title="The excitation trajectory of each joint, and its condition number",
             ),
-            "Each joint sweeps much of its range without touching its limits; the bars compare "
-            "the trajectory's condition number with random ones.",
+            "The trajectory used stays between the position limits (dashed); the bars compare "
+            "its condition number with those of random trajectories.",
             alt="Six small panels of joint angle against time over one period, each a smooth "
             "periodic curve between dashed position limits, and below them a bar chart of "
             "condition numbers on a log scale for the trajectory used and for random "
@@ -212,9 +215,18 @@ def validation(sd, r) -> ReportSection:
         f"‖τ̂ − τ‖/‖τ‖ over all joints is {100 * m['idim-ols']['relative_error']['overall']:.2g} % "
         f"for IDIM-OLS and {100 * m['idim-iv']['relative_error']['overall']:.2g} % for IDIM-IV, "
         "computed on the filtered, decimated signals the fit used (the robotics convention).",
+        f"The worst joint is {r['worst_joint']} ({100 * r['worst_joint_error']:.2g} % error). "
         f"Residual whiteness: the table gives, per joint, the share of the first {r['lags']} "
-        "autocorrelation lags of the IV residual outside the 99 % band; a white residual has "
-        "almost none outside.",
+        f"autocorrelation lags of the IV residual outside the {r['band_percent']} % band; a white "
+        f"residual has almost none outside. Here {r['n_not_white']} of the {r['n_joints']} "
+        f"joints have more than {100 * r['white_threshold']:g} % of their lags outside"
+        + (
+            ": the residual is not white, so part of the torque is left unexplained (unmodelled "
+            "dynamics, or filtering that leaves correlated errors), and the standard errors "
+            "should be read with care."
+            if r["n_not_white"]
+            else ": the residual is white."
+        ),
         Html(
             "The same check on your own recordings is <code>physid validate FIT.json "
             "held-out.csv --model MODEL</code>."
