@@ -38,7 +38,6 @@ def compute(setup, first, period: float, harmonics: int, progress=None) -> Secti
     SectionData
     """
     results: dict[str, Any] = {
-        "band_percent": 99,
         "missing": list(setup.missing),
         "missing_reasons": list(setup.reasons),
         "lags": LAGS,
