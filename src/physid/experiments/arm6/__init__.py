@@ -19,6 +19,7 @@ shorter excitation period and fewer seeds.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from typing import Any
@@ -70,6 +71,21 @@ def _overview(setup, sections: dict[str, SectionData], seconds: float) -> Sectio
     return SectionData(KEYS["overview"], TITLES["overview"], results=results)
 
 
+def _single_threaded():
+    """BLAS on one thread while the part runs (threadpoolctl, when installed).
+
+    The regressions of this part are tall and thin: a second BLAS thread gains little, and on a
+    shared machine oversubscribed BLAS threads make them many times slower (measured here: one
+    IDIM-OLS fit 7.8 s with the default threads under load, 0.54 s with one). Parts I and II are
+    left alone: their published numbers depend on the summation order BLAS uses.
+    """
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> list[SectionData]:
     """Identify the 6-DOF arm end to end and return the report sections as data.
 
@@ -88,13 +104,14 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
     """
     start = time.perf_counter()
     say(progress, f"loading {MODEL} and the estimators")
-    setup = available()
-    ex, trajectory = excitation.compute(setup, quick, progress)
-    ident, first = identification.compute(setup, trajectory, quick, progress)
-    cons = consistency.compute(setup, first, progress)
-    val = validation.compute(
-        setup, first, ex.results["period_s"], ex.results["harmonics"], progress
-    )
+    with _single_threaded():
+        setup = available()
+        ex, trajectory = excitation.compute(setup, quick, progress)
+        ident, first = identification.compute(setup, trajectory, quick, progress)
+        cons = consistency.compute(setup, first, quick, progress)
+        val = validation.compute(
+            setup, first, ex.results["period_s"], ex.results["harmonics"], progress
+        )
     sections = {"excitation": ex, "identification": ident, "consistency": cons, "validation": val}
     overview = _overview(setup, sections, time.perf_counter() - start)
     return [overview, ex, ident, cons, val]

@@ -186,7 +186,13 @@ def _bias_caption(r) -> str:
 def consistency(sd, r) -> ReportSection:
     if not r.get("available"):
         paragraphs = _missing(r)
-        if r.get("error"):
+        if r.get("skipped_in_quick_run"):
+            paragraphs = [
+                "The physically consistent estimate (every link's pseudo-inertia positive "
+                "definite, friction non-negative) runs in the full demo (physid demo), not in "
+                "this quick one: the constrained fit takes minutes on a loaded machine."
+            ]
+        elif r.get("error"):
             paragraphs = [f"The consistent estimate failed: {r['error']}."]
         return _section(sd, paragraphs)
     at = r["at_boundary"]
