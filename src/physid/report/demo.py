@@ -453,8 +453,8 @@ def _headline_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "torque of a held-out trajectory is predicted within "
                 f"{100 * r['held_out_error_iv']:.2g} % (IDIM-IV). "
                 + (
-                    f"Mean bias over {r['n_seeds']} seeds: {100 * r['iv_bias']:.2g} % by "
-                    f"instrumental variables, {100 * r['ols_bias']:.2g} % by least squares."
+                    f"Bias the noise adds, over {r['n_seeds']} seeds: {100 * r['iv_bias']:.2g} % "
+                    f"by instrumental variables, {100 * r['ols_bias']:.2g} % by least squares."
                     if r["n_seeds"] >= 5
                     else f"This quick run has {r['n_seeds']} seeds, too few to separate bias "
                     "from scatter: see the full run for the OLS/IV bias."

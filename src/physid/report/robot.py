@@ -150,7 +150,7 @@ def plot_bias_bars(
         if well and label.get_text() not in well:
             label.set_color("grey")
     ax.set_xlabel("base parameter (grey: not well excited) [–]" if well else "base parameter [–]")
-    ax.set_ylabel("|relative bias| [%]")
+    ax.set_ylabel("|bias| / |truth| [%]")
     ax.set_title(title or "Bias of each base parameter over the seeds")
     legend_outside(ax)
     return fig

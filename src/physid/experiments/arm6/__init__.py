@@ -45,8 +45,9 @@ def _overview(setup, sections: dict[str, SectionData], seconds: float) -> Sectio
         results["n_joints"] = setup.model.n_joints
     if ident.get("available"):
         results["n_base"] = ident["n_base"]
-        results["ols_bias"] = ident["mean_abs_relative_bias"]["idim-ols"]
-        results["iv_bias"] = ident["mean_abs_relative_bias"]["idim-iv"]
+        results["ols_bias"] = ident["mean_abs_noise_bias"]["idim-ols"]
+        results["iv_bias"] = ident["mean_abs_noise_bias"]["idim-iv"]
+        results["noise_free_error"] = ident["mean_abs_noise_free_error"]
         results["n_seeds"] = len(ident["seeds"])
     if ex.get("available"):
         results["random_median"] = ex["random_median"]
