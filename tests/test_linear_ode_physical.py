@@ -162,3 +162,15 @@ def test_plain_models_are_unchanged():
     assert model.physical_from_coefficients({"theta1": 1.0}).values == {}
     three = LinearODEModel("third", ("a0", "a1", "a2"), ("b0",), dict(a0=6, a1=11, a2=6, b0=2))
     assert three.unknown == ("a0", "a1", "a2", "b0")
+
+
+def test_estimators_refuse_a_force_for_the_normalised_msd():
+    from physid.estimators.algebraic import AlgebraicEstimator
+    from physid.estimators.recursive import RecursiveLeastSquares
+    from physid.simulate import msd_paper_scenario
+
+    rec = msd_paper_scenario(ratio=1.0)
+    force = Recording(rec.t, np.column_stack([3.0 * rec["u"], rec["x"]]), ("u", "x"), ("N", "m"))
+    for est in (AlgebraicEstimator(msd_model()), RecursiveLeastSquares(msd_model())):
+        with pytest.raises(InputError, match=r"'u' is in N \(a force\), but model 'msd'"):
+            est.fit(force)

@@ -1508,6 +1508,7 @@ class AlgebraicEstimator(EstimatorMixin):
             )
         model = as_linear_ode_model(self.model)
         in_name, out = model.recording_channels(names)
+        model.check_units(recording)  # a force [N] for the normalised msd is an error
         check_distinct_channels(in_name, out)
         dt = recording.dt
         self.result_ = algebraic_estimates(

@@ -1281,6 +1281,7 @@ class RecursiveLeastSquares(EstimatorMixin):
         if names is None:
             raise InputError(f"fit expects a Recording; got {type(recording).__name__}.")
         in_name, out_name = spec.recording_channels(names)
+        spec.check_units(recording)  # a force [N] for the normalised msd is an error
         check_distinct_channels(in_name, out_name)
         check_known_finite(self.known)
         check_distinct_signals(recording[in_name], recording[out_name])
