@@ -589,7 +589,11 @@ class InputErrorEstimator(EstimatorMixin):
                 )
 
     def filtered_signals(self, recording):
-        """Filter a recording: ``(t_valid, q^f, q̇^f, q̈^f, τ^f)``, each (n_valid, n_joints).
+        """Filter a recording: ``(t_valid, q^f, q̇^f, q̈^f, τ^f, dt, q)``.
+
+        ``t_valid`` (n_valid,) [s]; ``q^f, q̇^f, q̈^f, τ^f`` (n_valid, n_joints) in rad, rad/s,
+        rad/s², N·m; ``dt`` the sample period [s]; ``q`` the raw angles (n_samples, n_joints)
+        [rad].
 
         Raises `DataFileError` for missing channels, `ShapeError` when the recording's number of
         joints differs from the model's, `SamplingError` when it is shorter than the filter.
