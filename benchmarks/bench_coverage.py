@@ -25,7 +25,8 @@ SNRS = (30, 60)
 ESTIMATORS = {
     "algebraic (bias-compensated)": ("algebraic", {"final": "bias-compensated"}),
     "algebraic (lstsq, default)": ("algebraic", {}),
-    "rls": ("rls", {"covariance": "diagonal"}),
+    "rls (bias-compensated)": ("rls", {"covariance": "diagonal", "bias_compensation": True}),
+    "rls (default)": ("rls", {"covariance": "diagonal"}),
 }
 Z95 = 1.959963984540054
 
@@ -54,6 +55,8 @@ def run(quick: bool = False) -> list[dict]:
     trials = 25 if quick else 400
     tol = 10.0 if quick else 3.0
     estimators = {k: v for k, v in ESTIMATORS.items() if not quick or "default" not in k}
+    # the defaults are listed for comparison: the algebraic lstsq is biased at 30 dB (its
+    # intervals under-cover); RLS withholds its intervals where the estimated bias is large
     scenarios = dict(list(SCENARIOS.items())[:1]) if quick else SCENARIOS
     rows = []
     for label, (method, options) in estimators.items():
@@ -66,13 +69,14 @@ def run(quick: bool = False) -> list[dict]:
                     rows.append(
                         {
                             "benchmark": "coverage",
-                            "case": f"{label}, {sname}, {snr} dB, {name} ({trials} trials)",
+                            "case": f"{label}, {sname}, {snr} dB, {name} "
+                            f"({trials} trials, stderr given in {share:.0%})",
                             "value": value,
                             "unit": "% of 95 % intervals",
                             "baseline": "sd(err)/mean(se)",
                             "baseline_value": float(ratio[k]),
                             "goal": f"95 ± {tol:g} %",
-                            "met": bool(abs(value - 95.0) <= tol),
+                            "met": bool(abs(value - 95.0) <= tol) if share > 0 else None,
                         }
                     )
                 print(

@@ -103,9 +103,12 @@ def simulate_prediction(
     t = np.asarray(t, dtype=float)
     n = model.order
     x0 = np.zeros(n)
+    offset = getattr(model, "output_offset", None)
+    o = float(values.get(offset, 0.0)) if offset else 0.0  # measured y_m = y + o
     try:
         with np.errstate(all="ignore"):
             y_hat = np.asarray(simulate_linear_ode(model, t, input=u, params=params)["x"], float)
+            y_hat = y_hat + o
             if y is not None and np.all(np.isfinite(y_hat)):
                 free = np.column_stack(
                     [

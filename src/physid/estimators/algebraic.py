@@ -372,6 +372,12 @@ def _make_plan(
         else ("b", list(model.b_names).index(u))
         for u in unknown
     )
+    offset = offset_name(model)
+    if offset is not None:
+        # an output offset o (y_m = y + o) is one more unknown, δ' = a_0 T^n o: see
+        # `_offset_column` for why it enters linearly
+        columns = columns + (("o", 0),)
+        unknown = tuple(unknown) + (offset,)
     p = len(columns)
     mu = n + 1 if mu is None else int(mu)
     if mu < n + 1:
@@ -487,7 +493,7 @@ def _window_systems(plan: _Plan, u: np.ndarray, y: np.ndarray, first: int, ends:
     T = plan.window
     # weight of each kernel row: unknown coefficient -> column of A (sign: y left, u right);
     # known coefficient -> right-hand side, times α_i = a_i T^(n−i) (α_n = 1) or β_i = b_i T^(n−i)
-    col = {("a" if kind == "a" else "b", i): c for c, (kind, i) in enumerate(plan.columns)}
+    col = {(kind, i): c for c, (kind, i) in enumerate(plan.columns)}
     A = np.zeros((n_eq, plan.p, n_w))
     rhs = np.zeros((n_eq, n_w))
     exists = np.zeros(n_w, dtype=bool)
@@ -531,9 +537,69 @@ def _window_systems(plan: _Plan, u: np.ndarray, y: np.ndarray, first: int, ends:
                 for i in idx:
                     scatter(kind, i, taps[:, i, :] @ sig[seg], k, (length / L) ** (n - i))
             exists[k] = True
+    if ("o", 0) in col:
+        K = _offset_column(plan)  # (n_eq,) at the full window length
+        c = col[("o", 0)]
+        scale = np.ones(n_w)
+        if plan.expanding:
+            short = (~full) & exists
+            scale[short] = (g[short] / L) ** n  # δ' of a window of length ℓ: (ℓ / L)^n δ'
+        A[:, c, :] = np.where(exists[None, :], K[:, None] * scale[None, :], 0.0)
     A[:, :, ~exists] = np.nan
     rhs[:, ~exists] = np.nan
     return A, rhs
+
+
+def _offset_column(plan: _Plan) -> np.ndarray:
+    """Coefficient of δ' = a_0 T^n o in each equation: how the annihilator handles a constant.
+
+    A measured output ``y_m = y + o`` satisfies ``Σ a_i y_m^(i) = Σ b_j u^(j) + a_0 o``. In the
+    window's dimensionless time the constant ``δ' = α_0 o = a_0 T^n o`` has the Laplace transform
+    ``δ'/s``. The estimator's operations on it, ``s^(−ν) d^N/ds^N (δ'/s)``, give
+    ``δ' (−1)^N N! s^(−(ν+N+1))``, whose inverse transform at the window end (τ = 1) is
+    ``δ' (−1)^N N! / (ν + N)!``. (Multiplying by s first, ``s · δ'/s = δ'``, and one more d/ds
+    would annihilate the constant instead; keeping it gives δ' as one more *linear* unknown, so the
+    offset is estimated, not just removed.) With the equation written as
+    ``Σ α_i Iy_i − Σ β_i Iu_i − δ' K_ν = 0`` and the row scale of the kernels,
+    ``K_ν = scale_ν (−1)^N N! / (ν + N)!``, entered with the sign of an output term (−).
+    tests/test_algebraic.py::test_output_offset_is_estimated checks it on a record with a 1 cm
+    offset: θ and o to 1e-6.
+    """
+    _, scale = _kernel_coefficients(plan.order, plan.nus, plan.n_derivatives)
+    N = plan.n_derivatives
+    return np.array(
+        [
+            -scale[r] * (-1.0) ** N * math.factorial(N) / math.factorial(nu + N)
+            for r, nu in enumerate(plan.nus)
+        ]
+    )
+
+
+def offset_name(model) -> str | None:
+    """The name of the model's output offset to estimate, or None.
+
+    A model declares it as ``output_offset`` (``[ode] output_offset = "offset"`` in a model file);
+    it is estimated when the model marks it unknown (``offset_unknown``, default True when the
+    attribute is missing).
+    """
+    name = getattr(model, "output_offset", None)
+    if not name:
+        return None
+    return name if getattr(model, "offset_unknown", True) else None
+
+
+def _offset_to_value(plan: _Plan, theta: np.ndarray) -> np.ndarray:
+    """SI estimates with the offset column δ = a_0 o turned into o (in place; returns theta)."""
+    if ("o", 0) not in plan.columns:
+        return theta
+    c = plan.columns.index(("o", 0))
+    if ("a", 0) in plan.columns:
+        a0 = theta[..., plan.columns.index(("a", 0))]
+    else:
+        a0 = plan.known_a[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta[..., c] = theta[..., c] / a0
+    return theta
 
 
 def _solve(plan: _Plan, A: np.ndarray, rhs: np.ndarray, n_out: int):
@@ -650,13 +716,13 @@ def _run(plan: _Plan, u, y, first: int, n_out: int, history: np.ndarray):
         rhs = np.concatenate([np.full((rhs.shape[0], pad), np.nan), rhs], axis=1)
     theta, level = _solve(plan, A, rhs, n_out)
     valid, history = _guard(plan, theta, level, history)
-    return theta * _unscale(plan), valid, level, history, (A, rhs)
+    return _offset_to_value(plan, theta * _unscale(plan)), valid, level, history, (A, rhs)
 
 
 def _unscale(plan: _Plan) -> np.ndarray:
     """Factors from the dimensionless unknowns to SI: a_i = α_i / T^(n−i), b_i = β_i / T^(n−i)."""
     T = plan.window
-    return np.array([T ** -(plan.order - i) for _, i in plan.columns])
+    return np.array([T ** -(plan.order - i) for _, i in plan.columns])  # ("o", 0): δ = δ'/T^n
 
 
 # ----------------------------------------------------------------------------------------------
@@ -996,9 +1062,18 @@ def _make_result(
             alpha = np.linalg.lstsq(G, h, rcond=None)[0]
             if final_rule == "bias-compensated":
                 alpha, G = _bias_compensated(plan, A, rhs, G, h, alpha)
-            final = alpha * _unscale(plan)
+            final = _offset_to_value(plan, alpha * _unscale(plan))
             condition = _equilibrated_condition(G)
             stderr, stderr_reason = _pooled_stderr(plan, A, rhs, alpha, np.flatnonzero(use), G)
+            if stderr is not None and ("o", 0) in plan.columns:
+                # se(o) ≈ se(δ)/|a_0| (the relative error of a_0 is far smaller)
+                name = plan.names[plan.columns.index(("o", 0))]
+                a0 = abs(
+                    final[plan.columns.index(("a", 0))]
+                    if ("a", 0) in plan.columns
+                    else plan.known_a[0]
+                )
+                stderr[name] = float(stderr[name] / a0) if a0 > 0 else float("nan")
         success = True
         message = ""
         if valid_fraction < 0.5:
@@ -1368,9 +1443,9 @@ def _check_window_excitation(plan: _Plan, equations, valid, model) -> None:
     X = np.moveaxis(A[:, :, -n:][:, :, use], 1, -1).reshape(-1, plan.p)
     Y = rhs[:, -n:][:, use].reshape(-1)
     nominal = []
-    for (_kind, i), name in zip(plan.columns, plan.names, strict=True):
+    for (kind, i), name in zip(plan.columns, plan.names, strict=True):
         try:
-            v = float(model.parameters[name])
+            v = float(model.parameters[name]) if kind != "o" else np.nan  # δ' is not o
         except (KeyError, TypeError, ValueError):
             v = np.nan
         nominal.append(v * plan.window ** (plan.order - i))  # α_i = a_i T^(n−i)
