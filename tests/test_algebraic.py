@@ -680,9 +680,8 @@ def _offset_model():
         ("b0",),
         {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
         unknown=("theta1", "theta2"),
+        output_offset="offset",  # [ode] output_offset = "offset" in a model file
     )
-    if getattr(model, "output_offset", None) is None:
-        model.output_offset = "offset"  # the attribute the model-file loader sets
     return model
 
 

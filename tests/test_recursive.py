@@ -519,9 +519,8 @@ def test_output_offset_is_estimated_batch_and_streaming():
         ("b0",),
         {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
         unknown=("theta1", "theta2"),
+        output_offset="offset",
     )
-    if getattr(model, "output_offset", None) is None:
-        model.output_offset = "offset"
     t = np.arange(3000) * 1e-3
     u = np.sin(10 * t) + 0.5 * np.sin(23 * t)
     from scipy import signal
