@@ -494,15 +494,23 @@ def _your_data_section() -> ReportSection:
         return importlib.util.find_spec(f"physid.cli.verb_{verb}") is not None
 
     missing = [v for v in ("identify", "estimate", "validate") if not has(v)]
+    idim_cli = False
+    if has("identify"):
+        from ..cli import build_parser
+
+        parser = build_parser()
+        verbs = next(a for a in parser._actions if hasattr(a, "choices") and a.choices)
+        idim_cli = "--method" in verbs.choices["identify"]._option_string_actions
+    method = " --method idim-iv --kp 400,400,200,50,50,20 --kd 40,40,20,5,5,2" if idim_cli else ""
     commands = (
-        "# 1. an arm: your log, your channel names and units, your URDF\n"
-        "physid identify log.csv --model my_arm.urdf --method idim-iv \\\n"
-        "    --map t=time,q1=pos1,tau1=gain*volt1 --kp 400,400,200,50,50,20 \\\n"
-        "    --kd 40,40,20,5,5,2 --json > arm-fit.json\n"
-        "# 2. a linear system (e.g. a mass-spring-damper with a force sensor)\n"
-        "physid estimate msd.csv --model my_msd.toml --method algebraic --json > msd-fit.json\n"
-        "# 3. check the fit on data it has not seen\n"
-        "physid validate arm-fit.json held-out.csv --model my_arm.urdf"
+        "# 1. a linear system from your own log: your column names and units, saved result\n"
+        "physid estimate logger.csv --model my_msd.toml --method rls \\\n"
+        "    --map t=Zeit,u=Kraft,x=Weg --decimal , --save fit.json\n"
+        "# 2. the same fit checked on a log it has not seen\n"
+        "physid validate fit.json heldout.csv --map t=Zeit,u=Kraft,x=Weg --decimal ,\n"
+        "# 3. an arm: your log and your URDF (volts to torque with your drive gain)\n"
+        f"physid identify arm_log.csv --model my_arm.urdf{method} \\\n"
+        "    --map t=time,q1=pos1,tau1=gain*volt1 --json"
     )
     paragraphs = [
         "These three commands take your own recording from an estimate to a check of it on a "
