@@ -289,7 +289,8 @@ def paragraph_number_problems(payload: dict) -> tuple[list[str], int]:
         for table in payload["tables"].get(title, []):
             values = _numbers(table["rows"], values)
         for p in paragraphs:
-            text = re.sub(r"<pre>.*?</pre>", " ", p, flags=re.S)  # commands, not numbers
+            # commands and quoted messages (code), not numbers of the results
+            text = re.sub(r"<(pre|code)>.*?</\1>", " ", p, flags=re.S)
             text = _REFERENCE.sub(" ", html.unescape(_TAG.sub(" ", text)))
             for m in _TEXT_NUMBER.finditer(text):
                 checked += 1

@@ -110,9 +110,16 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
         ex, trajectory = excitation.compute(setup, quick, progress)
         ident, first = identification.compute(setup, trajectory, quick, progress)
         cons = consistency.compute(setup, first, quick, progress)
-        val = validation.compute(
-            setup, first, ex.results["period_s"], ex.results["harmonics"], progress
-        )
+        try:
+            val = validation.compute(
+                setup, first, ex.results["period_s"], ex.results["harmonics"], progress
+            )
+        except Exception as exc:  # reported in the section, never fatal to the demo
+            val = SectionData(
+                KEYS["validation"],
+                TITLES["validation"],
+                results={"available": False, "error": f"{type(exc).__name__}: {exc}"},
+            )
     sections = {"excitation": ex, "identification": ident, "consistency": cons, "validation": val}
     overview = _overview(setup, sections, time.perf_counter() - start)
     return [overview, ex, ident, cons, val]

@@ -60,20 +60,27 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
     se: dict[str, list[np.ndarray]] = {"idim-ols": [], "idim-iv": []}
     seconds: dict[str, float] = {"simulate": 0.0, "idim-ols": 0.0, "idim-iv": 0.0}
     first: dict[str, Any] = {}
+    failures: list[dict[str, Any]] = []
     for seed in seeds:
         say(progress, f"closed loop with noise, seed {seed}")
         t0 = time.perf_counter()
         rec = simulate(model, reference, t, seed=seed, kp=kp, kd=kd)
         seconds["simulate"] += time.perf_counter() - t0
-        for method, key in (("ols", "idim-ols"), ("iv", "idim-iv")):
-            t0 = time.perf_counter()
-            settings = {"max_iter": iv_iterations} if method == "iv" else {}
-            r = _fit(setup, method, rec, **settings)
-            seconds[key] += time.perf_counter() - t0
+        fits = {}
+        try:
+            for method, key in (("ols", "idim-ols"), ("iv", "idim-iv")):
+                t0 = time.perf_counter()
+                settings = {"max_iter": iv_iterations} if method == "iv" else {}
+                fits[key] = _fit(setup, method, rec, **settings)
+                seconds[key] += time.perf_counter() - t0
+        except Exception as exc:  # a fit that fails is reported, never hidden or fatal
+            failures.append({"seed": seed, "error": f"{type(exc).__name__}: {exc}"})
+            continue
+        for key, r in fits.items():
             est[key].append(np.array([r.parameters[n] for n in names]))
             stderr = r.stderr or {}
             se[key].append(np.array([stderr.get(n, np.nan) for n in names], dtype=float))
-            if seed == seeds[0]:
+            if not first.get(key):
                 first[key] = r
                 results[f"{key}_first_seed"] = {
                     "condition_number": r.condition_number,
@@ -83,8 +90,13 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
                     "n_rows": r.n_rows,
                     "decimate": r.decimate,
                 }
-        if seed == seeds[0]:
+        if "recording" not in first:
             first["recording"] = rec
+    results["failures"] = failures
+    if not est["idim-ols"]:
+        results["available"] = False
+        results["error"] = "every fit failed; the first: " + failures[0]["error"]
+        return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
     # the same trajectory without noise: what the fit gives when only the model and the filters
     # err (Coulomb friction smoothed by the simulator, weakly excited directions); the noise's
     # own bias (errors in variables, what IV is for) is the noisy mean minus this

@@ -7,6 +7,8 @@ so in plain words and shows no number.
 
 from __future__ import annotations
 
+from html import escape
+
 from ..html import FigureSpec, Html, ReportSection
 from ..robot import plot_bias_bars, plot_excitation, plot_torque_prediction
 
@@ -115,6 +117,8 @@ def excitation(sd, r) -> ReportSection:
 
 def identification(sd, r) -> ReportSection:
     if not r.get("available"):
+        if r.get("error"):
+            return _section(sd, [Html(f"The fits failed: <code>{escape(r['error'])}</code>.")])
         return _section(sd, _missing(r))
     m = r["methods"]
     ols = r["idim-ols_first_seed"]
@@ -156,11 +160,21 @@ def identification(sd, r) -> ReportSection:
             if len(r["seeds"]) < 5
             else "."
         ),
-        f"The base regressor's condition number on the first record is "
+        (
+            f"{len(r['failures'])} of the {len(r['seeds'])} records could not be fitted and are "
+            "left out (the first error is quoted below). "
+            if r.get("failures")
+            else ""
+        )
+        + f"The base regressor's condition number on the first record is "
         f"{ols['condition_number']:.3g}. The input-error method is not run on this arm: "
         + r["input_error"]["reason"]
         + ".",
     ]
+    if r.get("failures"):
+        paragraphs.append(
+            Html(f"First fit error: <code>{escape(r['failures'][0]['error'])}</code>.")
+        )
     d = sd.figure("arm6_bias_bars").data
     figures = [
         FigureSpec(
@@ -205,7 +219,9 @@ def consistency(sd, r) -> ReportSection:
                 "this quick one: the constrained fit takes minutes on a loaded machine."
             ]
         elif r.get("error"):
-            paragraphs = [f"The consistent estimate failed: {r['error']}."]
+            paragraphs = [
+                Html(f"The consistent estimate failed: <code>{escape(r['error'])}</code>.")
+            ]
         return _section(sd, paragraphs)
     at = r["at_boundary"]
     paragraphs = [
@@ -225,6 +241,10 @@ def consistency(sd, r) -> ReportSection:
 
 def validation(sd, r) -> ReportSection:
     if not r.get("available"):
+        if r.get("error"):
+            return _section(
+                sd, [Html(f"The validation failed: <code>{escape(r['error'])}</code>.")]
+            )
         return _section(sd, _missing(r))
     m = r["methods"]
     paragraphs = [
