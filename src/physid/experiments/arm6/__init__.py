@@ -94,7 +94,7 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
     ----------
     quick : bool
         A 4 s excitation period with 3 harmonics and 2 noise seeds (the full run: 10 s, 5
-        harmonics, 8 seeds).
+        harmonics, 5 seeds).
     progress : callable, optional
         Receives short progress messages.
 

@@ -32,7 +32,7 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
     (SectionData, dict)
         The section and what the validation needs (the fitted results of the first seed).
     """
-    seeds = (1, 2) if quick else tuple(range(1, 7))
+    seeds = (1, 2) if quick else tuple(range(1, 6))
     iv_iterations = 4 if quick else 10
     results: dict[str, Any] = {
         "seeds": list(seeds),
