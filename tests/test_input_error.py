@@ -21,10 +21,10 @@ from physid.estimators.input_error import (
     BoundWarning,
     FilterWarning,
     InputErrorEstimator,
-    filter_band_check,
     quality_factor,
 )
 from physid.filters import design_filter, design_filter_bank
+from physid.filters.band import filter_band_check
 from physid.signals import Recording
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
@@ -33,6 +33,7 @@ TRUTH = CEDRO["truth"]
 PAPER_J = CEDRO["result"]["J"]
 PAPER_M1L1SQ = CEDRO["result"]["m1"] * CEDRO["result"]["l1"] ** 2  # 8.2300 kg·m²
 SEPARATE = ("m2", "m3", "m4", "l2", "l3", "l4")  # identifiable one by one
+PAPER_FILTER = {"half_width": 100, "cutoff": 0.2}  # the paper's M and Ω_g
 TOML = Path(__file__).resolve().parents[1] / "examples" / "models" / "manipulator.toml"
 
 
@@ -174,7 +175,8 @@ def test_plot_returns_figure(paper_fit):
 # ---------------------------------------------------------------------- equivalent paths
 def test_measured_and_pd_rebuilt_torque_agree(paper_model, paper_rec, paper_fit):
     measured = quiet_fit(
-        InputErrorEstimator(paper_model, torque="measured", derivatives="paper"), paper_rec
+        InputErrorEstimator(paper_model, **PAPER_FILTER, torque="measured", derivatives="paper"),
+        paper_rec,
     )
     for name in paper_fit.free:
         assert measured.parameters[name] == pytest.approx(paper_fit.parameters[name], rel=2e-5), (
@@ -185,7 +187,9 @@ def test_measured_and_pd_rebuilt_torque_agree(paper_model, paper_rec, paper_fit)
 def test_linear_start_reaches_the_same_optimum_in_few_evaluations(
     paper_model, paper_rec, paper_fit
 ):
-    est = InputErrorEstimator(paper_model, torque="pd", start="linear", derivatives="paper")
+    est = InputErrorEstimator(
+        paper_model, **PAPER_FILTER, torque="pd", start="linear", derivatives="paper"
+    )
     r = quiet_fit(est, paper_rec)
     assert r.nfev <= 4
     assert r.start_nfev > 0
@@ -240,10 +244,42 @@ def test_user_fix_resolves_the_combination(paper_model, paper_rec, recwarn):
     est = InputErrorEstimator(
         paper_model, fixed={"l1": 0.4}, derivatives="consistent", start="linear"
     )
-    r = est.fit(paper_rec, initial=PAPER_INITIAL).result_
+    start = {k: v for k, v in PAPER_INITIAL.items() if k != "l1"}  # l1 is fixed, not started
+    r = est.fit(paper_rec, initial=start).result_
     assert not [w for w in recwarn if issubclass(w.category, IdentifiabilityWarning)]
     assert r.parameters["l1"] == 0.4
     assert r.parameters["m1"] == pytest.approx(50.0, rel=1e-3)
+
+
+def test_fixed_as_a_list_holds_at_the_starting_value(paper_model, paper_rec, recwarn):
+    """fixed=['l1'] (issue 16): l1 is held at its initial value, not a traceback."""
+    est = InputErrorEstimator(paper_model, fixed=["l1"], start="linear", max_nfev=5)
+    r = est.fit(paper_rec, initial=PAPER_INITIAL).result_
+    assert r.fixed == {"l1": 0.41} and r.parameters["l1"] == 0.41
+    assert not [w for w in recwarn if issubclass(w.category, IdentifiabilityWarning)]
+
+
+@pytest.mark.parametrize(
+    ("fixed", "initial", "match"),
+    [
+        (
+            "l1",
+            None,
+            r"fixed must be a mapping name -> value.*fixed=\['l1'\]; got 'l1' of type str",
+        ),
+        ([0.4], None, r"fixed must be a mapping.*got \[0.4\] of type list"),
+        (["mass1"], None, r"fixed names unknown parameter\(s\) \['mass1'\]"),
+        (
+            {"l1": 0.4},
+            {"l1": 0.5},
+            r"initial and fixed give different values.*l1: initial 0.5, fixed 0.4",
+        ),
+        (None, [50.1], r"initial must be a mapping name -> value.*got \[50.1\] of type list"),
+    ],
+)
+def test_fixed_and_initial_errors(paper_model, paper_rec, fixed, initial, match):
+    with pytest.raises(InputError, match=match):
+        InputErrorEstimator(paper_model, fixed=fixed).fit(paper_rec, initial=initial)
 
 
 def test_no_silent_valley_walk(paper_model, paper_rec):
@@ -295,7 +331,7 @@ def test_gains_without_pd_torque_are_an_error(paper_model, paper_rec):
 def test_fit_ending_on_a_bound_warns_and_fails(paper_model, exact_rec):
     """The paper's kinetic energy fitted to exact-arm data: m1 and m3 are driven to 1e-6 x
     their initial values (model mismatch); the fit must say so instead of reporting success."""
-    est = InputErrorEstimator(paper_model, check_filter=False)
+    est = InputErrorEstimator(paper_model, **PAPER_FILTER, check_filter=False)
     with pytest.warns(BoundWarning, match=r"the fit ended on a bound: m1 = 5e-05 \(bounds"):
         r = quiet_fit(est, exact_rec, initial=None)
     assert r.at_bound == ("m1", "m3")
@@ -316,7 +352,7 @@ def test_joint_count_mismatch(paper_model, paper_rec):
 def test_record_shorter_than_filter(paper_model, paper_rec):
     short = paper_rec.slice_time(0.0, 0.15)  # 151 samples < 2*100 + 1
     with pytest.raises(SamplingError, match=r"needs at least 201 samples but the record has 151"):
-        InputErrorEstimator(paper_model).fit(short)
+        InputErrorEstimator(paper_model, half_width=100).fit(short)
 
 
 def test_pd_needs_gains(paper_model, paper_rec):

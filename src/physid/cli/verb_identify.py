@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import warnings
 
 from ._common import (
@@ -17,6 +18,18 @@ ORDER = 30
 
 
 ARGUMENT_FLAGS = {"fixed": "--fix"}  # InputErrorEstimator(fixed=...) is --fix here
+
+
+def _cutoff(text: str):
+    """``--cutoff``: a number [rad/sample] or ``auto``."""
+    if text.strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"must be 'auto' or a number in (0, π] [rad/sample]; got {text!r}"
+        ) from None
 
 
 def register(subparsers) -> None:
@@ -46,16 +59,17 @@ def register(subparsers) -> None:
     p.add_argument(
         "--half-width",
         type=int,
-        default=100,
+        default=None,
         metavar="M",
-        help="filter half-width M (2M+1 taps; default: 100)",
+        help="filter half-width M (2M+1 taps; default: chosen with --cutoff auto, else 100)",
     )
     p.add_argument(
         "--cutoff",
-        type=float,
-        default=0.2,
-        metavar="W",
-        help="filter cut-off Ω_g [rad/sample] (default: 0.2)",
+        type=_cutoff,
+        default="auto",
+        metavar="W|auto",
+        help="filter cut-off Ω_g [rad/sample], or 'auto' (default): M and Ω_g chosen from the "
+        "spectrum of q, the choice printed on stderr (the paper: --half-width 100 --cutoff 0.2)",
     )
     p.add_argument(
         "--initial",
@@ -137,6 +151,8 @@ def run(args) -> int:
     for w in caught:
         progress(f"warning: {w.message}")
     result = estimator.result_
+    if result.filter_choice:
+        progress(f"identify: {result.filter_choice}")
     if args.json:
         print_json(
             {
@@ -155,6 +171,8 @@ def run(args) -> int:
                 "half_width": result.half_width,
                 "derivatives": args.derivatives,
                 "cutoff": result.cutoff,
+                "filter_choice": result.filter_choice,
+                "noise_std": list(result.noise_std),
                 "torque": result.torque,
                 "at_bound": list(result.at_bound),
             }

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -44,7 +44,16 @@ from scipy import optimize
 
 from .._validate import check_int, check_length, check_positive, per_joint
 from ..errors import DataFileError, IdentifiabilityError, InputError, ShapeError, arg
-from ..filters import design_filter, filter_derivatives
+from ..filters import filter_derivatives
+from ..filters.band import (  # the band check moved to filters; names kept here for callers
+    ENERGY_FRACTION_WARN,  # noqa: F401
+    PASSBAND_TOL,  # noqa: F401
+    FilterBandCheck,
+    FilterChoice,
+    choose_filter,
+    filter_band_check,
+    noise_floor,
+)
 from ..models.identifiability import (
     NUMERIC_RTOL,
     NumericIdentifiability,
@@ -63,16 +72,13 @@ __all__ = [
     "InputErrorResult",
     "FilterWarning",
     "BoundWarning",
-    "FilterBandCheck",
-    "filter_band_check",
     "quality_factor",
     "linear_least_squares",
+    "iid_covariance",
+    "sandwich_covariance",
+    "hac_lags",
 ]
 
-#: |H(Ω) - 1| tolerance defining the low-pass filter's accurate pass band (`filter_band_check`).
-PASSBAND_TOL = 1e-3
-#: Fraction of the energy of Δq outside the accurate pass band above which the estimator warns.
-ENERGY_FRACTION_WARN = 1e-4
 #: Relative rms residual (per joint, rms(τ̂ - τ^f) / rms(τ^f)) above which the estimator warns
 #: after the fit. On the paper's noise-free experiments, fits with all errors below 0.1 % leave
 #: 1e-6..1.1e-4; fits biased by 0.5 % or more leave 1.4e-3 or more (docs/input-error.md).
@@ -94,81 +100,14 @@ class BoundWarning(UserWarning):
     """
 
 
+#: M when a numeric cut-off is given without a half-width (the paper's).
+DEFAULT_HALF_WIDTH = 100
+#: Smallest record `cutoff="auto"` works on: filters of at least this half-width must fit.
+MIN_AUTO_HALF_WIDTH = 10
+
 #: A parameter within ``BOUND_RTOL * max(|initial value|, 1)`` of a finite bound (or flagged by
 #: least_squares' ``active_mask``) counts as ended on that bound.
 BOUND_RTOL = 1e-3
-
-
-# ---------------------------------------------------------------------- filter guidance
-@dataclass(frozen=True)
-class FilterBandCheck:
-    """Result of `filter_band_check`.
-
-    Attributes
-    ----------
-    passband_edge : float [rad/sample]
-        Highest Ω below which the low-pass gain stays within ``PASSBAND_TOL`` of 1.
-    fractions : ndarray, shape (n_channels,)
-        Per channel, the fraction of the energy of the first difference of q (≈ q̇Δ) above
-        ``passband_edge``.
-    threshold : float
-        Fraction above which the check fails.
-    """
-
-    passband_edge: float
-    fractions: np.ndarray
-    threshold: float
-
-    @property
-    def ok(self) -> bool:
-        """True when every channel keeps its energy inside the accurate pass band."""
-        return bool(np.all(self.fractions <= self.threshold))
-
-
-def filter_band_check(
-    q, half_width: int, cutoff: float, dt: float, *, threshold=ENERGY_FRACTION_WARN
-):
-    """Measure how much of the motion lies where the low-pass filter is not flat.
-
-    Rule (documented in ``docs/input-error.md``): the identification is unbiased only where all
-    three filters act as the ideal ``1, s, s²``, i.e. in the flat part of the pass band. The flat
-    part ends at ``Ω_p``, the lowest frequency where ``|H_lowpass(Ω) - 1| > 1e-3``; with the Harris
-    window it lies about ``8π/(2M+1)`` below Ω_g (0.07 rad/sample for the paper's M = 100,
-    Ω_g = 0.2). We take the spectrum of the first difference of each q (which weights the
-    frequencies like the velocity does, so the steps' DC content does not swamp it) and report
-    the fraction of its energy above ``Ω_p``.
-
-    Parameters
-    ----------
-    q : array_like, shape (n_samples, n_channels)
-        Joint angles [rad].
-    half_width : int
-        M.
-    cutoff : float [rad/sample]
-        Ω_g.
-    dt : float [s]
-        Sample period.
-    threshold : float
-        Fraction above which `FilterBandCheck.ok` is False.
-
-    Returns
-    -------
-    FilterBandCheck
-    """
-    lowpass = design_filter("lowpass", half_width, cutoff, dt)
-    omega = np.linspace(0.0, cutoff, 801)
-    gain_error = np.abs(lowpass.frequency_response(omega).real - 1.0)
-    bad = np.nonzero(gain_error > PASSBAND_TOL)[0]
-    edge = float(omega[bad[0]]) if bad.size else float(cutoff)
-    dq = np.diff(np.asarray(q, dtype=float), axis=0)
-    if dq.ndim == 1:
-        dq = dq[:, None]
-    power = np.abs(np.fft.rfft(dq - dq.mean(axis=0), axis=0)) ** 2
-    freq = 2.0 * np.pi * np.fft.rfftfreq(dq.shape[0])  # rad/sample
-    total = power.sum(axis=0)
-    above = power[freq > edge].sum(axis=0)
-    fractions = np.divide(above, total, out=np.zeros_like(total), where=total > 0)
-    return FilterBandCheck(edge, fractions, float(threshold))
 
 
 def linear_least_squares(regressor, tau) -> tuple[np.ndarray, np.ndarray]:
@@ -228,6 +167,143 @@ def quality_factor(residuals) -> float:
     return float(np.mean(e**2, axis=0).sum())
 
 
+# ---------------------------------------------------------------------- uncertainty
+#: Ways `InputErrorEstimator` computes standard errors (``stderr=``).
+STDERR_METHODS = ("hac", "iid")
+
+
+def hac_lags(half_width: int) -> int:
+    """Flat part L [samples] of the HAC kernel for filters of half-width M: ``L = 2M``.
+
+    The residual at sample t is a 2M + 1-tap FIR of the noise on q and τ (the filters of
+    half-width M), so residuals more than 2M samples apart share no noise sample: their
+    covariance is zero. The kernel is 1 up to lag L and tapers to 0 at 2L.
+
+    Parameters
+    ----------
+    half_width : int
+        M of the filters.
+
+    Returns
+    -------
+    int [samples]
+    """
+    return 2 * int(half_width)
+
+
+def iid_covariance(jacobian, residuals, *, rtol: float = NUMERIC_RTOL) -> np.ndarray:
+    """``s² (JᵀJ)⁻¹``: the covariance if the residuals were independent with one variance.
+
+    ``s² = |e|² / (n_rows - p)``; ``(JᵀJ)⁻¹ = V S⁻² Vᵀ`` through the SVD ``J = U S Vᵀ`` (no
+    explicit inverse). Optimistic for filtered residuals (see `sandwich_covariance`).
+
+    Parameters
+    ----------
+    jacobian : array_like, shape (n_rows, p)
+    residuals : array_like, n_rows values in any shape
+    rtol : float
+        Singular values below ``rtol * s_max`` make the covariance infinite.
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+    """
+    jac = np.asarray(jacobian, dtype=float)
+    e = np.asarray(residuals, dtype=float)
+    p = jac.shape[1]
+    s2 = float(np.sum(e**2)) / max(e.size - p, 1)
+    sv, vt = svd_tall(jac)
+    if sv.size < p or not np.all(sv > rtol * sv[0]):
+        return np.full((p, p), np.inf)
+    return s2 * (vt.T / sv**2) @ vt
+
+
+def sandwich_covariance(jacobian, residuals, lags: int, *, rtol: float = NUMERIC_RTOL):
+    """Covariance of a least-squares estimate whose residuals are correlated over ``lags`` samples.
+
+    Derivation. θ̂ minimises ``S(θ) = Σ_t e_tᵀ e_t`` (e_t: the residuals of sample t, one per
+    joint), so ``Σ_t J_tᵀ e_t(θ̂) = 0`` with ``J_t = ∂e_t/∂θ``. Linearising about the limit θ*,
+    ``θ̂ - θ* ≈ -H⁻¹ Σ_t g_t`` with the Hessian approximation ``H = Σ_t J_tᵀ J_t = JᵀJ`` and the
+    score of sample t ``g_t = J_tᵀ e_t`` (p values). Hence the sandwich::
+
+        Cov(θ̂) = H⁻¹ Ω H⁻¹,   Ω = Var(Σ_t g_t) = Γ_0 + Σ_{l>=1} (Γ_l + Γ_lᵀ),
+        Γ_l = Σ_t g_{t+l} g_tᵀ.
+
+    The iid formula ``s² H⁻¹`` is the special case where every Γ_l (l >= 1) vanishes and e is
+    homoscedastic; the filtered residual is neither (a white noise on q comes out of the
+    2M + 1-tap filters correlated over 2M samples, with a spectrum shaped like Ω^4 by q̈^f).
+    Ω is estimated with a flat-top kernel (Politis & Romano 1995; a Newey–West estimator with a
+    trapezoidal instead of a Bartlett window): weight 1 up to lag L (`hac_lags`: 2M, beyond which
+    the filtered noise has no correlation, so the kernel does not bias the sum), tapering to 0 at
+    2L; the estimate is projected onto the positive semi-definite matrices (negative eigenvalues,
+    which the flat-top kernel can leave, set to 0). H⁻¹ is applied through the SVD of J, never
+    inverted explicitly.
+
+    Parameters
+    ----------
+    jacobian : array_like, shape (n_samples * n_joints, p)
+        ``∂e/∂θ`` of the free parameters, rows ordered like ``residuals.ravel()``.
+    residuals : array_like, shape (n_samples, n_joints)
+        ``e(θ̂)``.
+    lags : int [samples]
+        Flat part L of the kernel (0: the heteroskedasticity-robust sandwich, no correlation).
+    rtol : float
+        Singular values of J below ``rtol * s_max`` make the covariance infinite.
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        The covariance (``inf`` everywhere when J is numerically rank-deficient).
+
+    Notes
+    -----
+    Γ_l for l = 0..2L come from FFT cross-correlations of the scores, one parameter at a time:
+    peak memory ``O(n_samples · p)`` floats beyond the Jacobian itself.
+
+    Examples
+    --------
+    A straight-line fit with iid residuals: with L = 0 the sandwich agrees with s² (JᵀJ)⁻¹ to
+    the sampling error of the variance:
+
+    >>> import numpy as np
+    >>> rng = np.random.default_rng(0)
+    >>> x = np.linspace(0, 1, 4000)
+    >>> jac = np.column_stack([np.ones_like(x), x])
+    >>> e = rng.normal(size=(x.size, 1))
+    >>> cov = sandwich_covariance(jac, e, lags=0)
+    >>> iid = np.linalg.inv(jac.T @ jac)
+    >>> bool(np.allclose(np.diag(cov) / np.diag(iid), 1.0, rtol=0.1))
+    True
+    """
+    from scipy import fft
+
+    e = np.asarray(residuals, dtype=float)
+    if e.ndim == 1:
+        e = e[:, None]
+    n, nj = e.shape
+    jac = np.asarray(jacobian, dtype=float)
+    p = jac.shape[1]
+    g = np.einsum("tjp,tj->tp", jac.reshape(n, nj, p), e)  # g_t = J_tᵀ e_t
+    lags = int(lags)
+    top = min(2 * lags, n - 1)  # the kernel reaches 0 at lag 2L
+    lag = np.arange(top + 1)
+    weight = np.clip(2.0 - lag / lags, 0.0, 1.0) if lags > 0 else (lag == 0).astype(float)
+    nfft = fft.next_fast_len(n + top + 1)
+    spec = fft.rfft(g, nfft, axis=0)
+    omega = np.empty((p, p))
+    for a in range(p):  # Γ_l[a, :] = Σ_t g_a[t + l] g[t]: irfft(G_a conj(G))[l]
+        corr = fft.irfft(spec[:, a, None] * np.conj(spec), nfft, axis=0)[: top + 1]
+        omega[a] = weight @ corr  # Σ_l w_l Γ_l[a, :] over l >= 0
+    omega = omega + omega.T - g.T @ g  # Γ_0 + Σ_{l>=1} w_l (Γ_l + Γ_lᵀ)
+    lam, vec = np.linalg.eigh(0.5 * (omega + omega.T))
+    omega = (vec * np.clip(lam, 0.0, None)) @ vec.T  # nearest PSD matrix
+    sv, vt = svd_tall(jac)
+    if sv.size < p or not np.all(sv > rtol * sv[0]):
+        return np.full((p, p), np.inf)
+    h_inv_half = vt.T / sv**2  # H⁻¹ = V S⁻² Vᵀ
+    return h_inv_half @ (vt @ omega @ vt.T) @ h_inv_half.T
+
+
 # ---------------------------------------------------------------------- result
 @dataclass(frozen=True)
 class InputErrorResult(ResultMixin):
@@ -238,11 +314,11 @@ class InputErrorResult(ResultMixin):
     parameters : dict name -> float
         Estimates (SI units), fixed parameters included at their held values.
     stderr : dict name -> float
-        Standard errors from the Jacobian at the optimum and the residual variance
-        (``NaN`` for fixed parameters and for parameters that ended on a bound, ``inf`` along
-        numerically unidentifiable directions). The
-        filtered residuals are correlated and, on noise-free data, are model-filter mismatch
-        rather than noise, so these are nominal values; see ``docs/input-error.md``.
+        Standard errors (``uncertainty="hac"``: the sandwich with the filtered residual's
+        autocorrelation, `sandwich_covariance`; ``"iid"``: ``s² (JᵀJ)⁻¹``). ``NaN`` for fixed
+        parameters and for parameters that ended on a bound, ``inf`` along numerically
+        unidentifiable directions. They describe the scatter, not the errors-in-variables bias
+        of noisy q; see ``docs/input-error.md``.
     correlation : ndarray, shape (n_free, n_free)
         Correlation matrix of the free parameters (order: `free`).
     free : tuple of str
@@ -270,7 +346,13 @@ class InputErrorResult(ResultMixin):
     initial : dict name -> float
         Starting values (after ``start="linear"``, the values the main fit started from).
     half_width : int
+        M used (chosen from the data with ``cutoff="auto"``).
     cutoff : float [rad/sample]
+        Ω_g used.
+    filter_choice : str
+        With ``cutoff="auto"``: which M and Ω_g were chosen and why (`choose_filter`); else "".
+    noise_std : ndarray, shape (n_joints,) [rad]
+        White-noise level on each q estimated from the top of its spectrum (`noise_floor`).
     dt : float [s]
     torque : str
         ``"measured"`` or ``"pd"``.
@@ -293,6 +375,12 @@ class InputErrorResult(ResultMixin):
     at_bound : tuple of str
         Free parameters that ended on a bound (`BoundWarning`; their ``stderr`` is NaN and
         ``success`` is False).
+    uncertainty : str
+        ``"hac"`` or ``"iid"``: how ``stderr`` was computed.
+    hac_lags : int [samples]
+        Flat part of the HAC kernel (`hac_lags`: 2M).
+    stderr_iid : dict name -> float
+        The iid standard errors ``s² (JᵀJ)⁻¹``, for comparison.
     t : ndarray, shape (n_valid,) [s]
         Times of the valid (filtered) samples.
     residuals : ndarray, shape (n_valid, n_joints) [N·m]
@@ -319,6 +407,8 @@ class InputErrorResult(ResultMixin):
     initial: dict[str, float]
     half_width: int
     cutoff: float
+    filter_choice: str
+    noise_std: np.ndarray
     dt: float
     torque: str
     derivatives: str
@@ -331,6 +421,9 @@ class InputErrorResult(ResultMixin):
     relative_residual: np.ndarray
     warnings: tuple[str, ...]
     at_bound: tuple[str, ...]
+    uncertainty: str
+    hac_lags: int
+    stderr_iid: dict[str, float]
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     units: dict[str, str] = field(default_factory=dict)
@@ -398,7 +491,7 @@ def _check_names(given: Mapping[str, float], names: Sequence[str], what: str) ->
     unknown = sorted(set(given) - set(names))
     if unknown:
         raise InputError(
-            f"{what} names unknown parameter(s) {unknown}; the model's parameters are "
+            f"{arg(what)} names unknown parameter(s) {unknown}; the model's parameters are "
             f"{list(names)}."
         )
     out = {}
@@ -410,6 +503,73 @@ def _check_names(given: Mapping[str, float], names: Sequence[str], what: str) ->
         if not math.isfinite(out[k]):
             raise InputError(f"{what}: the value of {k!r} must be finite; got {v!r}.")
     return out
+
+
+def _fixed_spec(fixed, names: Sequence[str]) -> tuple[dict[str, float], tuple[str, ...]]:
+    """``fixed=`` as (values given, names to hold at their starting values).
+
+    A mapping ``{"l1": 0.4}`` holds l1 at 0.4; a list of names ``["l1"]`` holds each at its
+    starting value (``initial=`` if given there, else the model's nominal value).
+    """
+    if fixed is None:
+        return {}, ()
+    if isinstance(fixed, Mapping):
+        return _check_names(fixed, names, "fixed"), ()
+    items = None
+    if not isinstance(fixed, (str, bytes)) and isinstance(fixed, Iterable):
+        items = list(fixed)
+    if items is None or not all(isinstance(n, str) for n in items):
+        raise InputError(
+            f"{arg('fixed')} must be a mapping name -> value, e.g. "
+            f"{arg('fixed', repr({'l1': 0.4}), cli='l1=0.4')}, or a list of parameter names held "
+            f"at their starting values, e.g. fixed=['l1']; got {fixed!r} of type "
+            f"{type(fixed).__name__}."
+        )
+    unknown = sorted(set(items) - set(names))
+    if unknown:
+        raise InputError(
+            f"{arg('fixed')} names unknown parameter(s) {unknown}; the model's parameters are "
+            f"{list(names)}."
+        )
+    return {}, tuple(dict.fromkeys(items))
+
+
+def _initial_values(initial, names: Sequence[str]) -> dict[str, float]:
+    """``initial=`` as a checked mapping name -> value (a mapping, or a result with parameters)."""
+    if initial is None:
+        return {}
+    if not isinstance(initial, Mapping) and isinstance(
+        getattr(initial, "parameters", None), Mapping
+    ):
+        shared = {k: v for k, v in initial.parameters.items() if k in names}
+        if not shared:
+            raise InputError(
+                f"{arg('initial')} is a {type(initial).__name__} whose parameters "
+                f"{sorted(initial.parameters)} share no name with the model's {list(names)}; "
+                "pass a mapping name -> value instead (for base-parameter estimates use "
+                f"{arg('start', repr('linear'), cli='linear')}, which maps them to the model's "
+                "parameters)."
+            )
+        return _check_names(shared, names, "initial")
+    if not isinstance(initial, Mapping):
+        raise InputError(
+            f"{arg('initial')} must be a mapping name -> value, e.g. "
+            f"{arg('initial', repr({'m1': 50.1}), cli='m1=50.1')}; got {initial!r} of type "
+            f"{type(initial).__name__}."
+        )
+    return _check_names(initial, names, "initial")
+
+
+def _check_initial_vs_fixed(initial: Mapping[str, float], fixed: Mapping[str, float]) -> None:
+    """Refuse a parameter given two different values, one to start from and one to hold."""
+    clash = {n: (initial[n], fixed[n]) for n in initial if n in fixed and initial[n] != fixed[n]}
+    if clash:
+        text = ", ".join(f"{n}: initial {a:g}, fixed {b:g}" for n, (a, b) in clash.items())
+        raise InputError(
+            f"{arg('initial')} and {arg('fixed')} give different values for the same parameter "
+            f"({text}); a fixed parameter is held at its fixed value, so its initial value would "
+            "be ignored. Give it in only one of them."
+        )
 
 
 def _expression_values(expressions, names, theta, cov_free, free_idx):
@@ -437,6 +597,96 @@ def _expression_values(expressions, names, theta, cov_free, free_idx):
     return values, errors
 
 
+# ---------------------------------------------------------------------- fit steps
+@dataclass(frozen=True, eq=False)
+class _Filtered:
+    """A recording through the filters (`InputErrorEstimator._filter`)."""
+
+    t: np.ndarray
+    qf: np.ndarray
+    qdf: np.ndarray
+    qddf: np.ndarray
+    tau_f: np.ndarray
+    dt: float
+    q: np.ndarray
+    half_width: int
+    cutoff: float
+    choice: FilterChoice | None
+
+
+@dataclass(eq=False)
+class _Problem:
+    """What `InputErrorEstimator._prepare` sets up: filtered signals, plan, start and bounds.
+
+    ``residual_matrix`` and ``jacobian`` evaluate the filtered equations of motion; rows of the
+    Jacobian are ordered like ``e.ravel()`` (sample-major, joint-minor).
+    """
+
+    model: Any
+    filtered: _Filtered
+    advice: FilterChoice | None
+    names: tuple[str, ...]
+    t: np.ndarray
+    qf: np.ndarray
+    qdf: np.ndarray
+    qddf: np.ndarray
+    tau_f: np.ndarray
+    dt: float
+    band: FilterBandCheck
+    structural: StructuralIdentifiability
+    fixed: dict[str, float]
+    free_idx: list[int]
+    theta0: np.ndarray
+    scale: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    notes: list[str]
+    before: NumericIdentifiability | None = None
+
+    @property
+    def n_valid(self) -> int:
+        return int(self.tau_f.shape[0])
+
+    @property
+    def free_names(self) -> tuple[str, ...]:
+        return tuple(self.names[i] for i in self.free_idx)
+
+    def full_theta(self, x: np.ndarray) -> np.ndarray:
+        theta = self.theta0.copy()
+        theta[self.free_idx] = x
+        return theta
+
+    def as_params(self, theta: np.ndarray) -> dict[str, float]:
+        return dict(zip(self.names, theta.tolist(), strict=True))
+
+    def residual_matrix(self, theta: np.ndarray) -> np.ndarray:
+        """e(θ) = τ̂(q^f, q̇^f, q̈^f; θ) - τ^f, shape (N, n_joints) [N·m]."""
+        tau_hat = self.model.inverse_dynamics(self.qf, self.qdf, self.qddf, self.as_params(theta))
+        return np.asarray(tau_hat, dtype=float) - self.tau_f
+
+    def jacobian(self, theta: np.ndarray) -> np.ndarray:
+        """∂e/∂θ for all parameters, shape (N·n_joints, n_params)."""
+        jac = self.model.parameter_jacobian(self.qf, self.qdf, self.qddf, self.as_params(theta))
+        return np.asarray(jac, dtype=float).reshape(self.tau_f.size, len(self.names))
+
+
+@dataclass(eq=False)
+class _Solution:
+    """What `InputErrorEstimator._solve` found."""
+
+    sol: Any
+    theta_hat: np.ndarray
+    residuals: np.ndarray
+    jacobian: np.ndarray
+    after: NumericIdentifiability
+    at_bound: tuple[str, ...]
+    bound_text: str
+    start_nfev: int
+    njev: int
+    history: np.ndarray
+    cost_history: np.ndarray
+
+
 # ---------------------------------------------------------------------- estimator
 class InputErrorEstimator(EstimatorMixin):
     """Identify the physical parameters of a chain model by the input-error (inverse-model) method.
@@ -447,10 +697,14 @@ class InputErrorEstimator(EstimatorMixin):
         From ``physid.load_model("manipulator")`` or a TOML model file; needs ``parameter_names``,
         ``parameters``, ``n_joints``, ``inverse_dynamics`` and ``parameter_jacobian`` (and
         ``regressor``/``beta`` for ``start="linear"``).
-    half_width : int
-        Filter half-width M (2M + 1 taps, M samples lost at each end). Paper: 100.
-    cutoff : float [rad/sample]
-        Filter cut-off Ω_g (0 < Ω_g <= π). Paper: 0.2 (31.8 Hz at Δ = 1 ms).
+    half_width : int, optional
+        Filter half-width M (2M + 1 taps, M samples lost at each end). Paper: 100. Default:
+        chosen from the data with ``cutoff="auto"``, else 100.
+    cutoff : float [rad/sample] or "auto"
+        Filter cut-off Ω_g (0 < Ω_g <= π). Paper: 0.2 (31.8 Hz at Δ = 1 ms). ``"auto"``
+        (default): M (unless given) and Ω_g chosen from the spectrum of q by
+        `physid.filters.choose_filter` (the lowest-noise filter whose flat band holds the
+        motion); the choice and its reason are in ``result.filter_choice``.
     torque : {"measured", "pd"}
         ``"measured"``: low-pass the recording's ``tau1..taun`` [N·m]. ``"pd"``: rebuild the
         filtered torque from the PD law ``Kp (r^f - q^f) - Kd q̇^f`` with the references
@@ -458,9 +712,12 @@ class InputErrorEstimator(EstimatorMixin):
     kp, kd : float or sequence of float, optional
         PD gains [N·m/rad], [N·m·s/rad] for ``torque="pd"``; default: the recording's metadata.
         Given with ``torque="measured"`` they would be unused, so that is an `InputError`.
-    fixed : mapping name -> value, optional
-        Parameters to hold at the given values. Each structurally unidentifiable combination that
-        ``fixed`` does not touch gets one parameter held at its initial value, with an
+    fixed : mapping name -> value, or sequence of names, optional
+        Parameters to hold at the given values (``{"l1": 0.4}``), or names held at their
+        starting values (``["l1"]``: the value in ``initial=`` of `fit`, else the model's
+        nominal one). A parameter given different values in ``initial=`` and ``fixed=`` is an
+        `InputError`. Each structurally unidentifiable combination that ``fixed`` does not touch
+        gets one parameter held at its initial value, with an
         `~physid.models.identifiability.IdentifiabilityWarning`.
     bounds : mapping name -> (low, high), optional
         Overrides of the default bounds; by default a parameter with a positive initial value is
@@ -485,6 +742,13 @@ class InputErrorEstimator(EstimatorMixin):
         Warn (`FilterWarning`) when the motion's spectrum reaches beyond the flat part of the
         filter's pass band (`filter_band_check`, before the fit) and when the filtered equations
         of motion do not balance at the optimum (relative rms residual above ``RESIDUAL_WARN``).
+    uncertainty : {"hac", "iid"}
+        How ``stderr`` is computed. ``"hac"`` (default): the sandwich covariance with the
+        residual's autocorrelation over ``2M`` lags (`sandwich_covariance`), valid for the
+        filtered, coloured residual. ``"iid"``: ``s² (JᵀJ)⁻¹``, as if the residuals were
+        independent (optimistic by 2–8x on noisy data; kept for comparison, and always reported
+        as ``result.stderr_iid``). Neither covers the errors-in-variables *bias* that noise on q
+        causes (``docs/input-error.md``).
     xtol, ftol, gtol : float
         Tolerances passed to `scipy.optimize.least_squares`.
 
@@ -519,8 +783,8 @@ class InputErrorEstimator(EstimatorMixin):
         self,
         model,
         *,
-        half_width: int = 100,
-        cutoff: float = 0.2,
+        half_width: int | None = None,
+        cutoff: float | str = "auto",
         torque: str = "measured",
         kp=None,
         kd=None,
@@ -531,6 +795,7 @@ class InputErrorEstimator(EstimatorMixin):
         max_nfev: int = 200,
         hold_unidentifiable: bool = True,
         check_filter: bool = True,
+        uncertainty: str = "hac",
         xtol: float = 1e-12,
         ftol: float = 1e-12,
         gtol: float = 1e-12,
@@ -548,6 +813,7 @@ class InputErrorEstimator(EstimatorMixin):
         self.max_nfev = max_nfev
         self.hold_unidentifiable = hold_unidentifiable
         self.check_filter = check_filter
+        self.uncertainty = uncertainty
         self.xtol = xtol
         self.ftol = ftol
         self.gtol = gtol
@@ -572,6 +838,10 @@ class InputErrorEstimator(EstimatorMixin):
         if self.start not in ("initial", "linear"):
             raise InputError(f"start must be 'initial' or 'linear'; got {self.start!r}.")
         check_int(self.max_nfev, "max_nfev", minimum=1)
+        if self.uncertainty not in STDERR_METHODS:
+            raise InputError(
+                f"uncertainty must be one of {STDERR_METHODS}; got {self.uncertainty!r}."
+            )
         for attr in ("xtol", "ftol", "gtol"):
             check_positive(getattr(self, attr), attr)
         for attr in (
@@ -593,11 +863,16 @@ class InputErrorEstimator(EstimatorMixin):
 
         ``t_valid`` (n_valid,) [s]; ``q^f, q̇^f, q̈^f, τ^f`` (n_valid, n_joints) in rad, rad/s,
         rad/s², N·m; ``dt`` the sample period [s]; ``q`` the raw angles (n_samples, n_joints)
-        [rad].
+        [rad]. With ``cutoff="auto"`` the filter is chosen first (`physid.filters.choose_filter`).
 
         Raises `DataFileError` for missing channels, `ShapeError` when the recording's number of
         joints differs from the model's, `SamplingError` when it is shorter than the filter.
         """
+        f = self._filter(recording)
+        return f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt, f.q
+
+    def _filter(self, recording) -> _Filtered:
+        """`filtered_signals` with the chosen filter (M, Ω_g and, for "auto", the reason)."""
         self._check_settings()
         nj = int(self.model.n_joints)
         if not hasattr(recording, "channels") or not hasattr(recording, "select"):
@@ -644,17 +919,33 @@ class InputErrorEstimator(EstimatorMixin):
                 f"torque={self.torque!r} needs channels {needed}; the recording lacks {missing} "
                 f"(it has {list(recording.names)}). {hint}"
             )
-        m = check_int(self.half_width, "half_width", minimum=1)
+        m = check_int(self.half_width, "half_width", minimum=1, allow_none=True)
+        auto = isinstance(self.cutoff, str)
+        if auto and self.cutoff != "auto":
+            raise InputError(
+                f"{arg('cutoff')} must be 'auto' or a number in (0, π] [rad/sample]; got "
+                f"{self.cutoff!r}."
+            )
+        if m is None and not auto:
+            m = DEFAULT_HALF_WIDTH
         check_length(
             recording.n_samples,
-            2 * int(m) + 1,
-            f"the input-error filters with half_width={m} ({2 * int(m) + 1} taps)",
-            "Use a longer record or a smaller half_width (M).",
+            2 * int(m) + 1 if m is not None else 2 * MIN_AUTO_HALF_WIDTH + 1,
+            f"the input-error filters with half_width={m} "
+            f"({2 * int(m or MIN_AUTO_HALF_WIDTH) + 1} taps)",
+            "Use a longer record or a smaller half_width= (M).",
         )
         t = recording.t
         dt = recording.dt
         q = recording.select(q_names)
-        filt = filter_derivatives(q, t, int(m), self.cutoff, design=self.derivatives)
+        choice = None
+        if auto:
+            choice = choose_filter(q, dt, half_width=m)
+            m, cutoff = choice.half_width, choice.cutoff
+        else:
+            cutoff = self.cutoff
+        filt = filter_derivatives(q, t, int(m), cutoff, design=self.derivatives)
+        cutoff = filt.lowpass.cutoff
         lowpass, t_valid = filt.lowpass, filt.t
         q_f, qd_f, qdd_f = filt.value, filt.first, filt.second
         if self.torque == "measured":
@@ -664,11 +955,16 @@ class InputErrorEstimator(EstimatorMixin):
             kd = _gains(self.kd, "kd", nj, recording.metadata)
             r_f = lowpass.apply(recording.select(needed))
             tau_f = kp * (r_f - q_f) - kd * qd_f  # τ^f = Kp (r^f - q^f) - Kd q̇^f
-        return t_valid, q_f, qd_f, qdd_f, tau_f, dt, q
+        return _Filtered(t_valid, q_f, qd_f, qdd_f, tau_f, float(dt), q, int(m), cutoff, choice)
 
     # ------------------------------------------------------------------ fit
     def fit(self, recording, initial: Mapping[str, float] | None = None) -> InputErrorEstimator:
         """Estimate the parameters from ``recording``; the result is in ``self.result_``.
+
+        Three steps: `_prepare` (filter, check the filter band, plan what is held, bounds and
+        start, identifiability at the start), `_solve` (optional linear start, the least-squares
+        fit, parameters that ended on a bound) and `_conclude` (the residual check, the
+        uncertainty and the result object).
 
         Parameters
         ----------
@@ -682,30 +978,63 @@ class InputErrorEstimator(EstimatorMixin):
         -------
         self
         """
+        problem = self._prepare(recording, initial)
+        solution = self._solve(problem)
+        self.result_ = self._conclude(problem, solution)
+        self.structural_ = problem.structural
+        self.numeric_before_ = problem.before
+        self.numeric_after_ = solution.after
+        return self
+
+    # ------------------------------------------------------------------ step 1: prepare
+    def _prepare(self, recording, initial) -> _Problem:
+        """Filtered signals, filter-band check, hold plan, bounds, start and the residual maps."""
         model = self.model
-        t_valid, qf, qdf, qddf, tau_f, dt, q_raw = self.filtered_signals(recording)
+        f = self._filter(recording)
+        t_valid, qf, qdf, qddf, tau_f, dt = f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt
         names = tuple(model.parameter_names)
         p = len(names)
-        nv, nj = tau_f.shape
-        user_fixed = _check_names(self.fixed or {}, names, "fixed")
+        fixed_values, hold = _fixed_spec(self.fixed, names)
+        given = _initial_values(initial, names)
+        _check_initial_vs_fixed(given, fixed_values)
         start_values = dict(model.parameters)
-        start_values.update(_check_names(initial or {}, names, "initial"))
-        start_values.update(user_fixed)
+        start_values.update(given)
+        start_values.update(fixed_values)
+        user_fixed = fixed_values | {n: float(start_values[n]) for n in hold}
         notes: list[str] = []
+        if f.choice is not None:
+            notes.append(f.choice.reason)
 
-        # -- filter guidance
-        band = filter_band_check(q_raw, int(self.half_width), float(self.cutoff), dt)
+        # -- filter guidance: the motion must lie in the flat part of the pass band
+        band = filter_band_check(f.q, f.half_width, f.cutoff, dt)
+        advice = f.choice
         if self.check_filter and not band.ok:
+            advice = advice or choose_filter(f.q, dt, half_width=f.half_width)
+            motion_fits = advice.signal_band <= band.passband_edge
             worst = int(np.argmax(band.fractions))
-            text = (
+            head = (
                 f"{100 * band.fractions[worst]:.2g} % of the energy of q{worst + 1}'s rate lies "
                 f"above {band.passband_edge:.3g} rad/sample, where the low-pass filter "
-                f"(M={self.half_width}, Ω_g={self.cutoff:g}) is no longer flat; the filtered "
-                "equations of motion will not balance and the estimates will be biased. Raise "
-                "the cut-off Ω_g or the half-width M; see docs/input-error.md."
+                f"(M={f.half_width}, Ω_g={f.cutoff:.4g}) is no longer flat"
             )
-            warnings.warn(text, FilterWarning, stacklevel=2)
-            notes.append(text)
+            if not motion_fits:  # too low: the motion itself is cut, the fit is biased
+                text = (
+                    f"{head}; the motion reaches {advice.signal_band:.3g} rad/sample, so the "
+                    "filtered equations of motion will not balance and the estimates will be "
+                    f"biased. Raise the cut-off to Ω_g >= {advice.cutoff:.3g} for this M (or "
+                    "raise M), or use cutoff='auto'; see docs/input-error.md."
+                )
+            else:  # the energy above the band is noise: raising Ω_g would only add noise
+                text = (
+                    f"{head}, but that energy is measurement noise (σ ≈ "
+                    f"{np.max(advice.noise_std):.2g} on q), not motion: the motion stays below "
+                    f"{advice.signal_band:.3g} rad/sample. Do not raise the cut-off (more noise "
+                    "in q̈^f biases the inertias towards zero); the lowest that holds the "
+                    f"motion is Ω_g = {advice.cutoff:.3g} for this M (cutoff='auto')."
+                )
+            if f.choice is None or not motion_fits:
+                warnings.warn(text, FilterWarning, stacklevel=3)
+                notes.append(text)
 
         # -- structural identifiability and the hold plan
         structural: StructuralIdentifiability = structural_identifiability(model, start_values)
@@ -725,13 +1054,12 @@ class InputErrorEstimator(EstimatorMixin):
             warnings.simplefilter("always")
             fixed = hold_plan(structural, start_values, user_fixed, warn=True)
         for w in caught:
-            warnings.warn(w.message, w.category, stacklevel=2)
+            warnings.warn(w.message, w.category, stacklevel=3)
             notes.append(str(w.message))
         start_values.update(fixed)
         free_idx = [i for i, n in enumerate(names) if n not in fixed]
         if not free_idx:
             raise InputError("every parameter is fixed; leave at least one free.")
-        free_names = tuple(names[i] for i in free_idx)
         theta0 = np.array([start_values[n] for n in names], dtype=float)
         scale = np.where(theta0 != 0.0, np.abs(theta0), 1.0)
 
@@ -748,67 +1076,80 @@ class InputErrorEstimator(EstimatorMixin):
                 if not lo <= v <= hi
             ]
             raise InputError(
-                f"initial value(s) of {bad} lie outside their bounds; change initial or bounds."
+                f"initial value(s) of {bad} lie outside their bounds; change {arg('initial')} or "
+                f"{arg('bounds')}."
             )
+        problem = _Problem(
+            model=model,
+            filtered=f,
+            advice=advice,
+            names=names,
+            t=t_valid,
+            qf=qf,
+            qdf=qdf,
+            qddf=qddf,
+            tau_f=tau_f,
+            dt=float(dt),
+            band=band,
+            structural=structural,
+            fixed=fixed,
+            free_idx=free_idx,
+            theta0=theta0,
+            scale=scale,
+            lower=lower,
+            upper=upper,
+            notes=notes,
+        )
+        # -- numerical identifiability at the start: refuse what the data cannot determine
+        problem.before = numeric_identifiability(
+            problem.jacobian(theta0)[:, free_idx],
+            problem.free_names,
+            scale[free_idx],
+            beta_names=getattr(model, "beta_names", None),
+        )
+        raise_if_not_excited(problem.before, "at the initial values")
+        return problem
 
-        # -- evaluation machinery (residual scaled by 1/sqrt(N) so that 2*cost = J)
-        sqrt_n = math.sqrt(nv)
+    # ------------------------------------------------------------------ step 2: solve
+    def _solve(self, problem: _Problem) -> _Solution:
+        """Linear start (optional), trust-region least squares, and the bound check."""
+        free_idx, scale = problem.free_idx, problem.scale
+        lower, upper = problem.lower[free_idx], problem.upper[free_idx]
+        # residual scaled by 1/sqrt(N) so that 2*cost = J
+        sqrt_n = math.sqrt(problem.n_valid)
         history: list[np.ndarray] = []
         cost_history: list[float] = []
         counter = {"jac": 0}
 
-        def full_theta(x: np.ndarray) -> np.ndarray:
-            theta = theta0.copy()
-            theta[free_idx] = x
-            return theta
-
-        def as_params(theta: np.ndarray) -> dict[str, float]:
-            return dict(zip(names, theta.tolist(), strict=True))
-
-        def residual_matrix(theta: np.ndarray) -> np.ndarray:
-            tau_hat = np.asarray(
-                model.inverse_dynamics(qf, qdf, qddf, as_params(theta)), dtype=float
-            )
-            return tau_hat - tau_f  # e(θ) = τ̂(q^f, q̇^f, q̈^f; θ) - τ^f, shape (N, n_joints)
-
         def fun(x: np.ndarray) -> np.ndarray:
-            theta = full_theta(x)
-            e = residual_matrix(theta)
+            theta = problem.full_theta(x)
+            e = problem.residual_matrix(theta)
             history.append(theta)
             cost_history.append(quality_factor(e))
             return e.ravel() / sqrt_n
 
-        def jacobian_full(theta: np.ndarray) -> np.ndarray:
-            jac = np.asarray(model.parameter_jacobian(qf, qdf, qddf, as_params(theta)), dtype=float)
-            return jac.reshape(nv * nj, p)  # rows ordered like e.ravel(): sample-major, joint-minor
-
         def jac(x: np.ndarray) -> np.ndarray:
             counter["jac"] += 1
-            return jacobian_full(full_theta(x))[:, free_idx] / sqrt_n
+            return problem.jacobian(problem.full_theta(x))[:, free_idx] / sqrt_n
 
-        # -- numerical identifiability at the start: refuse what the data cannot determine
-        jac0 = jacobian_full(theta0)
-        before = numeric_identifiability(
-            jac0[:, free_idx],
-            free_names,
-            scale[free_idx],
-            beta_names=getattr(model, "beta_names", None),
-        )
-        raise_if_not_excited(before, "at the initial values")
-
-        # -- optional linear start
         start_nfev = 0
         if self.start == "linear":
-            theta0, start_nfev = self._linear_start(
-                qf, qdf, qddf, tau_f, theta0, free_idx, lower, upper, scale
+            problem.theta0, start_nfev = self._linear_start(
+                problem.qf,
+                problem.qdf,
+                problem.qddf,
+                problem.tau_f,
+                problem.theta0,
+                free_idx,
+                problem.lower,
+                problem.upper,
+                scale,
             )
-        x0 = theta0[free_idx]
-
         sol = optimize.least_squares(
             fun,
-            x0,
+            problem.theta0[free_idx],
             jac=jac,
-            bounds=(lower[free_idx], upper[free_idx]),
+            bounds=(lower, upper),
             x_scale=scale[free_idx],
             method="trf",
             max_nfev=int(self.max_nfev),
@@ -816,20 +1157,20 @@ class InputErrorEstimator(EstimatorMixin):
             ftol=self.ftol,
             gtol=self.gtol,
         )
-        theta_hat = full_theta(sol.x)
         # -- parameters that ended on a bound: a boundary point, not a minimum of J
-        x_hat, lo_free, hi_free = sol.x, lower[free_idx], upper[free_idx]
+        x_hat = sol.x
         near = BOUND_RTOL * np.maximum(scale[free_idx], 1.0)
         with np.errstate(invalid="ignore"):
             on_bound = (np.asarray(sol.active_mask) != 0) | (
-                (np.isfinite(lo_free) & (x_hat - lo_free <= near))
-                | (np.isfinite(hi_free) & (hi_free - x_hat <= near))
+                (np.isfinite(lower) & (x_hat - lower <= near))
+                | (np.isfinite(upper) & (upper - x_hat <= near))
             )
+        free_names = problem.free_names
         at_bound = tuple(n for n, b in zip(free_names, on_bound, strict=True) if b)
         bound_text = ""
         if at_bound:
             where = ", ".join(
-                f"{n} = {x_hat[k]:.6g} (bounds [{lo_free[k]:.6g}, {hi_free[k]:.6g}])"
+                f"{n} = {x_hat[k]:.6g} (bounds [{lower[k]:.6g}, {upper[k]:.6g}])"
                 for k, n in enumerate(free_names)
                 if on_bound[k]
             )
@@ -840,48 +1181,105 @@ class InputErrorEstimator(EstimatorMixin):
                 "wrong gains, or a missing friction term); their standard errors are not "
                 "meaningful (NaN). Check the model, or set bounds= if the bound was too tight."
             )
-            warnings.warn(bound_text, BoundWarning, stacklevel=2)
-            notes.append(bound_text)
-        e_hat = residual_matrix(theta_hat)
+            warnings.warn(bound_text, BoundWarning, stacklevel=3)
+            problem.notes.append(bound_text)
+        theta_hat = problem.full_theta(sol.x)
+        jac_hat = problem.jacobian(theta_hat)[:, free_idx]
+        after: NumericIdentifiability = numeric_identifiability(
+            jac_hat,
+            free_names,
+            scale[free_idx],
+            beta_names=getattr(problem.model, "beta_names", None),
+        )
+        return _Solution(
+            sol=sol,
+            theta_hat=theta_hat,
+            residuals=problem.residual_matrix(theta_hat),
+            jacobian=jac_hat,
+            after=after,
+            at_bound=at_bound,
+            bound_text=bound_text,
+            start_nfev=int(start_nfev),
+            njev=int(counter["jac"]),
+            history=np.array(history) if history else np.empty((0, len(problem.names))),
+            cost_history=np.array(cost_history),
+        )
+
+    # ------------------------------------------------------------------ step 3: conclude
+    def _conclude(self, problem: _Problem, solution: _Solution) -> InputErrorResult:
+        """Residual balance check, uncertainty, message and the result object."""
+        names, free_idx, free_names = problem.names, problem.free_idx, problem.free_names
+        e_hat, tau_f, notes = solution.residuals, problem.tau_f, problem.notes
         cost = quality_factor(e_hat)
         tau_rms = np.sqrt(np.mean(tau_f**2, axis=0))
         relative_residual = np.sqrt(np.mean(e_hat**2, axis=0)) / np.where(tau_rms > 0, tau_rms, 1.0)
         if self.check_filter and relative_residual.max() > RESIDUAL_WARN:
             worst = int(np.argmax(relative_residual))
-            text = (
+            f = problem.filtered
+            advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
+            head = (
                 "the filtered equations of motion balance only to "
                 f"{relative_residual[worst]:.2g} of the torque on joint {worst + 1} (relative "
                 f"rms residual at the optimum, limit {RESIDUAL_WARN:g}); expect estimates biased "
-                f"by roughly that order or more. Causes: the cut-off Ω_g={self.cutoff:g} is too "
-                "low for the motion (raise Ω_g or M; filter no longer flat), measurement noise "
-                "(errors-in-variables), or a model that does not match the system. See "
-                "docs/input-error.md."
+                "by roughly that order or more."
             )
-            warnings.warn(text, FilterWarning, stacklevel=2)
+            edge = problem.band.passband_edge
+            noisy = advice.noisy
+            if advice.signal_band > edge:  # too low: bias from the filter
+                cause = (
+                    f" The cut-off Ω_g={f.cutoff:.4g} is too low for the motion (it reaches "
+                    f"{advice.signal_band:.3g} rad/sample, the filter is flat to {edge:.3g}): "
+                    f"raise it to Ω_g >= {advice.cutoff:.3g} for M={f.half_width}, or use "
+                    "cutoff='auto'."
+                )
+            elif noisy and f.cutoff > 1.2 * advice.cutoff:  # too high: noise in q̈^f
+                cause = (
+                    f" The cut-off Ω_g={f.cutoff:.4g} is higher than the motion needs "
+                    f"({advice.cutoff:.3g} for M={f.half_width}) and lets the measurement noise "
+                    f"(σ ≈ {np.max(advice.noise_std):.2g} on q) into q̈^f, which biases the "
+                    "inertias towards zero: lower it, or use cutoff='auto'."
+                )
+            elif noisy:
+                cause = (
+                    f" The filter already holds just the motion; the residual is measurement "
+                    f"noise (σ ≈ {np.max(advice.noise_std):.2g} on q), whose errors-in-variables "
+                    "bias no filter choice removes (a longer record allows a larger M and a "
+                    "lower Ω_g; or use an instrumental-variable method)."
+                )
+            else:
+                cause = (
+                    " The filter holds the motion and no noise floor is visible: check the "
+                    "model (a missing friction term, wrong gains) and the data."
+                )
+            text = head + cause + " See docs/input-error.md."
+            warnings.warn(text, FilterWarning, stacklevel=3)
             notes.append(text)
 
-        # -- uncertainty: Cov = s² (JᵀJ)⁻¹ through the SVD J = U S Vᵀ (no explicit inverse)
-        jac_hat = jacobian_full(theta_hat)[:, free_idx]
-        after: NumericIdentifiability = numeric_identifiability(
-            jac_hat, free_names, scale[free_idx], beta_names=getattr(model, "beta_names", None)
-        )
-        dof = max(nv * nj - len(free_idx), 1)
-        s2 = float(np.sum(e_hat**2)) / dof
-        sv, vt = svd_tall(jac_hat)
-        keep = sv > NUMERIC_RTOL * sv[0]
-        inv_s2 = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, np.inf)
-        with np.errstate(invalid="ignore"):
-            cov = s2 * (vt.T * inv_s2) @ vt if keep.all() else np.full((len(free_idx),) * 2, np.inf)
+        # -- uncertainty (see `sandwich_covariance` and `iid_covariance`)
+        cov_iid = iid_covariance(solution.jacobian, e_hat)
+        lags = hac_lags(problem.filtered.half_width)
+        if self.uncertainty == "hac":
+            cov = sandwich_covariance(solution.jacobian, e_hat, lags)
+        else:
+            cov = cov_iid
+
+        def standard_errors(c: np.ndarray) -> dict[str, float]:
+            out = {n: float("nan") for n in names}
+            out.update({n: float(v) for n, v in zip(free_names, np.sqrt(np.diag(c)), strict=True)})
+            out.update({n: float("nan") for n in solution.at_bound})
+            return out
+
         sd = np.sqrt(np.diag(cov))
         with np.errstate(invalid="ignore", divide="ignore"):
             corr = cov / np.outer(sd, sd)
-        stderr = {n: float("nan") for n in names}
-        stderr.update({n: float(v) for n, v in zip(free_names, sd, strict=True)})
-        stderr.update({n: float("nan") for n in at_bound})
+        stderr = standard_errors(cov)
 
+        theta_hat = solution.theta_hat
+        structural = problem.structural
         combos = tuple(c.expression for c in structural.combinations)
         combo_values, combo_errors = _expression_values(combos, names, theta_hat, cov, free_idx)
 
+        sol, after = solution.sol, solution.after
         message = sol.message
         success = bool(sol.success)
         if not success:
@@ -889,57 +1287,61 @@ class InputErrorEstimator(EstimatorMixin):
                 f" The fit stopped after {sol.nfev} evaluations; raise max_nfev (now "
                 f"{self.max_nfev}) or use start='linear'."
             )
-        if at_bound:
+        if solution.at_bound:
             success = False
-            message += " Not a minimum: " + bound_text
+            message += " Not a minimum: " + solution.bound_text
         if not after.ok:
             notes.append("after the fit: " + after.summary())
             message += " Warning: " + after.summary() + "."
         if structural.combinations:
             message += " Identifiable only as combinations: " + "; ".join(structural.texts) + "."
 
-        hist = np.array(history) if history else np.empty((0, p))
-        self.result_ = InputErrorResult(
-            parameters=as_params(theta_hat),
+        return InputErrorResult(
+            parameters=problem.as_params(theta_hat),
             stderr=stderr,
             correlation=corr,
             free=free_names,
             cost=cost,
             nfev=int(sol.nfev),
-            njev=int(counter["jac"]),
+            njev=solution.njev,
             success=success,
             message=message,
-            history=hist,
-            cost_history=np.array(cost_history),
+            history=solution.history,
+            cost_history=solution.cost_history,
             parameter_names=names,
             unidentifiable=combos,
             unidentifiable_text=tuple(structural.texts),
             combinations=combo_values,
             combination_stderr=combo_errors,
-            fixed=fixed,
-            initial=as_params(theta0),
-            half_width=int(self.half_width),
-            cutoff=float(self.cutoff),
-            dt=float(dt),
+            fixed=problem.fixed,
+            initial=problem.as_params(problem.theta0),
+            half_width=problem.filtered.half_width,
+            cutoff=float(problem.filtered.cutoff),
+            filter_choice=problem.filtered.choice.reason if problem.filtered.choice else "",
+            noise_std=(
+                problem.advice.noise_std
+                if problem.advice is not None
+                else noise_floor(problem.filtered.q)
+            ),
+            dt=problem.dt,
             torque=self.torque,
             derivatives=self.derivatives,
             start=self.start,
-            start_nfev=int(start_nfev),
+            start_nfev=solution.start_nfev,
             condition_number=after.condition_number,
             singular_values=np.asarray(after.singular_values),
-            filter_passband_edge=band.passband_edge,
-            filter_energy_fraction=band.fractions,
+            filter_passband_edge=problem.band.passband_edge,
+            filter_energy_fraction=problem.band.fractions,
             relative_residual=relative_residual,
             warnings=tuple(notes),
-            at_bound=at_bound,
-            t=t_valid,
+            at_bound=solution.at_bound,
+            uncertainty=self.uncertainty,
+            hac_lags=lags,
+            stderr_iid=standard_errors(cov_iid),
+            t=problem.t,
             residuals=e_hat,
             units=dict(getattr(model, "units", {}) or {}),
         )
-        self.structural_ = structural
-        self.numeric_before_ = before
-        self.numeric_after_ = after
-        return self
 
     # ------------------------------------------------------------------ linear start
     def _linear_start(self, qf, qdf, qddf, tau_f, theta0, free_idx, lower, upper, scale):
@@ -1005,7 +1407,7 @@ def _check_bounds(
     unknown = sorted(set(bounds) - set(names))
     if unknown:
         raise InputError(
-            f"bounds names unknown parameter(s) {unknown}; the model's parameters are "
+            f"{arg('bounds')} names unknown parameter(s) {unknown}; the model's parameters are "
             f"{list(names)}."
         )
     out = {}

@@ -4,9 +4,17 @@ Design (`design_filter`) is separate from application (`DifferentialFilter.apply
 samples, `DifferentialFilter.filter_signal` for a `FilteredSignal` of samples and aligned times);
 every filter reports its delay, valid range, frequency response and white-noise gain.
 `filter_derivatives` returns the low-passed signal and both derivatives, aligned on the same
-output times.
+output times. `filter_band_check` (in ``band.py``) measures whether a motion fits a filter's flat
+pass band.
 """
 
+from .band import (
+    ENERGY_FRACTION_WARN,
+    PASSBAND_TOL,
+    FilterBandCheck,
+    filter_band_check,
+    passband_edge,
+)
 from .differential import (
     BANK_DESIGNS,
     KINDS,
@@ -21,6 +29,11 @@ from .differential import (
 )
 
 __all__ = [
+    "ENERGY_FRACTION_WARN",
+    "PASSBAND_TOL",
+    "FilterBandCheck",
+    "filter_band_check",
+    "passband_edge",
     "BANK_DESIGNS",
     "design_filter_bank",
     "KINDS",

@@ -1,0 +1,357 @@
+"""Does a filter's pass band fit a signal? The band check and the automatic filter choice.
+
+`filter_band_check` measures how much of a motion lies where the low-pass filter is not flat (the
+check the input-error estimator runs before a fit). `choose_filter` picks the half-width M and the
+cut-off Ω_g from the data: the signal band and the noise floor are read from the spectrum of q,
+and the lowest-noise filter whose flat band still covers the signal band is chosen.
+
+Why both ends matter (Cedro & Janecki, eq. 6; ``docs/input-error.md``): the filtered equations
+of motion balance only where all three filters act as the ideal ``1, s, s²``, so a cut-off below
+the motion biases the estimates ("too low: bias"); noise on q enters the regressor through
+q̈^f, whose white-noise gain grows like ``Ω_g^2.5/Δ²``, and biases the inertia terms towards zero
+("too high: noise"). The lowest cut-off that clears the motion is the best one.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .differential import design_filter
+
+__all__ = [
+    "PASSBAND_TOL",
+    "ENERGY_FRACTION_WARN",
+    "FilterBandCheck",
+    "filter_band_check",
+    "passband_edge",
+    "noise_floor",
+    "FilterChoice",
+    "choose_filter",
+]
+
+#: |H(Ω) - 1| tolerance defining the low-pass filter's accurate pass band (`filter_band_check`).
+PASSBAND_TOL = 1e-3
+#: Fraction of the energy of Δq outside the accurate pass band above which the estimator warns.
+ENERGY_FRACTION_WARN = 1e-4
+#: Energy fraction `choose_filter` leaves above the flat band when no noise floor is visible.
+CLEAN_FRACTION = 1e-6
+
+
+def passband_edge(half_width: int, cutoff: float, dt: float = 1.0) -> float:
+    """Highest Ω [rad/sample] below which the low-pass gain stays within ``PASSBAND_TOL`` of 1.
+
+    Parameters
+    ----------
+    half_width : int
+        M (the filter has 2M + 1 taps).
+    cutoff : float [rad/sample]
+        Ω_g.
+    dt : float [s]
+        Sample period (the low-pass gain does not depend on it).
+
+    Returns
+    -------
+    float [rad/sample]
+        With the Harris window about ``Ω_g - 8π/(2M+1)`` (0.106 for M = 100, Ω_g = 0.2).
+
+    Examples
+    --------
+    >>> round(passband_edge(100, 0.2), 3)
+    0.106
+    """
+    lowpass = design_filter("lowpass", half_width, cutoff, dt)
+    omega = np.linspace(0.0, cutoff, 801)
+    n = np.arange(-lowpass.half_width, lowpass.half_width + 1)
+    gain = np.cos(np.outer(omega, n)) @ lowpass.taps  # even taps: H(Ω) = Σ c[n] cos(Ωn), real
+    gain_error = np.abs(gain - 1.0)
+    bad = np.nonzero(gain_error > PASSBAND_TOL)[0]
+    return float(omega[bad[0]]) if bad.size else float(cutoff)
+
+
+@dataclass(frozen=True)
+class FilterBandCheck:
+    """Result of `filter_band_check`.
+
+    Attributes
+    ----------
+    passband_edge : float [rad/sample]
+        Highest Ω below which the low-pass gain stays within ``PASSBAND_TOL`` of 1.
+    fractions : ndarray, shape (n_channels,)
+        Per channel, the fraction of the energy of the first difference of q (≈ q̇Δ) above
+        ``passband_edge``.
+    threshold : float
+        Fraction above which the check fails.
+    """
+
+    passband_edge: float
+    fractions: np.ndarray
+    threshold: float
+
+    @property
+    def ok(self) -> bool:
+        """True when every channel keeps its energy inside the accurate pass band."""
+        return bool(np.all(self.fractions <= self.threshold))
+
+
+def _rate_spectrum(q) -> tuple[np.ndarray, np.ndarray]:
+    """Periodogram of the first difference of each column of q, and its frequencies [rad/sample]."""
+    dq = np.diff(np.asarray(q, dtype=float), axis=0)
+    if dq.ndim == 1:
+        dq = dq[:, None]
+    power = np.abs(np.fft.rfft(dq - dq.mean(axis=0), axis=0)) ** 2
+    freq = 2.0 * np.pi * np.fft.rfftfreq(dq.shape[0])
+    return power, freq
+
+
+def filter_band_check(
+    q, half_width: int, cutoff: float, dt: float, *, threshold=ENERGY_FRACTION_WARN
+):
+    """Measure how much of the motion lies where the low-pass filter is not flat.
+
+    Rule (documented in ``docs/input-error.md``): the identification is unbiased only where all
+    three filters act as the ideal ``1, s, s²``, i.e. in the flat part of the pass band. The flat
+    part ends at ``Ω_p``, the lowest frequency where ``|H_lowpass(Ω) - 1| > 1e-3``; with the Harris
+    window it lies about ``8π/(2M+1)`` below Ω_g (0.07 rad/sample for the paper's M = 100,
+    Ω_g = 0.2). We take the spectrum of the first difference of each q (which weights the
+    frequencies like the velocity does, so the steps' DC content does not swamp it) and report
+    the fraction of its energy above ``Ω_p``.
+
+    Parameters
+    ----------
+    q : array_like, shape (n_samples, n_channels)
+        Joint angles [rad].
+    half_width : int
+        M.
+    cutoff : float [rad/sample]
+        Ω_g.
+    dt : float [s]
+        Sample period.
+    threshold : float
+        Fraction above which `FilterBandCheck.ok` is False.
+
+    Returns
+    -------
+    FilterBandCheck
+    """
+    edge = passband_edge(half_width, cutoff, dt)
+    power, freq = _rate_spectrum(q)
+    total = power.sum(axis=0)
+    above = power[freq > edge].sum(axis=0)
+    fractions = np.divide(above, total, out=np.zeros_like(total), where=total > 0)
+    return FilterBandCheck(edge, fractions, float(threshold))
+
+
+@dataclass(frozen=True)
+class FilterChoice:
+    """The filter `choose_filter` picked, and why.
+
+    Attributes
+    ----------
+    half_width : int
+        M.
+    cutoff : float [rad/sample]
+        Ω_g.
+    passband_edge : float [rad/sample]
+        Where the chosen low-pass stops being flat (see `passband_edge`); at or above
+        ``signal_band``.
+    signal_band : float [rad/sample]
+        Highest frequency of the motion that must pass: the frequency below which all but
+        ``ENERGY_FRACTION_WARN`` of the energy of Δq lies once the noise floor is removed, capped
+        where the motion sinks into the noise (worst joint).
+    noise_band : float [rad/sample]
+        Above this frequency the spectrum of Δq is noise (the signal is below the noise floor on
+        every joint); ``π`` when no noise floor is visible.
+    noise_std : ndarray, shape (n_channels,)
+        Estimated standard deviation of white noise on each q (same unit as q).
+    reason : str
+        One sentence saying what was chosen and why.
+    """
+
+    half_width: int
+    cutoff: float
+    passband_edge: float
+    signal_band: float
+    noise_band: float
+    noise_std: np.ndarray
+    reason: str
+
+    @property
+    def noisy(self) -> bool:
+        """True when the motion sinks into the noise floor below π/2 rad/sample.
+
+        Then the noise reaches frequencies a cut-off could pass, and a higher Ω_g adds noise.
+        """
+        return bool(self.noise_band < 0.5 * np.pi)
+
+
+def _smooth(power: np.ndarray, width: int) -> np.ndarray:
+    """Moving average along axis 0 (a periodogram's bins scatter by 100 %)."""
+    if width <= 1:
+        return power
+    kernel = np.ones(width) / width
+    padded = np.pad(power, ((width // 2, width - 1 - width // 2), (0, 0)), mode="edge")
+    return np.apply_along_axis(lambda c: np.convolve(c, kernel, mode="valid"), 0, padded)
+
+
+def noise_floor(q) -> np.ndarray:
+    """Standard deviation of white noise on each column of q, from the top of its spectrum.
+
+    White noise of variance σ² on q gives Δq a periodogram of mean ``2σ²(1 - cos Ω)``; a smooth
+    motion has almost no energy above Ω = 0.6π. The median over that band of
+    ``P(Ω) / (2(1 - cos Ω))`` divided by ln 2 (the median of an exponential variable of mean 1)
+    estimates σ² robustly against the few bins the motion still reaches.
+
+    Parameters
+    ----------
+    q : array_like, shape (n_samples, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+        σ̂ per channel (the unit of q); about 0 for noise-free data.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0, 10, 10001)
+    >>> q = np.sin(t)[:, None] + 1e-4 * np.random.default_rng(0).normal(size=(t.size, 1))
+    >>> bool(abs(noise_floor(q)[0] / 1e-4 - 1) < 0.05)
+    True
+    """
+    power, freq = _rate_spectrum(q)
+    power = power / max(power.shape[0] * 2 - 2, 1)  # |rfft|² / n: the mean is the variance density
+    high = freq > 0.6 * np.pi
+    shape = 2.0 * (1.0 - np.cos(freq[high]))
+    return np.sqrt(np.median(power[high] / shape[:, None], axis=0) / np.log(2.0))
+
+
+def choose_filter(
+    q,
+    dt: float,
+    *,
+    half_width: int | None = None,
+    max_half_width: int | None = None,
+    threshold: float | None = None,
+) -> FilterChoice:
+    """Choose M and Ω_g from the data: the lowest-noise filter whose flat band holds the motion.
+
+    1. The noise floor σ̂ of every q (`noise_floor`), and the signal part of the spectrum of Δq:
+       the periodogram, smoothed, minus the noise's ``2σ̂²(1 - cos Ω)``.
+    2. The noise band: above the highest frequency where the smoothed spectrum exceeds twice the
+       noise's, there is nothing to pass but noise.
+    3. The signal band Ω_s: the frequency below which all but ``threshold`` of the signal energy
+       of Δq lies (worst joint), capped at the noise band (passing more adds only noise). On
+       noise-free data a wider band costs nothing: the threshold is 1e-6 and Ω_s gets a 25 %
+       margin, because the nonlinear terms (velocity products) reach beyond the band of Δq.
+    4. M: as given, else as large as the record allows (``n / 20``, at most 1000 taps each side:
+       2M samples are lost, and a longer filter has a narrower transition, so the same band needs a
+       lower cut-off and lets less noise through; q̈^f's noise gain grows like Ω_g^2.5).
+    5. Ω_g: the lowest cut-off whose flat band (`passband_edge`) reaches Ω_s.
+
+    Parameters
+    ----------
+    q : array_like, shape (n_samples, n_channels)
+        Joint angles [rad].
+    dt : float [s]
+        Sample period.
+    half_width : int, optional
+        Use this M and choose only Ω_g.
+    max_half_width : int, optional
+        Upper limit of M (default ``min(1000, n // 20)``, at least 10).
+    threshold : float, optional
+        Energy fraction of the signal allowed above the flat band. Default: ``1e-4``
+        (``ENERGY_FRACTION_WARN``) on noisy data, ``1e-6`` (``CLEAN_FRACTION``) with a 25 %
+        margin when no noise floor meets the motion below π/2.
+
+    Returns
+    -------
+    FilterChoice
+
+    Examples
+    --------
+    A 2 Hz motion sampled at 1 kHz with 1e-4 rad of noise:
+
+    >>> import numpy as np
+    >>> t = 1e-3 * np.arange(8000)
+    >>> q = np.sin(2 * np.pi * 2 * t)[:, None]
+    >>> q = q + 1e-4 * np.random.default_rng(1).normal(size=q.shape)
+    >>> choice = choose_filter(q, 1e-3)
+    >>> bool(choice.passband_edge >= choice.signal_band), choice.half_width
+    (True, 400)
+    """
+    arr = np.asarray(q, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    n = arr.shape[0]
+    sigma = noise_floor(arr)
+    power, freq = _rate_spectrum(arr)
+    power = power / max(2 * power.shape[0] - 2, 1)
+    noise = 2.0 * (1.0 - np.cos(freq))[:, None] * sigma**2
+    smooth = _smooth(power, max(1, power.shape[0] // 200))
+    # 2. the noise band: per joint, the first frequency where the motion sinks below the noise
+    #    (smoothed spectrum under twice the noise's); the highest of these over the joints
+    buried = smooth < 2.0 * noise
+    buried[0] = False
+    first = np.where(buried.any(axis=0), np.argmax(buried, axis=0), freq.size - 1)
+    noise_band = float(freq[int(first.max())])
+    # 3. the signal band: energy of (smoothed - noise) up to the noise band. Without noise a
+    #    wider band costs nothing, so it is drawn generously (CLEAN_FRACTION, 25 % margin):
+    #    the nonlinear terms (velocity products) reach beyond the 1e-4 band of Δq.
+    noisy = bool(noise_band < 0.5 * np.pi)
+    if threshold is None:
+        threshold = ENERGY_FRACTION_WARN if noisy else CLEAN_FRACTION
+    margin = 1.0 if noisy else 1.25
+    signal = np.clip(smooth - noise, 0.0, None) * (freq <= noise_band)[:, None]
+    total = signal.sum(axis=0)
+    cumulative = np.cumsum(signal, axis=0) / np.where(total > 0, total, 1.0)
+    bands = [
+        float(freq[min(np.searchsorted(cumulative[:, j], 1.0 - threshold), freq.size - 1)])
+        for j in range(arr.shape[1])
+        if total[j] > 0
+    ]
+    signal_band = min(margin * max(bands, default=float(freq[1])), noise_band)
+    # 4. M
+    if half_width is None:
+        limit = max_half_width if max_half_width is not None else max(10, min(1000, n // 20))
+        m = int(limit)
+    else:
+        m = int(half_width)
+    # 5. Ω_g: the lowest cut-off whose flat band reaches Ω_s (the edge lies ≈ 8π/(2M+1) below)
+    cutoff = min(signal_band + 8.0 * np.pi / (2 * m + 1), np.pi)
+    for _ in range(4):
+        edge = passband_edge(m, cutoff, dt)
+        if edge >= signal_band or cutoff >= np.pi:
+            break
+        cutoff = min(cutoff + 1.05 * (signal_band - edge), np.pi)
+    lo, hi = 0.5 * cutoff, cutoff
+    for _ in range(12):  # bisection down to the lowest cut-off that still clears Ω_s
+        mid = 0.5 * (lo + hi)
+        if passband_edge(m, mid, dt) >= signal_band:
+            hi = mid
+        else:
+            lo = mid
+    cutoff = float(round(hi, 4))
+    if passband_edge(m, cutoff, dt) < signal_band:
+        cutoff = float(hi)
+    edge = passband_edge(m, cutoff, dt)
+    why = (
+        f"the motion's rate holds all but {threshold:g} of its energy below "
+        f"{signal_band:.3g} rad/sample"
+        + (
+            f" and sinks into a noise floor of σ ≈ {np.max(sigma):.2g} above "
+            f"{noise_band:.3g} rad/sample"
+            if noisy
+            else ""
+        )
+        + f"; M = {m} (the longest the record allows"
+        if half_width is None
+        else f"; M = {m} (given"
+    )
+    reason = (
+        f"filter M = {m}, Ω_g = {cutoff:.4g} rad/sample (flat to {edge:.3g}): {why}), Ω_g the "
+        "lowest cut-off whose flat band holds that motion (lower would bias the fit, higher "
+        "only adds noise)."
+    )
+    return FilterChoice(m, cutoff, edge, signal_band, noise_band, sigma, reason)
