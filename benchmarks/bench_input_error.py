@@ -33,6 +33,7 @@ from physid.experiments.manipulator_paper import PAPER_INITIAL, PAPER_RESULT, SE
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
 PAPER_J = PAPER_RESULT["J"]
+PAPER_FILTER = {"half_width": 100, "cutoff": 0.2}
 PAPER_EVALUATIONS = PAPER_RESULT["evaluations"]
 
 
@@ -42,6 +43,8 @@ def _fit(model, rec, repeats: int = 1, **settings):
     The paper's derivative filters unless ``derivatives`` says otherwise (we compare with it).
     """
     settings.setdefault("derivatives", "paper")
+    for key, value in PAPER_FILTER.items():  # the paper's filter unless told otherwise
+        settings.setdefault(key, value)
     best = np.inf
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -60,7 +63,7 @@ def _max_error(result) -> float:
 
 def _nelder_mead(model, rec, max_evaluations: int):
     """Nelder–Mead on the same J as the fit (same filtered signals and residual), l1 held."""
-    est = InputErrorEstimator(model, torque="pd", derivatives="paper")
+    est = InputErrorEstimator(model, **PAPER_FILTER, torque="pd", derivatives="paper")
     _, qf, qdf, qddf, tau_f, _, _ = est.filtered_signals(rec)
     names = tuple(model.parameter_names)
     free = [n for n in names if n != "l1"]

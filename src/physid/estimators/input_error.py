@@ -1181,6 +1181,17 @@ class InputErrorEstimator(EstimatorMixin):
                 "wrong gains, or a missing friction term); their standard errors are not "
                 "meaningful (NaN). Check the model, or set bounds= if the bound was too tight."
             )
+            sigma = noise_floor(problem.filtered.q)
+            advice = problem.advice or choose_filter(
+                problem.filtered.q, problem.dt, half_width=problem.filtered.half_width
+            )
+            if advice.noisy:
+                bound_text += (
+                    f" Or measurement noise: q carries noise of σ ≈ {np.max(sigma):.2g}, and with "
+                    f"Ω_g = {problem.filtered.cutoff:.4g} (the motion needs "
+                    f"{advice.cutoff:.3g}) its errors-in-variables bias can push inertias to "
+                    "zero: lower the cut-off or use cutoff='auto'."
+                )
             warnings.warn(bound_text, BoundWarning, stacklevel=3)
             problem.notes.append(bound_text)
         theta_hat = problem.full_theta(sol.x)

@@ -171,7 +171,11 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
 
     say(progress, "Nelder–Mead on the same J")
     fast = FastJ(
-        paper_model, InputErrorEstimator(paper_model, torque="pd", derivatives="paper"), rec_paper
+        paper_model,
+        InputErrorEstimator(
+            paper_model, half_width=100, cutoff=0.2, torque="pd", derivatives="paper"
+        ),
+        rec_paper,
     )
     nm, nm_history, nm_time = identification.nelder_mead(fast, 3000 if quick else 8000)
 
