@@ -113,6 +113,14 @@ def register(subparsers) -> None:
         help="derivative filters built from the low-pass (default; no filter bias), or the "
         "paper's Filtr1/Filtr2 (to reproduce its numbers, m1*l1**2 biased by ~3 %%)",
     )
+    p.add_argument(
+        "--noise",
+        choices=("ignore", "compensate"),
+        default="ignore",
+        help="ignore the noise on q, or compensate its errors-in-variables bias (the noise level "
+        "is estimated from the spectrum; standard errors from re-noised replicates) "
+        "(default: ignore)",
+    )
     add_recording_options(p)
     p.add_argument(
         "--max-nfev", type=int, default=200, help="budget of residual evaluations (default: 200)"
@@ -143,6 +151,7 @@ def run(args) -> int:
         start=args.start,
         derivatives=args.derivatives,
         max_nfev=args.max_nfev,
+        noise=args.noise,
     )
     progress(f"identify: {recording!r}")
     with warnings.catch_warnings(record=True) as caught:

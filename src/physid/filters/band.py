@@ -27,6 +27,7 @@ __all__ = [
     "filter_band_check",
     "passband_edge",
     "noise_floor",
+    "white_floor",
     "FilterChoice",
     "choose_filter",
 ]
@@ -227,6 +228,31 @@ def noise_floor(q) -> np.ndarray:
     return np.sqrt(np.median(power[high] / shape[:, None], axis=0) / np.log(2.0))
 
 
+def white_floor(x) -> np.ndarray:
+    """Standard deviation of white noise on each column of x (e.g. a measured torque).
+
+    Like `noise_floor` but for noise on x itself: the median of x's periodogram above 0.6π,
+    divided by ln 2. The columns are detrended by their end points first (a step between the
+    first and the last sample would leak into every bin).
+
+    Parameters
+    ----------
+    x : array_like, shape (n_samples, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+    """
+    arr = np.asarray(x, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    ramp = np.linspace(0.0, 1.0, arr.shape[0])[:, None]
+    arr = arr - arr[:1] - ramp * (arr[-1:] - arr[:1])
+    power = np.abs(np.fft.rfft(arr, axis=0)) ** 2 / arr.shape[0]
+    freq = 2.0 * np.pi * np.fft.rfftfreq(arr.shape[0])
+    return np.sqrt(np.median(power[freq > 0.6 * np.pi], axis=0) / np.log(2.0))
+
+
 def choose_filter(
     q,
     dt: float,
@@ -318,23 +344,16 @@ def choose_filter(
         m = int(limit)
     else:
         m = int(half_width)
-    # 5. Ω_g: the lowest cut-off whose flat band reaches Ω_s (the edge lies ≈ 8π/(2M+1) below)
+    # 5. Ω_g: the lowest cut-off whose flat band reaches Ω_s. The flat edge lies a nearly
+    #    constant δ(M) ≈ 8π/(2M+1) below Ω_g, so two or three corrections of Ω_g suffice.
     cutoff = min(signal_band + 8.0 * np.pi / (2 * m + 1), np.pi)
     for _ in range(4):
         edge = passband_edge(m, cutoff, dt)
-        if edge >= signal_band or cutoff >= np.pi:
+        step = cutoff / 800.0  # the resolution of passband_edge's grid
+        if 0.0 <= edge - signal_band <= 2.0 * step or cutoff >= np.pi:
             break
-        cutoff = min(cutoff + 1.05 * (signal_band - edge), np.pi)
-    lo, hi = 0.5 * cutoff, cutoff
-    for _ in range(12):  # bisection down to the lowest cut-off that still clears Ω_s
-        mid = 0.5 * (lo + hi)
-        if passband_edge(m, mid, dt) >= signal_band:
-            hi = mid
-        else:
-            lo = mid
-    cutoff = float(round(hi, 4))
-    if passband_edge(m, cutoff, dt) < signal_band:
-        cutoff = float(hi)
+        cutoff = float(np.clip(cutoff + (signal_band - edge) + step, step, np.pi))
+    cutoff = float(cutoff)
     edge = passband_edge(m, cutoff, dt)
     why = (
         f"the motion's rate holds all but {threshold:g} of its energy below "
