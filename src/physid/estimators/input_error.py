@@ -974,7 +974,7 @@ class InputErrorEstimator(EstimatorMixin):
                 f"torque={self.torque!r} needs channels {needed}; the recording lacks {missing} "
                 f"(it has {list(recording.names)}). {hint}"
             )
-        m = check_int(self.half_width, "half_width", minimum=1, allow_none=True)
+        m = None if self.half_width is None else check_int(self.half_width, "half_width", minimum=1)
         auto = isinstance(self.cutoff, str)
         if auto and self.cutoff != "auto":
             raise InputError(
