@@ -12,8 +12,12 @@ from .band import (
     ENERGY_FRACTION_WARN,
     PASSBAND_TOL,
     FilterBandCheck,
+    FilterChoice,
+    choose_filter,
     filter_band_check,
+    noise_floor,
     passband_edge,
+    white_floor,
 )
 from .differential import (
     BANK_DESIGNS,
@@ -34,6 +38,10 @@ __all__ = [
     "FilterBandCheck",
     "filter_band_check",
     "passband_edge",
+    "FilterChoice",
+    "choose_filter",
+    "noise_floor",
+    "white_floor",
     "BANK_DESIGNS",
     "design_filter_bank",
     "KINDS",
