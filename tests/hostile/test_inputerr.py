@@ -1,65 +1,54 @@
 """Hostile input to ``physid identify`` and `InputErrorEstimator` (issue 16, room inputerr).
 
-Table rows: ``(case_id, argv, expected_exit, message_regex)``; ``{rec}`` in argv is a small
-recording of the paper's arm written once per module. Until the shared runner of
-``tests/hostile/_cases.py`` is on main this file runs ``physid.cli.main`` itself.
+One row per case: ``(case_id, argv, expected_exit, message_regex)``, run by the shared framework
+(tests/hostile/_cases.py; ``{arm_csv}`` is a short closed-loop run of the built-in arm).
 """
 
 from __future__ import annotations
 
-import re
-
 import pytest
 
 import physid
-from physid.cli import main
 from physid.errors import InputError
 from physid.estimators.input_error import InputErrorEstimator
-from physid.signals import save_recording
 from physid.simulate.closed_loop import paper_manipulator_experiment
 
-#: The library names Python arguments (``initial``); the CLI shows them as its flags.
-INITIAL, FIX = "--initial", "--fix"
+from ._cases import case_ids, check_case
 
+IDENTIFY = ["identify", "{arm_csv}", "--model", "manipulator"]
 CASES = [
     (
         "initial-and-fix-conflict",
-        ["identify", "{rec}", "--model", "manipulator", "--initial", "l1=0.5", "--fix", "l1=0.4"],
+        [*IDENTIFY, "--initial", "l1=0.5", "--fix", "l1=0.4"],
         2,
-        rf"physid: error: {INITIAL} and {FIX} give different values .*l1: initial 0.5, fixed 0.4",
+        r"--initial and --fix give different values .*l1: initial 0.5, fixed 0.4.*only one",
     ),
     (
         "fix-unknown-name",
-        ["identify", "{rec}", "--model", "manipulator", "--fix", "mass1=0.4"],
+        [*IDENTIFY, "--fix", "mass1=0.4"],
         2,
-        r"physid: error: .*unknown parameter\(s\) \['mass1'\]",
+        r"--fix names unknown parameter\(s\) \['mass1'\]",
     ),
     (
         "cutoff-not-a-number",
-        ["identify", "{rec}", "--model", "manipulator", "--cutoff", "fast"],
+        [*IDENTIFY, "--cutoff", "fast"],
         2,
-        r"physid: error: .*cutoff.*'auto' or a number",
+        r"--cutoff: must be 'auto' or a number",
+    ),
+    (
+        "noise-unknown-method",
+        [*IDENTIFY, "--noise", "subtract"],
+        2,
+        r"--noise: invalid choice: 'subtract'",
     ),
 ]
 
 
-@pytest.fixture(scope="module")
-def rec_path(tmp_path_factory):
-    rec = paper_manipulator_experiment(kinetic="paper").slice_time(0.0, 1.5)
-    path = tmp_path_factory.mktemp("inputerr") / "arm.csv"
-    save_recording(rec, path)
-    return path
-
-
-@pytest.mark.parametrize(("case_id", "argv", "expected_exit", "message_regex"), CASES)
-def test_hostile_identify(rec_path, capsys, case_id, argv, expected_exit, message_regex):
-    try:
-        code = main([a.replace("{rec}", str(rec_path)) for a in argv])
-    except SystemExit as exc:  # argparse's own errors exit from inside main
-        code = exc.code
-    err = capsys.readouterr().err
-    assert code == expected_exit, (case_id, err)
-    assert re.search(message_regex, err), (case_id, err)
+@pytest.mark.parametrize(
+    ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
+)
+def test_inputerr(case_id, argv, expected_exit, message_regex, hostile):
+    check_case(hostile, argv, expected_exit, message_regex)
 
 
 def test_fixed_list_is_not_a_traceback():
