@@ -1587,7 +1587,7 @@ class InputErrorEstimator(EstimatorMixin):
             noise_shift=dict(solution.noise_shift or {}),
             t=problem.t,
             residuals=e_hat,
-            units=dict(getattr(model, "units", {}) or {}),
+            units=dict(getattr(problem.model, "units", {}) or {}),
         )
 
     # ------------------------------------------------------------------ linear start
