@@ -7,6 +7,7 @@ needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when ask
 linear-ODE model); `msd_study` is the paper's MSD study on it (`msd_sweep`).
 """
 
+from .excitation import ExcitationDesign, design_excitation
 from .identifiability import (
     IdentifiabilityWarning,
     NumericIdentifiability,
@@ -28,6 +29,8 @@ from .msd_study import msd_sweep
 from .studies import EstimationTrial, SineScenario, model_sweep
 
 __all__ = [
+    "ExcitationDesign",
+    "design_excitation",
     "IdentifiabilityWarning",
     "StructuralIdentifiability",
     "NumericIdentifiability",

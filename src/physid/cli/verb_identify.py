@@ -1,4 +1,11 @@
-"""``physid identify``: input-error identification of a manipulator's parameters."""
+"""``physid identify``: identify a chain model's parameters from one or several recordings.
+
+Methods: ``input-error`` (nonlinear least squares on filtered signals; the default for models
+whose parameters enter nonlinearly, like the paper's masses and lengths) and ``idim-ols`` /
+``idim-wls`` / ``idim-iv`` (inverse dynamic model least squares on the base parameters; the
+default for models linear in their parameters, like URDF rigid bodies). Each method has its own
+``_run_*`` function below; the options shared by all are registered once.
+"""
 
 from __future__ import annotations
 
@@ -36,19 +43,33 @@ def register(subparsers) -> None:
     """Add the ``identify`` verb."""
     p = subparsers.add_parser(
         "identify",
-        help="identify masses and lengths of a manipulator (input-error method)",
+        help="identify the parameters of a manipulator (input-error or IDIM methods)",
         description=(
-            "Identify the physical parameters of a chain model from a recording by minimising "
-            "the residual of the equations of motion evaluated on filtered signals (Cedro & "
-            "Janecki, section 5). Prints the estimates, their standard errors, the paper's "
-            "quality factor J and the combinations the data cannot separate."
+            "Identify the parameters of a chain model from one or several recordings. "
+            "input-error minimises the residual of the equations of motion evaluated on "
+            "filtered signals (Cedro & Janecki, section 5): estimates, standard errors, the "
+            "paper's quality factor J and the combinations the data cannot separate. idim-ols, "
+            "idim-wls and idim-iv estimate the base parameters by least squares on the filtered "
+            "and decimated inverse dynamic model (Gautier; Janot-Gautier for IV): base "
+            "parameters with expressions and standard errors, condition number, relative "
+            "torque error per joint."
         ),
     )
     p.add_argument(
-        "recording",
-        help="recording file (CSV/NPZ/MAT/HDF5) with t, q1..qn and tau1..taun or r1..rn",
+        "recordings",
+        nargs="+",
+        metavar="recording",
+        help="recording file(s) (CSV/NPZ/MAT/HDF5) with t, q1..qn and tau1..taun (or r1..rn); "
+        "several files are stacked by the idim-* methods, each filtered on its own",
     )
-    p.add_argument("--model", required=True, help="'manipulator' or a TOML model file")
+    p.add_argument("--model", required=True, help="'manipulator', a TOML or a URDF model file")
+    p.add_argument(
+        "--method",
+        default=None,
+        choices=("input-error", "idim-ols", "idim-wls", "idim-iv"),
+        help="identification method (default: idim-ols for models linear in their parameters, "
+        "input-error otherwise)",
+    )
     p.add_argument(
         "--kinetic",
         choices=("exact", "paper"),
@@ -125,21 +146,83 @@ def register(subparsers) -> None:
     p.add_argument(
         "--max-nfev", type=int, default=200, help="budget of residual evaluations (default: 200)"
     )
+    _register_idim_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
+
+
+def _register_idim_options(p) -> None:
+    """Options of the idim-* methods."""
+    g = p.add_argument_group("IDIM options (idim-ols, idim-wls, idim-iv)")
+    g.add_argument(
+        "--decimate",
+        default=None,
+        metavar="ND",
+        help="parallel filtering and decimation: keep one sample in ND (default: from the cut-off)",
+    )
+    g.add_argument(
+        "--differentiation",
+        choices=("physid", "butterworth"),
+        default="physid",
+        help="state filter: physid's FIR differentiators, or zero-phase Butterworth + central "
+        "differences (default: physid)",
+    )
+    g.add_argument(
+        "--stderr",
+        choices=("hac", "iid"),
+        default="hac",
+        help="standard errors: Newey-West sandwich (filtered residual), or classical with a "
+        "noise variance per joint (default: hac)",
+    )
+    g.add_argument(
+        "--consistent",
+        action="store_true",
+        help="also compute a physically consistent estimate (positive definite pseudo-inertia "
+        "per link, friction >= 0) and print its standard parameters",
+    )
+    g.add_argument(
+        "--max-iter", type=int, default=10, help="IDIM-IV iterations at most (default: 10)"
+    )
 
 
 def run(args) -> int:
     """Load, fit, print; returns the exit status (0 on a successful fit, 1 otherwise)."""
     import physid
 
-    from ..estimators.input_error import InputErrorEstimator
-
     options = {}
     if args.kinetic is not None:
         options["kinetic"] = args.kinetic
     model = physid.load_model(args.model, **options)
-    recording = read_recording(args, args.recording, model=model)
+    recordings = [read_recording(args, f, model=model) for f in args.recordings]
+    method = args.method or _default_method(model)
+    if method == "input-error":
+        return _run_input_error(args, model, recordings)
+    return _run_idim(args, model, recordings, method)
+
+
+def _default_method(model) -> str:
+    """idim-ols for models linear in their parameters (β(θ) = θ up to order), else input-error."""
+    import numpy as np
+
+    try:
+        jac = np.asarray(model.beta_jacobian(), dtype=float)
+        theta = np.asarray(model.parameter_vector(None), dtype=float)
+        jac2 = np.asarray(model.beta_jacobian(2.0 * theta + 1.0), dtype=float)
+    except Exception:  # no linear form at all
+        return "input-error"
+    return "idim-ols" if np.allclose(jac, jac2) else "input-error"
+
+
+def _run_input_error(args, model, recordings) -> int:
+    from ..errors import InputError
+    from ..estimators.input_error import InputErrorEstimator
+
+    if len(recordings) > 1:
+        raise InputError(
+            f"--method input-error fits one recording; got {len(recordings)} files. Give one "
+            "file, or use --method idim-ols|idim-wls|idim-iv to stack several."
+        )
+    recording = recordings[0]
     estimator = InputErrorEstimator(
         model,
         half_width=args.half_width,
@@ -186,6 +269,64 @@ def run(args) -> int:
                 "at_bound": list(result.at_bound),
             }
         )
+    else:
+        print(result.summary())
+    return 0 if result.success else 1
+
+
+def _run_idim(args, model, recordings, method: str) -> int:
+    from ..errors import InputError
+    from ..estimators.idim import IDIMEstimator
+
+    decimate = "auto"
+    if args.decimate is not None:
+        try:
+            decimate = int(args.decimate)
+        except ValueError:
+            raise InputError(
+                f"--decimate expects a positive integer; got {args.decimate!r}."
+            ) from None
+    estimator = IDIMEstimator(
+        model,
+        method.removeprefix("idim-"),
+        differentiation=args.differentiation,
+        cutoff="auto" if args.cutoff in (None, "auto") else args.cutoff,
+        half_width=args.half_width,
+        decimate=decimate,
+        stderr=args.stderr,
+        kp=float_list(args.kp, "--kp") if args.kp else None,
+        kd=float_list(args.kd, "--kd") if args.kd else None,
+        max_iter=args.max_iter,
+        consistent=args.consistent,
+    )
+    progress(f"identify ({method}): " + ", ".join(repr(r) for r in recordings))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        estimator.fit(recordings)
+    for w in caught:
+        progress(f"warning: {w.message}")
+    result = estimator.result_
+    if args.json:
+        out = result.to_dict()
+        out.update(
+            {
+                "method": method,
+                "base_parameters": [
+                    {
+                        "name": n,
+                        "expression": result.expressions[n],
+                        "value": result.parameters[n],
+                        "stderr": None if result.stderr is None else result.stderr[n],
+                        "unit": result.units.get(n, ""),
+                    }
+                    for n in result.names
+                ],
+                "iterations": result.iterations,
+            }
+        )
+        if result.consistent is not None:
+            out["standard_parameters"] = result.consistent.standard
+        print_json(out)
     else:
         print(result.summary())
     return 0 if result.success else 1

@@ -1,0 +1,132 @@
+"""``physid design-excitation MODEL``: an optimal Fourier excitation for rigid-body identification.
+
+Writes the designed trajectory as a recording of references ``r1..rn`` [rad] (with their rates
+``rd1..rdn`` and accelerations ``rdd1..rddn``) that ``physid simulate MODEL --reference FILE`` can
+run, and prints the achieved condition number of the base regressor against the median of random
+Fourier trajectories under the same limits (Swevers et al. 1997).
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError
+from ._common import float_list, print_json, progress
+
+ORDER = 45
+
+__all__ = ["ORDER", "register", "run"]
+
+
+def register(subparsers) -> None:
+    """Add the ``design-excitation`` verb."""
+    p = subparsers.add_parser(
+        "design-excitation",
+        help="design a Fourier excitation trajectory that minimises the base regressor's "
+        "condition number",
+        description=(
+            "Design finite-Fourier-series joint trajectories (Swevers et al. 1997) that start "
+            "and end at rest, respect the position, velocity and acceleration limits (from the "
+            "model, e.g. a URDF's <limit>, or given here), and minimise the condition number of "
+            "the base regressor (or maximise log det of its information matrix). Writes t, "
+            "r1..rn [rad], rd1..rdn [rad/s], rdd1..rddn [rad/s^2]."
+        ),
+    )
+    p.add_argument("model", help="'manipulator', 'arm6', a TOML or a URDF model file")
+    p.add_argument("--out", required=True, metavar="F", help="output recording (.csv or .npz)")
+    p.add_argument("--harmonics", type=int, default=5, help="harmonics per joint (default: 5)")
+    p.add_argument("--period", type=float, default=10.0, help="period [s] (default: 10)")
+    p.add_argument("--periods", type=int, default=1, help="periods written (default: 1)")
+    p.add_argument("--dt", type=float, default=1e-3, help="sample period [s] (default: 0.001)")
+    p.add_argument(
+        "--criterion",
+        choices=("cond", "logdet"),
+        default="cond",
+        help="minimise the condition number, or maximise log det (default: cond)",
+    )
+    p.add_argument(
+        "--velocity", default=None, metavar="LIST", help="velocity limits [rad/s] per joint"
+    )
+    p.add_argument(
+        "--acceleration",
+        default=None,
+        metavar="LIST",
+        help="acceleration limits [rad/s^2] per joint (default: the model's, else 5x velocity)",
+    )
+    p.add_argument(
+        "--position",
+        default=None,
+        metavar="LO,HI,...",
+        help="position limits [rad], a pair per joint (default: the model's, else ±π)",
+    )
+    p.add_argument("--random", type=int, default=20, help="random trajectories to compare (20)")
+    p.add_argument("--max-iter", type=int, default=60, help="optimiser iterations (default: 60)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random draws (default: 0)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Design, write, print; returns 0."""
+    import numpy as np
+
+    import physid
+
+    from ..analysis.excitation import design_excitation
+    from ..signals import save_recording
+
+    model = physid.load_model(args.model)
+    position = None
+    if args.position:
+        values = float_list(args.position, "--position")
+        if len(values) != 2 * model.n_joints:
+            raise InputError(
+                f"--position expects a LO,HI pair per joint ({2 * model.n_joints} numbers); got "
+                f"{len(values)}."
+            )
+        position = np.reshape(values, (model.n_joints, 2))
+    velocity = float_list(args.velocity, "--velocity") if args.velocity else None
+    acceleration = float_list(args.acceleration, "--acceleration") if args.acceleration else None
+    for name, v in (("--velocity", velocity), ("--acceleration", acceleration)):
+        if v is not None and len(v) not in (1, model.n_joints):
+            raise InputError(
+                f"{name} expects one value or one per joint ({model.n_joints}); got {len(v)}."
+            )
+    if args.periods < 1:
+        raise InputError(f"--periods must be a positive integer; got {args.periods}.")
+    if not args.dt > 0 or args.dt > args.period / (4 * args.harmonics):
+        raise InputError(
+            f"--dt must be positive and resolve the highest harmonic (≤ period/(4·harmonics) = "
+            f"{args.period / (4 * args.harmonics):g} s); got {args.dt}."
+        )
+    progress(f"design-excitation: {model.n_joints} joints, {args.harmonics} harmonics")
+    design = design_excitation(
+        model,
+        harmonics=args.harmonics,
+        period=args.period,
+        criterion=args.criterion,
+        position=position,
+        velocity=velocity,
+        acceleration=acceleration,
+        n_random=args.random,
+        max_iter=args.max_iter,
+        seed=args.seed,
+    )
+    rec = design.to_recording(dt=args.dt, periods=args.periods)
+    save_recording(rec, args.out)
+    if args.json:
+        print_json(
+            {
+                "out": str(args.out),
+                "condition_number": design.condition_number,
+                "random_median_condition_number": design.random_median,
+                "improvement": design.improvement,
+                "log_det": design.log_det,
+                "harmonics": design.harmonics,
+                "period": design.period,
+                "peak": design.peak,
+                "limits": design.limits,
+            }
+        )
+    else:
+        progress(design.summary())
+        print(args.out)
+    return 0
