@@ -59,6 +59,12 @@ def register(subparsers) -> None:
     )
     p.add_argument("--random", type=int, default=20, help="random trajectories to compare (20)")
     p.add_argument("--max-iter", type=int, default=60, help="optimiser iterations (default: 60)")
+    p.add_argument(
+        "--max-seconds",
+        type=float,
+        default=60.0,
+        help="wall-time budget of the optimiser [s] (default: 60)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the random draws (default: 0)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
@@ -108,6 +114,7 @@ def run(args) -> int:
         acceleration=acceleration,
         n_random=args.random,
         max_iter=args.max_iter,
+        max_seconds=args.max_seconds,
         seed=args.seed,
     )
     rec = design.to_recording(dt=args.dt, periods=args.periods)
