@@ -47,8 +47,10 @@ def truth(arm):
 def _reference(t, phase=0.0, scale=1.0):
     # smooth start (a step of the reference at t = 0 is broadband and biases any filter)
     ramp = np.clip(t / 1.0, 0.0, 1.0)[:, None] ** 3
-    return ramp * scale * (
-        0.8 * np.sin(np.outer(t, W0) + phase) + 0.3 * np.sin(np.outer(t, 2.3 * W0) + 1 + phase)
+    return (
+        ramp
+        * scale
+        * (0.8 * np.sin(np.outer(t, W0) + phase) + 0.3 * np.sin(np.outer(t, 2.3 * W0) + 1 + phase))
     )
 
 
