@@ -316,7 +316,10 @@ def _states(q, dt, differentiation, cutoff, half_width):
     if differentiation == "physid":
         from ..filters import filter_derivatives
 
-        m = int(half_width) if half_width is not None else int(math.ceil(8.0 * np.pi / cutoff))
+        if half_width is not None:
+            m = int(half_width)
+        else:  # transition band ≈ cutoff/2, at most 1/8 of the record at each end
+            m = max(2, min(int(math.ceil(8.0 * np.pi / cutoff)), q.shape[0] // 8))
         if q.shape[0] < 2 * m + 2:
             raise SamplingError(
                 f"the recording has {q.shape[0]} samples, fewer than the state filter needs "
@@ -437,9 +440,9 @@ def idim_rows(
         if decimate != "auto":
             raise InputError(f"decimate must be a positive integer or 'auto'; got {decimate!r}.")
         decimate = max(1, int(math.floor(1.6 * np.pi / cutoff)))
-        n_min = min(a[0].size for a in arrays)
+        n_min = 0.75 * min(a[0].size for a in arrays)  # after the state filter
         rows_needed = max(20.0 * info.n_base / nj, 50.0)
-        decimate = max(1, min(decimate, int(n_min / (rows_needed + 30.0))))
+        decimate = max(1, min(decimate, int(n_min / (rows_needed + 24.0))))
     if isinstance(decimate, bool) or int(decimate) != decimate or int(decimate) < 1:
         raise InputError(f"decimate must be a positive integer; got {decimate!r}.")
     nd = int(decimate)
@@ -1125,6 +1128,36 @@ class IDIMEstimator:
             out.append((kp, kd, rec.select(refs)))
         return out
 
+    @staticmethod
+    def _simulate(simulate, model, kp, kd, ref, t, q_meas, theta, theta_nominal, notes):
+        """The closed loop of the current estimate; shrunk towards the nominal model if needed.
+
+        A poor estimate can have a mass matrix that is not positive definite somewhere on the
+        trajectory (the simulation then fails); the instruments only need to be correlated
+        with the regressor, so the parameters are moved towards the model's nominal values
+        (θ = θ_nom + α (θ̂ − θ_nom), α = 1, ½, ¼, 0) until the loop can be simulated.
+        """
+        from ..errors import SimulationError
+
+        q0 = ref[0] if np.allclose(q_meas[0], ref[0], atol=1e-2) else q_meas[0]
+        for alpha in (1.0, 0.5, 0.25, 0.0):
+            params = theta_nominal + alpha * (theta - theta_nominal)
+            try:
+                sim = simulate(model, kp=kp, kd=kd, reference=ref, t=t, q0=q0, params=params)
+            except SimulationError:
+                continue
+            if alpha < 1.0:
+                notes.append(
+                    f"IDIM-IV: the closed loop of the current estimate could not be simulated "
+                    f"(mass matrix not positive definite or unstable); the instruments used "
+                    f"{alpha:g}× the way from the nominal parameters to it."
+                )
+            return sim, params
+        raise SimulationError(
+            "IDIM-IV could not simulate the closed loop even with the model's nominal "
+            "parameters; check the gains (kp=, kd=) and the references r1..rn."
+        )
+
     def _iv(self, recs, rows, info, controller, beta, weights, history, notes):
         """Janot–Gautier iterations: simulate, build instruments, solve ZᵀW β = Zᵀτ."""
         from ..simulate.closed_loop import simulate_closed_loop
@@ -1132,6 +1165,7 @@ class IDIMEstimator:
         model = self.model
         nj = int(model.n_joints)
         theta = np.asarray(model.parameter_vector(None), dtype=float)
+        theta_nominal = theta.copy()
         changes: list[float] = []
         instruments: list[np.ndarray] = []
         Z = None
@@ -1142,19 +1176,22 @@ class IDIMEstimator:
                 kp, kd, ref = controller[k]
                 t = np.asarray(rec.t, dtype=float)
                 q_meas = rec.select([f"q{j + 1}" for j in range(nj)])
-                sim = simulate_closed_loop(
+                sim, used = self._simulate(
+                    simulate_closed_loop,
                     model,
-                    kp=kp,
-                    kd=kd,
-                    reference=ref,
-                    t=t,
-                    q0=ref[0] if np.allclose(q_meas[0], ref[0], atol=1e-2) else q_meas[0],
-                    params=theta,
+                    kp,
+                    kd,
+                    ref,
+                    t,
+                    q_meas,
+                    theta,
+                    theta_nominal,
+                    notes,
                 )
                 qs = sim.select([f"q{j + 1}" for j in range(nj)])
                 qds = sim.select([f"qd{j + 1}" for j in range(nj)])
                 taus = sim.select([f"tau{j + 1}" for j in range(nj)])
-                qdds = np.asarray(model.forward_dynamics(qs, qds, taus, theta), dtype=float)
+                qdds = np.asarray(model.forward_dynamics(qs, qds, taus, used), dtype=float)
                 sel = rows.segments == k
                 Zfull = _base_regressor(model, info, qs, qds, qdds)
                 # the same parallel filter and decimation as W, on the same samples
