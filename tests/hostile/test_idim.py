@@ -78,7 +78,7 @@ CASES = [
         "idim-consistent-needs-rigid-bodies",
         ["identify", "{good}", "--model", "manipulator", "--method", "idim-ols", "--consistent"],
         2,
-        r"--consistent\) needs a rigid-body model",
+        r"--consistent needs a rigid-body model",
     ),
     (
         "input-error-several-files",
