@@ -1188,28 +1188,19 @@ class IDIMEstimator:
                     theta_nominal,
                     notes,
                 )
+                # Janot–Gautier: the simulated (noise-free) q goes through the *same* state
+                # filter, regressor, parallel filter and decimation as the measured q, so that
+                # Z carries the same filter distortion as W and differs from it by the noise only
                 qs = sim.select([f"q{j + 1}" for j in range(nj)])
-                qds = sim.select([f"qd{j + 1}" for j in range(nj)])
-                taus = sim.select([f"tau{j + 1}" for j in range(nj)])
-                qdds = np.asarray(model.forward_dynamics(qs, qds, taus, used), dtype=float)
-                sel = rows.segments == k
-                Zfull = _base_regressor(model, info, qs, qds, qdds)
-                # the same parallel filter and decimation as W, on the same samples
-                nd = rows.decimate
-                idx = rows.samples[sel]
-                if nd > 1:
-                    lo = max(int(idx[0]) - _decimation_edge(nd), 0)
-                    hi = min(int(idx[-1]) + _decimation_edge(nd) + 1, t.size)
-                    seg = Zfull[lo:hi]
-                    filt = signal.sosfiltfilt(
-                        _decimation_sos(nd),
-                        seg.reshape(seg.shape[0], -1),
-                        axis=0,
-                        padlen=min(seg.shape[0] - 1, _decimation_edge(nd)),
-                    ).reshape(seg.shape)
-                    Zs.append(filt[idx - lo])
-                else:
-                    Zs.append(Zfull[idx])
+                _, qf, qdf, qddf, _ = _states(
+                    qs, rec.dt, self.differentiation, rows.cutoff, rows.half_width
+                )
+                Zk, _ = parallel_decimate(
+                    _base_regressor(model, info, qf, qdf, qddf), rows.decimate
+                )
+                if Zk.shape[0] != int(np.sum(rows.segments == k)):  # guard
+                    raise ShapeError("internal: instrument rows do not match the regressor rows")
+                Zs.append(Zk)
             Z = np.concatenate(Zs)
             new = _iv_solve(Z, rows.W, rows.tau, weights)
             change = float(
