@@ -424,11 +424,36 @@ def _linear_inverse(loaded, recording):
     return in_name, t, u_f, u_hat, f"inverse model on {note}; first {skip} samples dropped"
 
 
+def _is_idim(loaded) -> bool:
+    return str(loaded.method).startswith("idim")
+
+
 def _chain_inverse(loaded, recording):
     """(t, τ_f, τ̂) of a chain result on the held-out recording, filtered as in the fit."""
     from ..estimators.input_error import InputErrorEstimator
 
     d = loaded.data
+    if _is_idim(loaded):
+        # IDIM estimates base parameters: τ̂ = W_base β̂ on rows filtered and decimated with the
+        # fit's own settings (the robotics convention for the cross-test).
+        from ..estimators.idim import idim_rows
+
+        names = list(d.get("names") or loaded.parameters)
+        rows = idim_rows(
+            loaded.model,
+            recording,
+            differentiation=d.get("differentiation", "physid"),
+            cutoff=d.get("cutoff", "auto"),
+            half_width=d.get("half_width"),
+            decimate=d.get("decimate", "auto"),
+        )
+        if rows.W.shape[2] != len(names):
+            raise InputError(
+                f"the result has {len(names)} base parameters but the model gives "
+                f"{rows.W.shape[2]}; validate with the model the result was fitted with."
+            )
+        beta = np.array([loaded.parameters[n] for n in names])
+        return rows.t, rows.tau, rows.W @ beta
     settings = {
         k: d[k] for k in ("half_width", "cutoff", "torque", "derivatives") if d.get(k) is not None
     }
@@ -532,7 +557,21 @@ def _chain_output_error(loaded, recording, series):
     from ..simulate.closed_loop import simulate_closed_loop
 
     d = loaded.data
-    params = {**dict(d.get("fixed") or {}), **loaded.parameters}
+    if _is_idim(loaded):
+        # Base parameters do not determine a simulable model; the consistent estimate's standard
+        # parameters (in ``derived``) do.
+        standard = {k: v for k, v in loaded.derived.items() if k in model.parameter_names}
+        if not standard:
+            return (
+                {},
+                {},
+                "(b) skipped: IDIM estimates base parameters, which do not define a model to "
+                "simulate; refit with the physically consistent estimate, which gives standard "
+                "parameters",
+            )
+        params = standard
+    else:
+        params = {**dict(d.get("fixed") or {}), **loaded.parameters}
     params = {k: v for k, v in params.items() if k in model.parameter_names}
     t = np.asarray(recording.t, dtype=float)
     reference = np.column_stack([recording[n] for n in r_names])

@@ -148,6 +148,13 @@ def register(subparsers) -> None:
     )
     _register_idim_options(p)
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument(
+        "--save",
+        default=None,
+        metavar="RESULT.json",
+        help="write the result file (parameters, units, filter settings, model) that "
+        "'physid validate' reads",
+    )
     p.set_defaults(func=run)
 
 
@@ -200,6 +207,16 @@ def run(args) -> int:
     return _run_idim(args, model, recordings, method)
 
 
+def _save(args, result) -> None:
+    """Write ``--save RESULT.json`` (the file ``physid validate`` reads)."""
+    if not args.save:
+        return
+    from ..estimators.results import save_result
+
+    save_result(result, args.save, model=args.model, recording=args.recordings[0])
+    progress(f"identify: result written to {args.save}")
+
+
 def _default_method(model) -> str:
     """idim-ols for models linear in their parameters (β(θ) = θ up to order), else input-error."""
     import numpy as np
@@ -243,6 +260,7 @@ def _run_input_error(args, model, recordings) -> int:
     for w in caught:
         progress(f"warning: {w.message}")
     result = estimator.result_
+    _save(args, result)
     if result.filter_choice:
         progress(f"identify: {result.filter_choice}")
     if args.json:
@@ -306,6 +324,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
     for w in caught:
         progress(f"warning: {w.message}")
     result = estimator.result_
+    _save(args, result)
     if args.json:
         out = result.to_dict()
         out.update(
