@@ -15,6 +15,7 @@ Rows
 
 from __future__ import annotations
 
+import time
 import timeit
 
 import numpy as np
@@ -195,10 +196,11 @@ def _rigid_rows(quick: bool) -> list[dict]:
     for backend in ("compiled", "pinocchio"):
         best = np.inf
         for _ in range(repeats):
+            start = time.perf_counter()  # the recording keeps no wall time (byte-identical runs)
             rec = simulate_closed_loop(
                 model, kp=kp, kd=kd, reference=ref, t=t, q0=mid, backend=backend
             )
-            best = min(best, rec.metadata["integrator"]["wall_seconds"])
+            best = min(best, time.perf_counter() - start)
         times[backend] = best
         nfev[backend] = rec.metadata["integrator"]["nfev"]
     ratio = times["pinocchio"] / times["compiled"]

@@ -11,20 +11,12 @@ from html import escape
 
 from ..html import FigureSpec, Html, ReportSection
 from ..robot import plot_bias_bars, plot_excitation, plot_torque_prediction
+from ._common import make_section
 
 PART = "Part III — a 6-DOF arm identified end to end, from its URDF"
 
 
-def _section(sd, paragraphs, figures=()) -> ReportSection:
-    return ReportSection(
-        sd.title,
-        paragraphs=tuple(paragraphs),
-        tables=sd.tables,
-        figures=tuple(figures),
-        results=sd.results,
-        errata=sd.errata,
-        part=PART,
-    )
+_section = make_section(PART)
 
 
 def _missing(r) -> list[str]:

@@ -8,24 +8,16 @@ Each function turns one `physid.experiments.data.SectionData` of
 
 from __future__ import annotations
 
-from ..html import FigureSpec, Html, ReportSection
+from ..html import FigureSpec, ReportSection
 from ..manipulator import plot_filter_sweep, plot_histories_and_search, plot_valley
 from ..simulation import plot_joint_responses
+from ._common import errata_section, make_section
 
 PART = "Part I — Cedro & Janecki: a 4-DOF arm by the input-error method"
 COMBO = "m1*l1**2"
 
 
-def _section(sd, paragraphs, figures=()) -> ReportSection:
-    return ReportSection(
-        sd.title,
-        paragraphs=tuple(paragraphs),
-        tables=sd.tables,
-        figures=tuple(figures),
-        results=sd.results,
-        errata=sd.errata,
-        part=PART,
-    )
+_section = make_section(PART)
 
 
 def overview(sd, r) -> ReportSection:
@@ -293,14 +285,7 @@ def noise(sd, r) -> ReportSection:
 
 
 def errata(sd, r) -> ReportSection:
-    paragraphs = [
-        Html(
-            f"The reproduction found {r['count']} errors or misprints in the paper. Each is "
-            "listed here with its correction; the full table at the end of the report gives "
-            'what is printed and the evidence (<a href="#errata">Errata found in the papers</a>).'
-        )
-    ]
-    return _section(sd, paragraphs)
+    return errata_section(sd, r, _section)
 
 
 RENDERERS = {

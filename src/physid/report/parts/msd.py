@@ -12,20 +12,12 @@ import math
 from ..html import FigureSpec, Html, ReportSection
 from ..input_design import plot_input_design
 from ..msd import plot_convergence_maps, plot_measurement, plot_trace_grid, plot_tracking_panels
+from ._common import errata_section, make_section
 
 PART = "Part II — Oueslati et al.: a mass-spring-damper, algebraic vs recursive estimation"
 
 
-def _section(sd, paragraphs, figures=()) -> ReportSection:
-    return ReportSection(
-        sd.title,
-        paragraphs=tuple(paragraphs),
-        tables=sd.tables,
-        figures=tuple(figures),
-        results=sd.results,
-        errata=sd.errata,
-        part=PART,
-    )
+_section = make_section(PART)
 
 
 def _pct(value) -> str:
@@ -413,14 +405,7 @@ def jumps(sd, r) -> ReportSection:
 
 
 def errata(sd, r) -> ReportSection:
-    paragraphs = [
-        Html(
-            f"The reproduction found {r['count']} errors or misprints in the paper. Each is "
-            "listed here with its correction; the full table at the end of the report gives "
-            'what is printed and the evidence (<a href="#errata">Errata found in the papers</a>).'
-        )
-    ]
-    return _section(sd, paragraphs)
+    return errata_section(sd, r, _section)
 
 
 RENDERERS = {
