@@ -80,6 +80,7 @@ def compute(setup, first, period: float, harmonics: int, progress=None) -> Secti
     outside = per_method["idim-iv"]["lags_outside_band"]
     results.update(
         {
+            "available": True,
             "worst_joint": worst,
             "worst_joint_error": iv_err[worst],
             "white_threshold": WHITE_SHARE,
