@@ -11,7 +11,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..models.linear_ode import LinearODEModel, natural_frequency_damping
+from ..models.linear_ode import LinearODEModel, as_linear_ode_model, natural_frequency_damping
 
 #: Units of the derived quantities.
 DERIVED_UNITS = {
@@ -194,3 +194,38 @@ def check_known_finite(known) -> None:
             "estimate NaN: give its value (known={'theta1': 0.0167}) or estimate it (leave it out "
             "of known)."
         )
+
+
+class LinearODEResultMixin:
+    """What the algebraic and RLS results share: the history, all coefficients and `predict`.
+
+    Needs the dataclass fields ``estimates``, ``known``, ``parameters``, ``model`` and
+    ``model_name``.
+    """
+
+    @property
+    def history(self) -> np.ndarray:
+        """Per-sample estimates, shape (n_samples, len(names)) (the ``estimates`` array)."""
+        return self.estimates
+
+    @property
+    def coefficients(self) -> dict[str, float]:
+        """Every coefficient's value: the known ones and the fitted ones."""
+        return {**self.known, **dict(self.parameters)}
+
+    def predict(self, recording):
+        """Simulate the identified model on ``recording``'s input (open loop).
+
+        Parameters
+        ----------
+        recording : Recording
+            Held-out data with the model's input and output channels.
+
+        Returns
+        -------
+        Recording
+            The input channel and the predicted output (named as the recording's output), with
+            the initial output derivatives fitted by least squares (``metadata["initial_state"]``).
+        """
+        model = self.model if self.model is not None else as_linear_ode_model(self.model_name)
+        return predict_recording(model, self.coefficients, recording)

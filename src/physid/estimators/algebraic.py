@@ -53,12 +53,12 @@ from ..errors import EstimationError, InputError, SamplingError
 from ..models.linear_ode import as_linear_ode_model, natural_frequency_damping
 from ._linear import (
     DERIVED_UNITS,
+    LinearODEResultMixin,
     check_distinct_channels,
     check_distinct_signals,
     check_known_finite,
     coefficient_units,
     derived_quantities,
-    predict_recording,
 )
 from .base import EstimatorMixin
 from .results import ParameterDict, ResultMixin
@@ -863,7 +863,7 @@ class AlgebraicSettings:
 # Result
 # ----------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
-class AlgebraicResult(ResultMixin):
+class AlgebraicResult(LinearODEResultMixin, ResultMixin):
     """Estimates of the algebraic estimator at every sample time.
 
     Attributes
@@ -936,16 +936,6 @@ class AlgebraicResult(ResultMixin):
     _history_fields = ("t", "estimates", "valid", "level")
     _private_fields = ("model",)
 
-    @property
-    def history(self) -> np.ndarray:
-        """Per-sample estimates, shape (n_samples, len(names)) (the ``estimates`` array)."""
-        return self.estimates
-
-    @property
-    def coefficients(self) -> dict[str, float]:
-        """Every coefficient's value: the known ones and the fitted ones."""
-        return {**self.known, **dict(self.parameters)}
-
     def series(self, name: str) -> np.ndarray:
         """Per-time estimate of one coefficient (or, for the MSD, ``natural_frequency`` /
         ``damping_ratio``); a known coefficient gives a constant array."""
@@ -959,23 +949,6 @@ class AlgebraicResult(ResultMixin):
             omega0, zeta = natural_frequency_damping(self.series("theta1"), self.series("theta2"))
             return omega0 if name == "natural_frequency" else zeta
         raise InputError(f"no series {name!r}; available: {list(self.names) + list(self.known)}.")
-
-    def predict(self, recording):
-        """Simulate the identified model on ``recording``'s input (open loop).
-
-        Parameters
-        ----------
-        recording : Recording
-            Held-out data with the model's input and output channels.
-
-        Returns
-        -------
-        Recording
-            The input channel and the predicted output (named as the recording's output), with
-            the initial output derivatives fitted by least squares (``metadata["initial_state"]``).
-        """
-        model = self.model if self.model is not None else as_linear_ode_model(self.model_name)
-        return predict_recording(model, self.coefficients, recording)
 
     def plot(
         self,

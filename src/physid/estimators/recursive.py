@@ -78,12 +78,12 @@ from ..models.linear_ode import (
 )
 from ._linear import (
     DERIVED_UNITS,
+    LinearODEResultMixin,
     check_distinct_channels,
     check_distinct_signals,
     check_known_finite,
     coefficient_units,
     derived_quantities,
-    predict_recording,
 )
 from .base import EstimatorMixin
 from .results import ParameterDict, ResultMixin
@@ -1103,7 +1103,7 @@ def _check_init_samples(init_samples, p: int) -> int:
 
 # =============================================================================== estimator
 @dataclass(frozen=True, eq=False)
-class RecursiveResult(ResultMixin):
+class RecursiveResult(LinearODEResultMixin, ResultMixin):
     """Result of `RecursiveLeastSquares.fit`.
 
     Attributes
@@ -1156,33 +1156,6 @@ class RecursiveResult(ResultMixin):
     method = "rls"
     _history_fields = ("t", "estimates", "covariance", "natural_frequency", "damping_ratio")
     _private_fields = ("model",)
-
-    @property
-    def history(self) -> np.ndarray:
-        """Per-sample estimates, shape (n_samples, len(names)) (the ``estimates`` array)."""
-        return self.estimates
-
-    @property
-    def coefficients(self) -> dict[str, float]:
-        """Every coefficient's value: the known ones and the fitted ones."""
-        return {**self.known, **dict(self.parameters)}
-
-    def predict(self, recording):
-        """Simulate the identified model on ``recording``'s input (open loop).
-
-        Parameters
-        ----------
-        recording : Recording
-            Held-out data with the model's input and output channels.
-
-        Returns
-        -------
-        Recording
-            The input channel and the predicted output, the initial output derivatives fitted by
-            least squares (``metadata["initial_state"]``).
-        """
-        model = self.model if self.model is not None else as_linear_ode_model(self.model_name)
-        return predict_recording(model, self.coefficients, recording)
 
     @property
     def valid(self) -> np.ndarray:
