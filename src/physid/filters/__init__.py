@@ -4,7 +4,8 @@ Design (`design_filter`) is separate from application (`DifferentialFilter.apply
 samples, `DifferentialFilter.filter_signal` for a `FilteredSignal` of samples and aligned times);
 every filter reports its delay, valid range, frequency response and white-noise gain.
 `filter_derivatives` returns the low-passed signal and both derivatives, aligned on the same
-output times. `filter_band_check` (in ``band.py``) measures whether a motion fits a filter's flat
+output times. `state_variable_filter` (in ``state_variable.py``) is the causal Butterworth
+state-variable filter of the recursive estimator, batch and streaming. `filter_band_check` (in ``band.py``) measures whether a motion fits a filter's flat
 pass band.
 """
 
@@ -31,6 +32,12 @@ from .differential import (
     harris_window,
     ideal_impulse_response,
 )
+from .state_variable import (
+    SVF_TRANSIENT_TOL,
+    StreamingStateVariableFilter,
+    state_variable_filter,
+    svf_transient_samples,
+)
 
 __all__ = [
     "ENERGY_FRACTION_WARN",
@@ -52,4 +59,8 @@ __all__ = [
     "filter_derivatives",
     "harris_window",
     "ideal_impulse_response",
+    "SVF_TRANSIENT_TOL",
+    "state_variable_filter",
+    "StreamingStateVariableFilter",
+    "svf_transient_samples",
 ]
