@@ -1,0 +1,175 @@
+"""Input-error, step 3: the residual balance check, the standard errors and the result.
+
+Part of `physid.estimators.input_error`.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ...filters.band import choose_filter, noise_floor
+from .core import RESIDUAL_WARN, FilterWarning, quality_factor
+from .prepare import _Problem
+from .result import InputErrorResult
+from .solve import _Solution
+from .uncertainty import _expression_values, hac_lags, iid_covariance, sandwich_covariance
+
+
+def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
+    """Residual balance check, uncertainty, message and the result object."""
+    names, free_idx, free_names = problem.names, problem.free_idx, problem.free_names
+    e_hat, tau_f, notes = solution.residuals, problem.tau_f, problem.notes
+    cost = quality_factor(e_hat)
+    tau_rms = np.sqrt(np.mean(tau_f**2, axis=0))
+    relative_residual = np.sqrt(np.mean(e_hat**2, axis=0)) / np.where(tau_rms > 0, tau_rms, 1.0)
+    if est.check_filter and relative_residual.max() > RESIDUAL_WARN:
+        worst = int(np.argmax(relative_residual))
+        f = problem.filtered
+        advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
+        head = (
+            "the filtered equations of motion balance only to "
+            f"{relative_residual[worst]:.2g} of the torque on joint {worst + 1} (relative "
+            f"rms residual at the optimum, limit {RESIDUAL_WARN:g}); expect estimates biased "
+            "by roughly that order or more."
+        )
+        edge = problem.band.passband_edge
+        noisy = advice.noisy
+        if advice.signal_band > edge:  # too low: bias from the filter
+            cause = (
+                f" The cut-off Ω_g={f.cutoff:.4g} is too low for the motion (it reaches "
+                f"{advice.signal_band:.3g} rad/sample, the filter is flat to {edge:.3g}): "
+                f"raise it to Ω_g >= {advice.cutoff:.3g} for M={f.half_width}, or use "
+                "cutoff='auto'."
+            )
+        elif noisy and f.cutoff > 1.2 * advice.cutoff:  # too high: noise in q̈^f
+            cause = (
+                f" The cut-off Ω_g={f.cutoff:.4g} is higher than the motion needs "
+                f"({advice.cutoff:.3g} for M={f.half_width}) and lets the measurement noise "
+                f"(σ ≈ {np.max(advice.noise_std):.2g} on q) into q̈^f, which biases the "
+                "inertias towards zero: lower it, or use cutoff='auto'."
+            )
+        elif noisy:
+            cause = (
+                f" The filter already holds just the motion; the residual is measurement "
+                f"noise (σ ≈ {np.max(advice.noise_std):.2g} on q), whose errors-in-variables "
+                "bias no filter choice removes (a longer record allows a larger M and a "
+                "lower Ω_g; or use an instrumental-variable method)."
+            )
+        else:
+            cause = (
+                " The filter holds the motion and no noise floor is visible: check the "
+                "model (a missing friction term, wrong gains) and the data."
+            )
+        text = head + cause + " See docs/input-error.md."
+        warnings.warn(text, FilterWarning, stacklevel=3)
+        notes.append(text)
+
+    # -- uncertainty (see `sandwich_covariance` and `iid_covariance`)
+    cov_iid = iid_covariance(solution.jacobian, e_hat)
+    lags = hac_lags(problem.filtered.half_width)
+    if solution.covariance is not None:
+        cov = solution.covariance
+    elif est.uncertainty == "hac":
+        cov = sandwich_covariance(solution.jacobian, e_hat, lags)
+    else:
+        cov = cov_iid
+
+    def standard_errors(c: np.ndarray) -> dict[str, float]:
+        out = {n: float("nan") for n in names}
+        out.update({n: float(v) for n, v in zip(free_names, np.sqrt(np.diag(c)), strict=True)})
+        out.update({n: float("nan") for n in solution.at_bound})
+        return out
+
+    sd = np.sqrt(np.diag(cov))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    stderr = standard_errors(cov)
+
+    theta_hat = solution.theta_hat
+    structural = problem.structural
+    combos = tuple(c.expression for c in structural.combinations)
+    combo_values, combo_errors = _expression_values(combos, names, theta_hat, cov, free_idx)
+
+    sol, after = solution.sol, solution.after
+    message = sol.message
+    success = bool(sol.success)
+    if not success:
+        message += (
+            f" The fit stopped after {sol.nfev} evaluations; raise max_nfev (now "
+            f"{est.max_nfev}) or use start='linear'."
+        )
+    if solution.at_bound:
+        success = False
+        message += " Not a minimum: " + solution.bound_text
+    if not after.ok:
+        notes.append("after the fit: " + after.summary())
+        message += " Warning: " + after.summary() + "."
+    if structural.combinations:
+        message += " Identifiable only as combinations: " + "; ".join(structural.texts) + "."
+    f = problem.filtered
+    advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
+    if est.noise == "ignore" and advice.noisy:
+        message += (
+            f" q is noisy (σ ≈ {np.max(advice.noise_std):.2g}): the standard errors describe "
+            "the scatter, not the errors-in-variables bias that noise causes, so their "
+            "intervals need not hold the truth; noise='compensate' removes most of that bias "
+            "and gives intervals that do (docs/input-error.md)."
+        )
+    if solution.noise_shift is not None:
+        moved = max(solution.noise_shift, key=lambda n: abs(solution.noise_shift[n]))
+        message += (
+            f" Noise on q (σ ≈ {np.max(noise_floor(f.q)):.2g}) compensated with "
+            f"{est.noise_replicates} replicates; it moved {moved} by "
+            f"{solution.noise_shift[moved]:+.4g}."
+        )
+
+    return InputErrorResult(
+        parameters=problem.as_params(theta_hat),
+        stderr=stderr,
+        correlation=corr,
+        free=free_names,
+        cost=cost,
+        nfev=int(sol.nfev),
+        njev=solution.njev,
+        success=success,
+        message=message,
+        history=solution.history,
+        cost_history=solution.cost_history,
+        parameter_names=names,
+        unidentifiable=combos,
+        unidentifiable_text=tuple(structural.texts),
+        combinations=combo_values,
+        combination_stderr=combo_errors,
+        fixed=problem.fixed,
+        initial=problem.as_params(problem.theta0),
+        half_width=problem.filtered.half_width,
+        cutoff=float(problem.filtered.cutoff),
+        filter_choice=problem.filtered.choice.reason if problem.filtered.choice else "",
+        noise_std=(
+            problem.advice.noise_std
+            if problem.advice is not None
+            else noise_floor(problem.filtered.q)
+        ),
+        dt=problem.dt,
+        torque=est.torque,
+        derivatives=est.derivatives,
+        start=est.start,
+        start_nfev=solution.start_nfev,
+        condition_number=after.condition_number,
+        singular_values=np.asarray(after.singular_values),
+        filter_passband_edge=problem.band.passband_edge,
+        filter_energy_fraction=problem.band.fractions,
+        relative_residual=relative_residual,
+        warnings=tuple(notes),
+        at_bound=solution.at_bound,
+        uncertainty=est.uncertainty,
+        hac_lags=lags,
+        stderr_iid=standard_errors(cov_iid),
+        noise=est.noise,
+        noise_shift=dict(solution.noise_shift or {}),
+        t=problem.t,
+        residuals=e_hat,
+        units=dict(getattr(problem.model, "units", {}) or {}),
+    )
