@@ -435,25 +435,29 @@ def _chain_inverse(loaded, recording):
     d = loaded.data
     if _is_idim(loaded):
         # IDIM estimates base parameters: τ̂ = W_base β̂ on rows filtered and decimated with the
-        # fit's own settings (the robotics convention for the cross-test).
-        from ..estimators.idim import idim_rows
+        # fit's own settings (the robotics convention for the cross-test), by the same function
+        # as IDIMResult.predict
+        from ..estimators.idim import predict_torque
 
         names = list(d.get("names") or loaded.parameters)
-        rows = idim_rows(
+        missing = [n for n in names if n not in loaded.parameters]
+        if missing:
+            raise InputError(f"the result file lacks the value(s) of {missing}.")
+        pred = predict_torque(
             loaded.model,
+            names,
+            [loaded.parameters[n] for n in names],
             recording,
             differentiation=d.get("differentiation", "physid"),
             cutoff=d.get("cutoff", "auto"),
             half_width=d.get("half_width"),
             decimate=d.get("decimate", "auto"),
+            measured=True,
         )
-        if rows.W.shape[2] != len(names):
-            raise InputError(
-                f"the result has {len(names)} base parameters but the model gives "
-                f"{rows.W.shape[2]}; validate with the model the result was fitted with."
-            )
-        beta = np.array([loaded.parameters[n] for n in names])
-        return rows.t, rows.tau, rows.W @ beta
+        nj = int(loaded.model.n_joints)
+        tau_hat = pred.select([f"tau{j + 1}" for j in range(nj)])
+        tau_f = pred.select([f"tau{j + 1}_measured" for j in range(nj)])
+        return np.asarray(pred.t), tau_f, tau_hat
     settings = {
         k: d[k] for k in ("half_width", "cutoff", "torque", "derivatives") if d.get(k) is not None
     }

@@ -47,6 +47,7 @@ from scipy import linalg, signal
 
 from .._validate import check_positive, sample_period
 from ..errors import IdentifiabilityError, InputError, SamplingError, ShapeError, arg
+from .base import EstimatorMixin
 from .results import ResultMixin
 
 __all__ = [
@@ -55,6 +56,7 @@ __all__ = [
     "IDIMRows",
     "ConditionWarning",
     "idim_rows",
+    "predict_torque",
     "parallel_decimate",
     "base_regressor_info",
     "hac_covariance",
@@ -286,10 +288,12 @@ class IDIMRows:
     decimate: int
 
 
-def _recording_arrays(recording, n_joints: int):
+def _recording_arrays(recording, n_joints: int, torque: bool = True):
     names = list(recording.names)
     q_names = [f"q{j + 1}" for j in range(n_joints)]
     tau_names = [f"tau{j + 1}" for j in range(n_joints)]
+    if not torque and not any(c in names for c in tau_names):
+        tau_names = []  # prediction from the motion alone
     missing = [c for c in q_names + tau_names if c not in names]
     if missing:
         raise InputError(
@@ -308,7 +312,8 @@ def _recording_arrays(recording, n_joints: int):
             "check that the recording belongs to this model."
         )
     t = np.asarray(recording.t, dtype=float)
-    return t, recording.select(q_names), recording.select(tau_names)
+    tau = recording.select(tau_names) if tau_names else np.zeros((t.size, n_joints))
+    return t, recording.select(q_names), tau
 
 
 def _states(q, dt, differentiation, cutoff, half_width):
@@ -366,6 +371,7 @@ def idim_rows(
     cutoff: float | str = "auto",
     half_width: int | None = None,
     decimate: int | str = "auto",
+    torque: bool = True,
 ) -> IDIMRows:
     """Build the filtered, decimated IDIM regression of one or several recordings.
 
@@ -388,6 +394,9 @@ def idim_rows(
         (0.8 π / nd) sits at half the state filter's, where the FIR bank is flat (on the paper's
         arm with σ_q = 1e-4 rad this halves the held-out torque error of nd = 0.8 π / cutoff),
         lowered when fewer than 20 equations per base parameter would remain.
+    torque : bool
+        False: a recording may lack ``tau1..taun`` (for a prediction from the motion alone);
+        ``tau`` of the rows is then zero.
 
     Returns
     -------
@@ -412,7 +421,7 @@ def idim_rows(
         )
     info = info or base_regressor_info(model)
     nj = int(model.n_joints)
-    arrays = [_recording_arrays(r, nj) for r in recordings]
+    arrays = [_recording_arrays(r, nj, torque) for r in recordings]
     dts = [sample_period(t, "t") for t, _, _ in arrays]
     for k, dt in enumerate(dts[1:], start=1):
         if not math.isclose(dt, dts[0], rel_tol=1e-6):
@@ -630,6 +639,8 @@ class IDIMResult(ResultMixin):
         The estimate after each step (OLS, then WLS/IV iterations).
     t : ndarray, shape (n_rows,) [s]
     residuals : ndarray, shape (n_rows, n_joints) [N·m]
+    model : ChainModel or None
+        The model fitted (used by `predict`; not written by ``to_dict``).
     """
 
     names: tuple[str, ...]
@@ -661,8 +672,17 @@ class IDIMResult(ResultMixin):
     history: np.ndarray = field(repr=False)
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
+    model: Any = field(default=None, repr=False, compare=False)
 
     _history_fields = ("history", "t", "residuals", "covariance")
+    _private_fields = ("model",)
+
+    def __getstate__(self):
+        # models hold compiled kernels (ctypes), which do not pickle: a pickled result (e.g.
+        # from a process pool) keeps everything but the model
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
 
     def beta_vector(self) -> np.ndarray:
         """The estimates as an array ordered like `names`."""
@@ -694,6 +714,154 @@ class IDIMResult(ResultMixin):
     def predict_rows(self, rows: IDIMRows) -> np.ndarray:
         """τ̂ = W β̂ on rows built like the fit's (`idim_rows`), shape (n_rows, n_joints)."""
         return rows.W @ self.beta_vector()
+
+    def predict(self, recording, *, measured: bool = False):
+        """Torques the identified base parameters predict from a recording's motion.
+
+        The recording's q goes through the fit's own state filter (`differentiation`,
+        `cutoff`, `half_width`) and the base regressor through the fit's parallel filter and
+        decimation (`decimate`): the prediction is ``τ̂ = W β̂`` on the *filtered, decimated
+        rows* (the robotics convention for the cross-test), not at every input sample. See
+        `predict_torque`.
+
+        Parameters
+        ----------
+        recording : Recording
+            ``t`` [s] and ``q1..qn`` [rad | m], sampled like the fit's recordings;
+            ``tau1..taun`` are needed only with ``measured=True``.
+        measured : bool
+            Also return the recording's torques through the same filter and decimation, as
+            channels ``tau1_measured..``.
+
+        Returns
+        -------
+        Recording
+            Time of the kept rows [s]; ``tau1..taun`` predicted [N·m | N] (and the measured
+            ones); ``metadata`` records the filter settings and ``"prediction"``.
+
+        Raises
+        ------
+        InputError
+            The result holds no model (a result built by hand): use `predict_torque`.
+        """
+        if self.model is None:
+            raise InputError(
+                "this IDIMResult holds no model; call "
+                "physid.estimators.idim.predict_torque(model, result.names, "
+                "result.beta_vector(), recording, ...) instead."
+            )
+        return predict_torque(
+            self.model,
+            self.names,
+            self.beta_vector(),
+            recording,
+            differentiation=self.differentiation,
+            cutoff=self.cutoff,
+            half_width=self.half_width,
+            decimate=self.decimate,
+            measured=measured,
+        )
+
+
+def predict_torque(
+    model,
+    names,
+    beta,
+    recording,
+    *,
+    differentiation: str = "physid",
+    cutoff: float | str = "auto",
+    half_width: int | None = None,
+    decimate: int | str = "auto",
+    measured: bool = False,
+):
+    """τ̂ = W β on a recording's rows, filtered and decimated as `idim_rows` builds them.
+
+    Parameters
+    ----------
+    model : ChainModel
+        The model the base parameters belong to.
+    names : sequence of str
+        Base-parameter names (``IDIMResult.names``); must be the model's base set.
+    beta : array_like, shape (p,)
+        Base-parameter values in the order of ``names``.
+    recording : Recording
+        ``t`` [s], ``q1..qn`` [rad | m] (``tau1..taun`` [N·m | N] with ``measured=True``).
+    differentiation, cutoff, half_width, decimate :
+        The fit's filter settings (see `idim_rows`; ``IDIMResult`` records them).
+    measured : bool
+        Also return the recording's torques through the same filter and decimation
+        (channels ``tau1_measured..``).
+
+    Returns
+    -------
+    Recording
+        ``tau1..taun`` predicted at the kept rows (time ``t`` of those rows), optionally
+        followed by ``tau1_measured..``; ``metadata["prediction"]`` says what was computed.
+        Peak memory: one float64 copy of the base regressor (n_samples × n_joints × p).
+
+    Raises
+    ------
+    InputError
+        ``names`` is not the model's base set, or ``beta`` has another length; the recording
+        lacks a channel.
+    """
+    from ..signals.recording import Recording
+
+    if not isinstance(recording, Recording):
+        raise InputError(
+            f"recording must be one Recording; got {type(recording).__name__}. Predict each "
+            "recording on its own."
+        )
+    info = base_regressor_info(model)
+    names = tuple(names)
+    beta = np.asarray(beta, dtype=float).ravel()
+    if names != info.names or beta.size != len(names):
+        raise InputError(
+            f"the result has {len(names)} base parameters ({list(names)[:4]}…) and {beta.size} "
+            f"values, but the model {getattr(model, 'name', '')!r} has {info.n_base} "
+            f"({list(info.names)[:4]}…); predict with the model the result was fitted with."
+        )
+    nj = int(model.n_joints)
+    has_tau = all(f"tau{j + 1}" in recording.names for j in range(nj))
+    if measured and not has_tau:
+        raise InputError(
+            f"measured=True needs the torque channels tau1..tau{nj} in the recording; it has "
+            f"{list(recording.names)}."
+        )
+    rows = idim_rows(
+        model,
+        recording,
+        info=info,
+        differentiation=differentiation,
+        cutoff=cutoff,
+        half_width=half_width,
+        decimate=decimate,
+        torque=False,
+    )
+    tau_hat = rows.W @ beta
+    types = tuple(getattr(model, "joint_types", ()) or ("revolute",) * nj)
+    units = ["N" if k == "prismatic" else "N*m" for k in types]
+    out_names = [f"tau{j + 1}" for j in range(nj)]
+    data = tau_hat
+    if measured:
+        out_names += [f"tau{j + 1}_measured" for j in range(nj)]
+        data = np.concatenate([tau_hat, rows.tau], axis=1)
+        units = units + units
+    return Recording(
+        rows.t,
+        data,
+        out_names,
+        units=units,
+        metadata={
+            "prediction": "inverse model tau = W beta on the rows filtered and decimated as in "
+            "the fit",
+            "differentiation": differentiation,
+            "cutoff": rows.cutoff,
+            "half_width": rows.half_width,
+            "decimate": rows.decimate,
+        },
+    )
 
 
 # ---------------------------------------------------------------------- units
@@ -762,8 +930,11 @@ def _gains_from(value, name: str, n: int, metadata: Mapping[str, Any]) -> np.nda
     return g
 
 
-class IDIMEstimator:
+class IDIMEstimator(EstimatorMixin):
     """Inverse-dynamic-model identification of the base parameters: OLS, WLS or IV.
+
+    Settings follow scikit-learn's protocol (`EstimatorMixin`: ``get_params``, ``set_params``,
+    a ``repr`` of the settings that differ from the defaults, ``fit_arrays``).
 
     Parameters
     ----------
@@ -833,48 +1004,6 @@ class IDIMEstimator:
         self.tol = tol
         self.consistent = consistent
         self.check_condition = check_condition
-
-    # scikit-learn protocol -------------------------------------------------------------
-    _SETTINGS = (
-        "model",
-        "method",
-        "differentiation",
-        "cutoff",
-        "half_width",
-        "decimate",
-        "stderr",
-        "per_joint_variance",
-        "hac_lag",
-        "kp",
-        "kd",
-        "max_iter",
-        "tol",
-        "consistent",
-        "check_condition",
-    )
-
-    def get_params(self, deep: bool = False) -> dict[str, Any]:
-        """The settings by name (as in ``__init__``)."""
-        return {k: getattr(self, k) for k in self._SETTINGS}
-
-    def set_params(self, **settings):
-        """Change settings by name; returns self."""
-        bad = sorted(set(settings) - set(self._SETTINGS))
-        if bad:
-            raise InputError(
-                f"IDIMEstimator has no setting(s) {bad}; its settings are {list(self._SETTINGS)}."
-            )
-        for k, v in settings.items():
-            setattr(self, k, v)
-        return self
-
-    def __repr__(self) -> str:
-        name = getattr(self.model, "name", type(self.model).__name__)
-        return (
-            f"IDIMEstimator(<model {name!r}>, method={self.method!r}, "
-            f"differentiation={self.differentiation!r}, cutoff={self.cutoff!r}, "
-            f"decimate={self.decimate!r}, stderr={self.stderr!r})"
-        )
 
     # checks ---------------------------------------------------------------------------
     def _check_settings(self) -> None:
@@ -1066,6 +1195,7 @@ class IDIMEstimator:
             history=np.array(history),
             t=rows.t,
             residuals=e,
+            model=model,
         )
         self.rows_ = rows
         self.base_ = info

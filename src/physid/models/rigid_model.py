@@ -40,7 +40,7 @@ class RigidBodyModel(ChainModel):
         where unknown.
     """
 
-    def __init__(self, chain: rigid.RigidChain, *, check: bool = True):
+    def __init__(self, chain: rigid.RigidChain, *, check: bool = True, cache: bool = True):
         start = time.perf_counter()
         self._chain = chain
         self._spec = chain
@@ -71,7 +71,9 @@ class RigidBodyModel(ChainModel):
             self.limits.setdefault(key, np.full(n, np.nan))
         self.loaded_from_cache = False
         self.cache_key = ""
-        self._cache_enabled = False
+        self._cache_enabled = bool(cache)
+        self._base_cache: dict = {}
+        self.base_from_cache = False
         self._regressor = None
         self._kernel = None
         self._kernel_tried = False
@@ -324,6 +326,12 @@ class RigidBodyModel(ChainModel):
     def base_parameters(self, params=None, *, n_states=None, seed=0, rtol=1e-9):
         """Base parameters: QR with column pivoting of Y stacked over random states.
 
+        Cached: in memory on the model (the same object for the same settings) and on disk in
+        the physid cache folder, keyed by a hash of the geometry the base set depends on
+        (`physid.models._base_cache`); a disk entry is used only if it reproduces the regressor
+        at fresh random states. ``base_from_cache`` says whether the last derivation was
+        served from disk. The returned arrays are read-only.
+
         Parameters
         ----------
         params : dict or array_like, optional
@@ -338,11 +346,34 @@ class RigidBodyModel(ChainModel):
         -------
         physid.models.base.BaseParameters
         """
+        from ._base_cache import cached_base_parameters
         from .base import base_parameters_of_regressor
 
-        return base_parameters_of_regressor(
-            self, n_states=n_states, seed=seed, rtol=rtol, limits=self.limits
+        key = (None if n_states is None else int(n_states), int(seed), float(rtol))
+        memo = getattr(self, "_base_cache", None)
+        if memo is None:  # a model unpickled from an older layout
+            memo = self._base_cache = {}
+        if key in memo:
+            return memo[key]
+
+        def derive():
+            return base_parameters_of_regressor(
+                self, n_states=n_states, seed=seed, rtol=rtol, limits=self.limits
+            )
+
+        bp, hit = cached_base_parameters(
+            self,
+            derive,
+            n_states=n_states,
+            seed=seed,
+            rtol=rtol,
+            enabled=getattr(self, "_cache_enabled", False),
         )
+        for name in ("base_matrix", "null_directions"):
+            getattr(bp, name).setflags(write=False)
+        self.base_from_cache = hit
+        memo[key] = bp
+        return bp
 
     # -- single-state right-hand sides ------------------------------------------------------
     def make_rhs(self, params=None, *, coulomb_smoothing: float = 0.0):
