@@ -82,7 +82,8 @@ def register(subparsers) -> None:
         type=int,
         default=None,
         metavar="M",
-        help="filter half-width M (2M+1 taps; default: chosen with --cutoff auto, else 100)",
+        help="filter half-width M (2M+1 taps; default: chosen with --cutoff auto; with a number "
+        "for --cutoff: 100 for input-error, ceil(8π/cutoff) for idim-*)",
     )
     p.add_argument(
         "--cutoff",
@@ -112,13 +113,15 @@ def register(subparsers) -> None:
         "--kp",
         default=None,
         metavar="LIST",
-        help="PD proportional gains [N·m/rad], only with --torque pd (default: file metadata)",
+        help="PD proportional gains [N·m/rad], for --torque pd or --method idim-iv "
+        "(default: file metadata)",
     )
     p.add_argument(
         "--kd",
         default=None,
         metavar="LIST",
-        help="PD derivative gains [N·m·s/rad], only with --torque pd (default: file metadata)",
+        help="PD derivative gains [N·m·s/rad], for --torque pd or --method idim-iv "
+        "(default: file metadata)",
     )
     p.add_argument(
         "--start",
@@ -200,11 +203,64 @@ def run(args) -> int:
     if args.kinetic is not None:
         options["kinetic"] = args.kinetic
     model = physid.load_model(args.model, **options)
-    recordings = [read_recording(args, f, model=model) for f in args.recordings]
     method = args.method or _default_method(model)
+    _check_method_options(args, method)
+    recordings = [read_recording(args, f, model=model) for f in args.recordings]
     if method == "input-error":
         return _run_input_error(args, model, recordings)
     return _run_idim(args, model, recordings, method)
+
+
+# Options that only one family of methods reads, with the value that means "not given". A flag
+# the chosen method would ignore is refused: a silently dropped --fix is a wrong answer.
+_INPUT_ERROR_ONLY = {
+    "fix": ("--fix", None),
+    "initial": ("--initial", None),
+    "torque": ("--torque", "measured"),
+    "noise": ("--noise", "ignore"),
+    "start": ("--start", "initial"),
+    "derivatives": ("--derivatives", "consistent"),
+    "max_nfev": ("--max-nfev", 200),
+}
+_IDIM_ONLY = {
+    "decimate": ("--decimate", None),
+    "differentiation": ("--differentiation", "physid"),
+    "stderr": ("--stderr", "hac"),
+    "consistent": ("--consistent", False),
+}
+
+
+def _check_method_options(args, method: str) -> None:
+    """Refuse options that ``method`` would ignore (before any file is read)."""
+    from ..errors import InputError
+
+    if method == "input-error":
+        unused = dict(_IDIM_ONLY, max_iter=("--max-iter", 10))
+        family = "the idim-* methods"  # --kp/--kd without --torque pd: the estimator refuses
+    else:
+        unused = dict(_INPUT_ERROR_ONLY)
+        family = "--method input-error"
+        if method != "idim-iv":
+            unused.update(kp=("--kp", None), kd=("--kd", None), max_iter=("--max-iter", 10))
+    given = [flag for name, (flag, default) in unused.items() if getattr(args, name) != default]
+    if not given:
+        return
+    verb = "apply" if len(given) > 1 else "applies"
+    if method in ("idim-ols", "idim-wls") and set(given) <= {"--kp", "--kd", "--max-iter"}:
+        raise InputError(
+            f"{', '.join(given)} {verb} to --method idim-iv (its simulated closed loop); "
+            f"--method {method} does not use {'them' if len(given) > 1 else 'it'}. Use --method idim-iv, or leave them out."
+        )
+    raise InputError(
+        f"{', '.join(given)} {verb} to {family}, not to --method {method}, which would ignore "
+        f"{'them' if len(given) > 1 else 'it'}. Leave {'them' if len(given) > 1 else 'it'} out"
+        + (
+            " (IDIM estimates the base parameters, all of them, from the measured torques), "
+            "or use --method input-error."
+            if method != "input-error"
+            else ", or use --method idim-ols|idim-wls|idim-iv."
+        )
+    )
 
 
 def _save(args, result) -> None:

@@ -587,7 +587,7 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
                         f"{path}: channels[{target!r}] = {body!r} is a 2-D variable with {k} "
                         f"columns; map one column, e.g. channels={{{target!r}: '{body}1'}}."
                     )
-                add(target, values, unit if unit is not None else file_unit, strict=True)
+                add(target, values, _map_unit(path, target, body, unit, file_unit), strict=True)
                 continue
             for name in _expression_names(body, variables):
                 if name in refused:
@@ -624,6 +624,31 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
         path, t, data, out_names, out_units, metadata, row_label,
         resample=resample, uniform_rtol=uniform_rtol,
     )  # fmt: skip
+
+
+def _map_unit(path, target: str, body: str, map_unit: str | None, file_unit: str) -> str:
+    """The unit of a bare mapped column: the file's, or the map's when the file has none.
+
+    A unit in the map tags the raw values; when the file already says the column's unit, the two
+    must agree (same scale and dimension), else the map would silently relabel, e.g., degrees as
+    radians without converting them. Expressions are different: they see SI values, and their unit
+    says what the result is.
+    """
+    if map_unit is None or not file_unit:
+        return map_unit if map_unit is not None else file_unit
+    try:
+        a, b = parse_unit(map_unit), parse_unit(file_unit)
+    except InputError:
+        agree = map_unit.strip() == file_unit.strip()
+    else:
+        agree = a.dimension == b.dimension and abs(a.scale - b.scale) <= 1e-12 * abs(b.scale)
+    if agree:
+        return file_unit
+    raise DataFileError(
+        f"{path}: channels[{target!r}] = '{body} [{map_unit}]', but the file says {body!r} is in "
+        f"[{file_unit}]. Leave the unit out of the map: physid converts [{file_unit}] to SI "
+        "itself (a unit in the map is for a column whose header has none)."
+    )
 
 
 def _split_map_unit(text: str) -> tuple[str, str | None]:

@@ -1,0 +1,53 @@
+"""Fixes from the wave-3 review (findings F2, F10, F12, ...): each would fail on the old code."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import physid
+from physid.errors import DataFileError
+
+
+@pytest.fixture
+def degree_csv(tmp_path):
+    path = tmp_path / "u.csv"
+    path.write_text("t [s],pos [deg],tq [N*m]\n0,0,1\n0.001,10,1\n0.002,20,1\n0.003,30,1\n")
+    return path
+
+
+def test_map_unit_that_contradicts_the_header_is_refused(degree_csv):
+    # F12: the map's [rad] used to relabel the file's degrees as radians (57x wrong angles).
+    with pytest.raises(DataFileError, match=r"file says 'pos' is in \[deg\]"):
+        physid.load_recording(degree_csv, {"q1": "pos [rad]", "tau1": "tq"})
+
+
+@pytest.mark.parametrize("q1", ["pos", "pos [deg]", "pos*1 [rad]"])
+def test_map_units_that_agree_convert_from_the_header(degree_csv, q1):
+    rec = physid.load_recording(degree_csv, {"q1": q1, "tau1": "tq [N m]"})
+    np.testing.assert_allclose(rec["q1"], np.deg2rad([0.0, 10.0, 20.0, 30.0]), rtol=1e-15)
+    np.testing.assert_array_equal(rec["tau1"], np.ones(4))
+
+
+# F2: identify used to drop the options of the other method family silently (exit 0).
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--fix", "m1=5"], r"--fix applies to --method input-error, not to --method idim-ols"),
+        (["--initial", "m1=2", "--noise", "compensate"], r"--initial, --noise apply to"),
+        (["--method", "idim-wls", "--kp", "1,2"], r"--kp applies to --method idim-iv"),
+        (["--method", "input-error", "--consistent"], r"--consistent applies to the idim-\*"),
+        (["--method", "input-error", "--decimate", "5"], r"--decimate applies to the idim-\*"),
+    ],
+)
+def test_identify_refuses_options_the_method_ignores(tmp_path, capsys, flags, message):
+    import re
+
+    from physid.cli import main
+
+    rec = tmp_path / "run.csv"
+    rec.write_text("t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.001,0,0,0,0\n")  # never read: refused first
+    assert main(["identify", str(rec), "--model", "tests/data/planar2.urdf", *flags]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("physid: error: ") and err.count("\n") == 1
+    assert re.search(message, err), err
