@@ -17,31 +17,40 @@ def _run(argv, capsys):
     return code, out.out, out.err
 
 
+def _held_out_reference(path, duration=4.0, dt=0.01):
+    """Another trajectory than `simulate arm6`'s default multi-sine (other frequencies, phases)."""
+    t = np.arange(0.0, duration + 1e-12, dt)
+    env = 0.5 * (1 - np.cos(np.pi * np.clip(t / 1.0, 0, 1)))
+    freq = 0.17 * (1.0 + 0.29 * np.arange(6))
+    r = 0.25 * env[:, None] * np.sin(2 * np.pi * freq * t[:, None] + 0.7 * np.arange(6))
+    rows = ["t," + ",".join(f"r{j + 1}" for j in range(6))]
+    rows += [",".join(repr(float(v)) for v in (t[i], *r[i])) for i in range(t.size)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
 @pytest.fixture(scope="module")
 def arm6_records(tmp_path_factory):
     d = tmp_path_factory.mktemp("arm6")
     paths = []
     for seed in (1, 2):
         p = d / f"run{seed}.csv"
-        assert (
-            main(
-                [
-                    "simulate",
-                    "arm6",
-                    "--out",
-                    str(p),
-                    "--duration",
-                    "4",
-                    "--noise-std",
-                    "1e-4",
-                    "--seed",
-                    str(seed),
-                ]
-            )
-            == 0
-        )
+        # the held-out run follows ANOTHER trajectory (not only other encoder noise)
+        ref = [] if seed == 1 else ["--reference", str(_held_out_reference(d / "ref2.csv"))]
+        argv = ["simulate", "arm6", "--out", str(p), "--duration", "4"]
+        assert main([*argv, *ref, "--noise-std", "1e-4", "--seed", str(seed)]) == 0
         paths.append(p)
     return paths
+
+
+def test_held_out_run_is_another_trajectory(arm6_records):
+    from physid import load_recording
+
+    a, b = (load_recording(p) for p in arm6_records)
+    assert a.t.size == b.t.size
+    # other motion and other torques, not the same run with other noise
+    assert np.linalg.norm(a["tau1"] - b["tau1"]) > 0.3 * np.linalg.norm(a["tau1"])
+    assert np.max(np.abs(a["r2"] - b["r2"])) > 0.1
 
 
 def test_idim_result_file_validates_on_held_out_run(arm6_records, tmp_path, capsys):
@@ -69,8 +78,10 @@ def test_idim_result_file_validates_on_held_out_run(arm6_records, tmp_path, caps
     assert code == 0
     report = json.loads(out)
     held_out = report["relative_error"]["overall"]
-    # another noise realisation of the run: the held-out error is of the training error's size
-    assert 0.5 * train < held_out < 2.0 * train < 0.05
+    # another trajectory: a 4 s low-frequency multi-sine excites arm6's 52 base parameters
+    # poorly, so the held-out error is larger than the training error (measured 0.052 against
+    # 0.010), but it stays far below the doubled-parameter prediction checked next (~1)
+    assert train < 0.03 and held_out < 0.1
     # base parameters define no simulable model: (b) is skipped, not run with nominal values
     assert report["fit_percent"] == {}
     # the base parameters are really used: doubling them must ruin the prediction

@@ -51,3 +51,67 @@ def test_identify_refuses_options_the_method_ignores(tmp_path, capsys, flags, me
     err = capsys.readouterr().err
     assert err.startswith("physid: error: ") and err.count("\n") == 1
     assert re.search(message, err), err
+
+
+def test_detrend_of_joint_channels_is_refused_for_an_arm(tmp_path, capsys):
+    # F14: --detrend used to subtract the gravity load from tau and the mean angle from q, and
+    # IDIM then reported success with a 48 % torque error.
+    from physid.cli import main
+
+    rec = tmp_path / "run.csv"
+    rec.write_text("t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.001,0,0,0,0\n0.002,0,0,0,0\n")
+    argv = ["identify", str(rec), "--model", "tests/data/planar2.urdf", "--detrend"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--detrend would subtract the mean of q1, q2, tau1, tau2" in err
+    assert "OF1..OFn" in err
+
+
+def _reference_file(tmp_path, seconds=1.0):
+    t = np.arange(0.0, seconds + 1e-12, 0.01)
+    path = tmp_path / "ref.csv"
+    rows = ["t,r1,r2"] + [f"{float(x)!r},{0.1 * float(np.sin(x))!r},0.0" for x in t]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--duration", "3"], r"--duration 3 s is longer than the --reference file \(1 s\)"),
+        (["--dt", "1e-8"], r"asks for 1e\+08 samples; at most 5e7"),
+    ],
+)
+def test_simulate_with_reference_checks_duration_and_size(tmp_path, capsys, extra, message):
+    # F4: --duration was silently ignored with --reference F, and the sample guard bypassed.
+    import re
+
+    from physid.cli import main
+
+    ref = _reference_file(tmp_path)
+    out = tmp_path / "out.csv"
+    argv = ["simulate", "tests/data/planar2.urdf", "--reference", str(ref), "--out", str(out)]
+    assert main([*argv, *extra]) == 2
+    assert re.search(message, capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_simulate_honours_a_shorter_duration_with_a_reference(tmp_path):
+    from physid.cli import main
+
+    ref = _reference_file(tmp_path)
+    out = tmp_path / "out.csv"
+    argv = ["simulate", "tests/data/planar2.urdf", "--reference", str(ref), "--out", str(out)]
+    assert main([*argv, "--duration", "0.5", "--dt", "0.01"]) == 0
+    rec = physid.load_recording(out)
+    assert rec.t.size == 51 and rec.t[-1] == pytest.approx(0.5, abs=1e-12)
+
+
+def test_design_excitation_refuses_a_huge_grid_before_allocating(tmp_path, capsys):
+    from physid.cli import main
+
+    out = tmp_path / "x.csv"
+    argv = ["design-excitation", "tests/data/planar2.urdf", "--harmonics", "2", "--period"]
+    assert main([*argv, "1e12", "--out", str(out)]) == 2
+    assert "asks for 1e+15 samples; at most 5e7" in capsys.readouterr().err
+    assert not out.exists()

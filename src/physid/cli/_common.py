@@ -345,10 +345,33 @@ def read_recording(args, path=None, *, model=None):
         detrend = getattr(args, "detrend", None)
         if detrend:
             names = None if detrend == "*" else [n.strip() for n in detrend.split(",") if n.strip()]
+            _check_detrend_for_chain(model, rec, names)
             rec = rec.detrend(names)
     except PhysidError as exc:
         raise _reworded(exc) from None
     return rec
+
+
+def _check_detrend_for_chain(model, rec, names) -> None:
+    """Refuse ``--detrend`` of joint channels for an arm: their means are physics, not offsets.
+
+    q enters an arm's dynamics through sin/cos and the mean of τ is mostly the gravity load, so
+    subtracting either changes the system (a fit that explains half the torque, reported as a
+    fit). A torque-sensor offset is a model term (``torque_offset``; ``OF*`` in URDF models).
+    """
+    from ..errors import InputError
+
+    if getattr(model, "n_joints", None) is None:
+        return
+    targets = rec.names if names is None else names
+    joint = [n for n in targets if re.fullmatch(r"(q|qd|qdd|tau|r)\d+", n)]
+    if joint:
+        raise InputError(
+            f"--detrend would subtract the mean of {', '.join(joint)}, which for an arm is "
+            "physics (gravity load, joint angles inside sin/cos), not a sensor offset. Leave "
+            "--detrend out; a constant torque-sensor offset is a model term (torque_offset in the "
+            "model file or the URDF's sidecar TOML: parameters OF1..OFn), estimated with the rest."
+        )
 
 
 def _model_channel_map(args, model) -> dict:

@@ -8,6 +8,7 @@ Fourier trajectories under the same limits (Swevers et al. 1997).
 
 from __future__ import annotations
 
+from .._resources import check_memory
 from ..errors import InputError
 from ._common import float_list, print_json, progress
 
@@ -103,6 +104,19 @@ def run(args) -> int:
             f"--dt must be positive and resolve the highest harmonic (≤ period/(4·harmonics) = "
             f"{args.period / (4 * args.harmonics):g} s); got {args.dt}."
         )
+    if not (np.isfinite(args.period) and args.period > 0):
+        raise InputError(f"--period must be a positive number of seconds; got {args.period}.")
+    samples = args.periods * args.period / args.dt + 1
+    if samples > 5e7:
+        raise InputError(
+            f"--periods {args.periods} × --period {args.period:g} s at --dt {args.dt:g} s asks for "
+            f"{samples:.3g} samples; at most 5e7 (raise --dt, or shorten --period/--periods)."
+        )
+    check_memory(
+        3.0 * 8.0 * samples * (4 * model.n_joints + 1),  # t, q, qd, qdd, r and the CSV text
+        what=f"design-excitation with {samples:.3g} samples × {4 * model.n_joints + 1} channels",
+        fix="raise --dt, or shorten --period/--periods",
+    )
     progress(f"design-excitation: {model.n_joints} joints, {args.harmonics} harmonics")
     design = design_excitation(
         model,

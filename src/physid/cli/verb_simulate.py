@@ -17,7 +17,7 @@ import math
 import time
 
 from ..errors import InputError
-from ._common import float_list, progress
+from ._common import float_list, progress, read_recording
 
 ORDER = 20
 
@@ -336,7 +336,13 @@ def _register_model(systems) -> None:
         default=None,
         help="derivative gains, one or one per joint (default: critically damped, 2·2π·3 Hz·M_jj)",
     )
-    chain.add_argument("--duration", metavar="S", default="5", help="duration [s] (default: 5)")
+    chain.add_argument(
+        "--duration",
+        metavar="S",
+        default=None,
+        help="duration [s] (default: 5, or the whole --reference file; with a file, at most its "
+        "length)",
+    )
     chain.add_argument(
         "--dt", metavar="S", default="0.001", help="sample period [s] (default 1 ms)"
     )
@@ -373,7 +379,7 @@ def run_model(args) -> int:
     import numpy as np
 
     from ..models import ChainModel, load_model
-    from ..signals import load_recording, save_recording
+    from ..signals import save_recording
     from ..simulate import simulate_closed_loop
 
     model = load_model(args.model)
@@ -383,9 +389,11 @@ def run_model(args) -> int:
             "physid simulate msd, or give a chain model (.toml with [[joints]] or .urdf)."
         )
     n = model.n_joints
-    duration = _number(args.duration, "--duration [s]", positive=True)
+    given_duration = args.duration is not None
+    duration = _number(args.duration if given_duration else "5", "--duration [s]", positive=True)
     dt = _number(args.dt, "--dt [s]", positive=True)
-    if duration / dt > 5e7:
+    reference_file = args.reference is not None and not _is_number_list(args.reference)
+    if not reference_file and duration / dt > 5e7:
         raise InputError(f"--duration/--dt asks for {duration / dt:.3g} samples; at most 5e7.")
     noise = _number(args.noise_std, "--noise-std", positive=True, allow_zero=True)
     seed = _seed(args.seed)
@@ -409,8 +417,8 @@ def run_model(args) -> int:
             mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
             mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
             reference = reference + mid
-    elif not _is_number_list(args.reference):
-        rec = load_recording(args.reference)
+    elif reference_file:
+        rec = read_recording(args, args.reference)  # errors in CLI words
         names = [f"r{j + 1}" for j in range(n)]
         missing = [c for c in names if c not in rec.names]
         if missing:
@@ -418,9 +426,21 @@ def run_model(args) -> int:
                 f"--reference {args.reference!r} has no channel(s) {missing}; it needs t and "
                 f"r1..r{n}."
             )
+        span = float(rec.t[-1] - rec.t[0])
+        if given_duration and duration > span * (1 + 1e-9):
+            raise InputError(
+                f"--duration {duration:g} s is longer than the --reference file "
+                f"({span:g} s); give at most {span:g}, or leave --duration out."
+            )
+        span = duration if given_duration else span
+        if span / dt > 5e7:
+            raise InputError(
+                f"--reference {args.reference!r} at --dt {dt:g} asks for {span / dt:.3g} "
+                "samples; at most 5e7 (raise --dt, or give a shorter --duration)."
+            )
         reference = rec.select(names).data
         grid = rec.t
-        t = np.arange(int(round((rec.t[-1] - rec.t[0]) / dt)) + 1) * dt + rec.t[0]
+        t = np.arange(int(round(span / dt)) + 1) * dt + rec.t[0]
     else:
         values = float_list(args.reference, "--reference")
         if len(values) != n:
