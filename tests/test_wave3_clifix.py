@@ -115,3 +115,28 @@ def test_design_excitation_refuses_a_huge_grid_before_allocating(tmp_path, capsy
     assert main([*argv, "1e12", "--out", str(out)]) == 2
     assert "asks for 1e+15 samples; at most 5e7" in capsys.readouterr().err
     assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["validate", "RESULT", "REC", "--plot", "FILE"],
+        ["sweep", "msd", "--snr", "25", "--ratio", "1", "--trials", "1", "--out", "FILE"],
+    ],
+)
+def test_folder_outputs_that_are_files_are_refused_first(tmp_path, capsys, argv):
+    # F10: validate --plot FILE gave a FileExistsError traceback after the work; sweep --out FILE
+    # ran every trial before refusing, in Python words (out_dir).
+    from physid.cli import main
+
+    existing = tmp_path / "notadir.txt"
+    existing.write_text("mine\n")
+    result = tmp_path / "r.json"
+    result.write_text("{}")  # never read: the output is refused first
+    rec = tmp_path / "h.csv"
+    rec.write_text("t,q1\n0,0\n0.1,0\n")
+    subst = {"RESULT": str(result), "REC": str(rec), "FILE": str(existing)}
+    assert main([subst.get(a, a) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert "is an existing file, not a folder" in err and "Traceback" not in err
+    assert existing.read_text() == "mine\n"

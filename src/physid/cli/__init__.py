@@ -207,7 +207,13 @@ def main(argv: list[str] | None = None) -> int:
         report_warnings(caught)
         print(f"physid: error: {exc.render(argument_flags(parser, args))}", file=sys.stderr)
         return 2
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+    except (
+        FileNotFoundError,
+        FileExistsError,
+        IsADirectoryError,
+        NotADirectoryError,
+        PermissionError,
+    ) as exc:
         report_warnings(caught)
         print(f"physid: error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
         return 2

@@ -163,6 +163,42 @@ def check_outputs(args) -> None:
                 )
 
 
+def check_output_folder(path, option: str) -> None:
+    """Refuse a folder output (``--plot DIR``, ``sweep --out DIR``) that cannot be one.
+
+    Called before the verb's work, so a wrong path costs nothing: an existing file (not a
+    folder), or a parent that is a file or is not writable.
+
+    Parameters
+    ----------
+    path : str or None
+        The folder the verb will create or fill (None: the option was not given).
+    option : str
+        The flag, for the message (``"--plot"``).
+
+    Raises
+    ------
+    OutputError
+        The path exists and is not a folder, or its parent is not a writable folder.
+    """
+    if path is None:
+        return
+    path = os.fspath(path)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise OutputError(
+            f"{option} {path!r} is an existing file, not a folder; give a folder (new or "
+            f"existing), e.g. {option} {_suggest(path).rsplit('.', 1)[0]!r}."
+        )
+    parent = os.path.dirname(os.path.abspath(path))
+    while parent and not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if parent and (not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK)):
+        raise OutputError(
+            f"{option} {path!r}: cannot create a folder inside {parent!r} (not a writable "
+            f"folder); choose another {option} or fix its permissions (chmod u+w)."
+        )
+
+
 def _suggest(path: str) -> str:
     root, ext = os.path.splitext(path)
     return f"{root}-out{ext}"

@@ -11,7 +11,7 @@ import argparse
 import math
 
 from ..errors import EstimationError, InputError
-from ._common import float_list, print_json, progress
+from ._common import check_output_folder, float_list, print_json, progress
 
 ORDER = 50
 
@@ -152,6 +152,7 @@ def run(args) -> int:
     from ..analysis.montecarlo import first_failure, write_sweep
     from ..report.msd import plot_convergence_maps, variant_label
 
+    check_output_folder(args.out, "--out")  # before any trial runs
     common = dict(
         trials=args.trials,
         methods=_methods(args.method),

@@ -11,7 +11,13 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 
 from __future__ import annotations
 
-from ._common import add_recording_options, print_json, progress, read_recording
+from ._common import (
+    add_recording_options,
+    check_output_folder,
+    print_json,
+    progress,
+    read_recording,
+)
 
 ORDER = 45
 
@@ -48,6 +54,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from ..analysis.validation import load_result, validate
 
+    check_output_folder(args.plot, "--plot")  # before any work
     loaded = load_result(args.result, model=args.model)
     # the held-out file is read like the fit's (--map, units, --detrend; checked against the model)
     rec = read_recording(args, args.file, model=getattr(loaded, "model", None))
