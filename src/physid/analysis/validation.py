@@ -570,9 +570,8 @@ def _chain_output_error(loaded, recording, series):
                 {},
                 {},
                 "(b) skipped: IDIM estimates base parameters, which do not define a model to "
-                "simulate; refit with the physically consistent estimate (physid identify "
-                "--consistent; IDIMEstimator(..., consistent=True) in Python), which gives "
-                "standard parameters",
+                "simulate; refit with the physically consistent estimate (the consistent option of "
+                "identify / IDIMEstimator), which gives standard parameters",
             )
         params = standard
     else:
