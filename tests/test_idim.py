@@ -224,7 +224,7 @@ def test_poor_conditioning_warns_with_the_number(arm):
         ({"stderr": "bootstrap"}, "stderr must be"),
         ({"cutoff": "fast"}, "cutoff must be"),
         ({"cutoff": 4.0}, r"cutoff must lie in \(0, π\]"),
-        ({"decimate": 0}, "decimate must be a positive integer"),
+        ({"decimate": 0}, "decimate must be an integer >= 1"),
         ({"differentiation": "spline"}, "differentiation must be one of"),
     ],
 )
