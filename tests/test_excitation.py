@@ -58,9 +58,9 @@ def test_design_beats_the_random_trajectories(design):
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"position": [[1.0, -1.0]] * 4}, r"position= limits of joint 1.*lower"),
-        ({"velocity": 0.0}, r"velocity= limit of joint 1 is 0"),
-        ({"acceleration": [1.0, 1.0, -1.0, 1.0]}, r"acceleration= limit of joint 3"),
+        ({"position": [[1.0, -1.0]] * 4}, r"position limits of joint 1.*lower"),
+        ({"velocity": 0.0}, r"velocity limit of joint 1 is 0"),
+        ({"acceleration": [1.0, 1.0, -1.0, 1.0]}, r"acceleration limit of joint 3"),
     ],
 )
 def test_limits_that_cannot_be_met(arm, kwargs, match):

@@ -103,13 +103,13 @@ CASES = [
             "1,-1,-1,1,-1,1,-1,1",
         ],
         2,
-        r"position= limits of joint 1 .* lower must be below the upper",
+        r"--position limits of joint 1 .* lower must be below the upper",
     ),
     (
         "excitation-zero-velocity",
         ["design-excitation", "manipulator", "--out", "{tmp}/x.csv", "--velocity", "1,0,1,1"],
         2,
-        r"velocity= limit of joint 2 is 0",
+        r"--velocity limit of joint 2 is 0",
     ),
     (
         "excitation-wrong-count",

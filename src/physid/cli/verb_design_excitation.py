@@ -2,8 +2,9 @@
 
 Writes the designed trajectory as a recording of references ``r1..rn`` [rad] (with their rates
 ``rd1..rdn`` and accelerations ``rdd1..rddn``) that ``physid simulate MODEL --reference FILE`` can
-run, and prints the achieved condition number of the base regressor against the median of random
-Fourier trajectories under the same limits (Swevers et al. 1997).
+run, and prints the achieved condition number of the column-scaled base regressor against the
+medians of two random baselines under the same limits (Swevers et al. 1997): random Fourier
+trajectories scaled to touch the limits, and the same at random amplitudes within the limits.
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from ..errors import InputError
 from ._common import float_list, print_json, progress
 
 ORDER = 45
+#: Keywords of `design_excitation` whose flag is not spelled like them.
+ARGUMENT_FLAGS = {"n_random": "--random", "n_starts": "--starts", "q_start": None, "n_grid": None}
 
 __all__ = ["ORDER", "register", "run"]
 
@@ -59,7 +62,15 @@ def register(subparsers) -> None:
         help="position limits [rad], a pair per joint (default: the model's, else ±π)",
     )
     p.add_argument("--random", type=int, default=20, help="random trajectories to compare (20)")
-    p.add_argument("--max-iter", type=int, default=60, help="optimiser iterations (default: 60)")
+    p.add_argument(
+        "--starts",
+        type=int,
+        default=4,
+        help="optimiser starts, the best random trajectories (default: 4)",
+    )
+    p.add_argument(
+        "--max-iter", type=int, default=400, help="optimiser iterations per start (default: 400)"
+    )
     p.add_argument(
         "--max-seconds",
         type=float,
@@ -127,6 +138,7 @@ def run(args) -> int:
         velocity=velocity,
         acceleration=acceleration,
         n_random=args.random,
+        n_starts=args.starts,
         max_iter=args.max_iter,
         max_seconds=args.max_seconds,
         seed=args.seed,
@@ -140,6 +152,14 @@ def run(args) -> int:
                 "condition_number": design.condition_number,
                 "random_median_condition_number": design.random_median,
                 "improvement": design.improvement,
+                "random_within_median_condition_number": design.random_within_median,
+                "improvement_within": design.improvement_within,
+                "random_condition_numbers": design.random_condition_numbers,
+                "random_within_condition_numbers": design.random_within_condition_numbers,
+                "unscaled_condition_number": design.unscaled,
+                "starts": list(design.starts),
+                "seconds": design.seconds,
+                "q_start": design.q_start,
                 "log_det": design.log_det,
                 "harmonics": design.harmonics,
                 "period": design.period,

@@ -64,6 +64,14 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
             q, qd, qdd = res.trajectory(t)
             designed = {"q": q, "qd": qd, "qdd": qdd, "t": t}
             random = [float(c) for c in res.random_condition_numbers]
+            within = [float(c) for c in res.random_within_condition_numbers]
+            results["random_within_condition_numbers"] = within
+            results["random_within_median"] = float(np.median(within))
+            results["improvement_within"] = results["random_within_median"] / float(
+                res.condition_number
+            )
+            results["unscaled_condition_number"] = {k: float(v) for k, v in res.unscaled.items()}
+            results["design_starts"] = [float(c) for c in res.starts]
             results["designed_condition_number"] = float(res.condition_number)
             results["design_seconds"] = float(res.seconds)
             results["design_evaluations"] = int(res.nfev)
@@ -91,8 +99,19 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
         results["stand_in_seed"] = best
         results["stand_in_condition_number"] = float(min(random))
     trajectory["designed"] = designed is not None
-    rows = [(f"random trajectory, seed {i + 1}", c) for i, c in enumerate(random)]
-    summary_rows = [("median of the random trajectories", results["random_median"])]
+    label = (
+        "random trajectory {}, scaled to the limits" if designed else "random trajectory, seed {}"
+    )
+    rows = [(label.format(i + 1), c) for i, c in enumerate(random)]
+    median = "median of the random trajectories" + (" (scaled to the limits)" if designed else "")
+    summary_rows = [(median, results["random_median"])]
+    if "random_within_median" in results:
+        summary_rows.append(
+            (
+                "median of the same at random amplitudes within the limits",
+                results["random_within_median"],
+            )
+        )
     if designed is not None:
         summary_rows.insert(0, ("designed trajectory", results["designed_condition_number"]))
     tables = (
