@@ -168,3 +168,27 @@ def test_cli_prints_both_baselines(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 0
     assert "random trajectories scaled to the same limits" in err and "within the limits" in err
+
+
+def test_an_optimised_rest_position_stays_inside_the_limits(planar):
+    position = np.array([[-0.2, 0.3], [-0.25, 0.25]])
+    d = design_excitation(
+        planar,
+        harmonics=3,
+        period=4.0,
+        velocity=V,
+        acceleration=A,
+        position=position,
+        q_start="optimise",
+        n_random=4,
+        n_starts=1,
+    )
+    q, qd, qdd = d.trajectory(np.linspace(0.0, 4.0, 40001))
+    assert np.all(q.min(axis=0) >= position[:, 0]) and np.all(q.max(axis=0) <= position[:, 1])
+    assert np.abs(qd).max() <= V and np.abs(qdd).max() <= A
+    np.testing.assert_allclose(q[0], d.q_start, atol=1e-12)
+    np.testing.assert_allclose(qd[[0, -1]], 0.0, atol=1e-9)
+    assert np.all(d.q_start > position[:, 0]) and np.all(d.q_start < position[:, 1])
+    assert np.any(np.abs(d.q_start) > 1e-3)  # it moved
+    with pytest.raises(physid.errors.InputError, match="q_start must be None, 'optimise'"):
+        design_excitation(planar, q_start="best")

@@ -12,7 +12,7 @@ Each joint follows a finite Fourier series of period T = 2π/ω_f with H harmoni
 so that q̇_j = Σ_l (a_jl cos + b_jl sin), q̈_j = ω_f Σ_l l (b_jl cos − a_jl sin). Starting
 (and, by periodicity, ending) at rest: q̇(0) = Σ_l a_jl = 0 and q̈(0) = ω_f Σ_l l b_jl = 0; we
 eliminate a_j1 and b_j1 with these two equations, leaving 2(H − 1) free coefficients per joint.
-The design variables are these coefficients and (unless given) the rest position q_start.
+The design variables are these coefficients and, with ``q_start="optimise"``, the rest position.
 
 **Criterion.** The base regressor W_b (the columns of the standard regressor that
 `physid.estimators.idim.base_regressor_info` keeps), evaluated on a grid over one period and
@@ -566,9 +566,15 @@ def _fit_into_limits(c, q_start, period, limits, n_fine):
 
 
 def _start_position(q_start, pos, nj):
-    if q_start is None:
+    """(start, whether it is a design variable); the default start is 0 clipped into range."""
+    if q_start is None or (isinstance(q_start, str) and q_start == "optimise"):
         qs = np.clip(np.zeros(nj), pos[:, 0], pos[:, 1])
-        return np.where((qs > pos[:, 0]) & (qs < pos[:, 1]), qs, pos.mean(axis=1)), True
+        qs = np.where((qs > pos[:, 0]) & (qs < pos[:, 1]), qs, pos.mean(axis=1))
+        return qs, q_start is not None
+    if isinstance(q_start, str):
+        raise InputError(
+            f"{arg('q_start')} must be None, 'optimise' or {nj} angles [rad]; got {q_start!r}."
+        )
     qs = np.asarray(q_start, dtype=float).reshape(-1)
     if qs.size != nj:
         raise InputError(f"{arg('q_start')} must hold {nj} angles [rad]; got {qs.size}.")
@@ -616,9 +622,13 @@ def design_excitation(
     position : array_like (n, 2) [rad], optional
     velocity, acceleration : array_like (n,) [rad/s], [rad/s²], optional
         Limits (default: `model.limits`, then the defaults of `excitation_limits`).
-    q_start : array_like (n,) [rad], optional
-        Rest position at both ends. Default: a design variable, searched inside the position
-        limits (starting from 0 clipped into the range; the random baselines start there).
+    q_start : array_like (n,) [rad] or "optimise", optional
+        Rest position at both ends (default: 0 clipped into the position range, where a robot
+        — and `physid.simulate.simulate_closed_loop`, whose default initial state is zero —
+        starts). ``"optimise"`` makes it a design variable searched inside the position limits
+        (the trajectory then starts away from zero: move the robot there first, or pass
+        ``q0=design.q_start`` to the simulator). The random baselines always start at the
+        default.
     n_random : int
         Random trajectories to compare with (the best of them are the starts).
     n_starts : int

@@ -15,7 +15,12 @@ from ._common import float_list, print_json, progress
 
 ORDER = 45
 #: Keywords of `design_excitation` whose flag is not spelled like them.
-ARGUMENT_FLAGS = {"n_random": "--random", "n_starts": "--starts", "q_start": None, "n_grid": None}
+ARGUMENT_FLAGS = {
+    "n_random": "--random",
+    "n_starts": "--starts",
+    "q_start": None,
+    "n_grid": None,
+}
 
 __all__ = ["ORDER", "register", "run"]
 
@@ -60,6 +65,12 @@ def register(subparsers) -> None:
         default=None,
         metavar="LO,HI,...",
         help="position limits [rad], a pair per joint (default: the model's, else ±π)",
+    )
+    p.add_argument(
+        "--optimise-start",
+        action="store_true",
+        help="make the rest position a design variable (default: start at 0, clipped into "
+        "the limits); the trajectory then starts away from zero: move the robot there first",
     )
     p.add_argument("--random", type=int, default=20, help="random trajectories to compare (20)")
     p.add_argument(
@@ -137,6 +148,7 @@ def run(args) -> int:
         position=position,
         velocity=velocity,
         acceleration=acceleration,
+        q_start="optimise" if args.optimise_start else None,
         n_random=args.random,
         n_starts=args.starts,
         max_iter=args.max_iter,
