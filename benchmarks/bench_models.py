@@ -9,7 +9,7 @@ Rows:
 * inverse dynamics on 1e5 samples (vectorised) against pinocchio's ``rnea`` looped in Python
   over the samples — what a pinocchio user does, since pinocchio has no batched Python API;
 * forward dynamics: batched ``forward_dynamics`` against ``aba`` looped; the single-state
-  ``make_rhs`` against one ``aba`` call; the fused closed-loop ``make_pd_rhs`` against the same
+  ``make_rhs`` against one ``aba`` call; the fused closed-loop ``simulate.pd_rhs`` against the same
   PD law written with numpy around ``aba`` (what a solve_ivp right-hand side would do).
 
 Rigid-body rows (a 7-DOF Panda-like URDF, tests/data/arm7.urdf, with a sidecar adding armature,
@@ -259,6 +259,7 @@ def _symbolic_rows(quick: bool = False) -> list[dict]:
 
     from physid.models import load_model
     from physid.models.peers import pinocchio_model
+    from physid.simulate.pd import pd_rhs
 
     rows: list[dict] = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -396,7 +397,7 @@ def _symbolic_rows(quick: bool = False) -> list[dict]:
         def reference(t, r_vec=r_vec):
             return r_vec
 
-        fused = m.make_pd_rhs(kp=kp, kd=kd, reference=reference)
+        fused = pd_rhs(m, kp=kp, kd=kd, reference=reference)
 
         def pin_pd(t, y, pm=pm, pdata=pdata, nj=nj, kp=kp, kd=kd, aba=aba):
             qy, qdy = y[:nj], y[nj:]
@@ -409,7 +410,7 @@ def _symbolic_rows(quick: bool = False) -> list[dict]:
         t_p = _best(lambda pin_pd=pin_pd, y0=y0: pin_pd(0.3, y0), number=calls)
         rows.append(
             dict(
-                case=f"closed-loop PD rhs f(t, y) (make_pd_rhs), {label}",
+                case=f"closed-loop PD rhs f(t, y) (simulate.pd_rhs), {label}",
                 value=1 / t_f,
                 unit="evals/s",
                 baseline="numpy PD + pinocchio aba",

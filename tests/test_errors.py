@@ -17,6 +17,7 @@ from physid.errors import IdentifiabilityError, InputError, PhysidError, ShapeEr
 from physid.estimators import InputErrorEstimator
 from physid.signals import Recording, save_recording
 from physid.simulate.closed_loop import closed_loop_rhs
+from physid.simulate.pd import pd_rhs
 
 SRC = Path(physid.__file__).resolve().parent
 
@@ -97,7 +98,7 @@ def test_gains_raise_one_class_from_every_entry_point(bad, cls):
     with pytest.raises(cls, match="kp"):
         closed_loop_rhs(model, kp=bad, kd=good, reference=lambda t: np.zeros(4))
     with pytest.raises(cls, match="kp"):
-        model.make_pd_rhs(kp=bad, kd=good, reference=np.zeros(4))
+        pd_rhs(model, kp=bad, kd=good, reference=np.zeros(4))
     rec = _still_arm()
     with pytest.raises(cls, match="kp"):
         InputErrorEstimator(model, torque="pd", kp=bad, kd=good).fit(rec)

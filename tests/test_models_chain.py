@@ -13,6 +13,7 @@ from physid.models.chain import build_chain_model
 from physid.models.lagrange import lagrange_equations
 from physid.models.peers import pinocchio_model
 from physid.models.spec import parse_model_text
+from physid.simulate.pd import pd_rhs
 
 G = 9.81
 
@@ -299,13 +300,13 @@ def test_fused_right_hand_sides(arm):
     kd = np.array([159.5, 120.0, 50.0, 2.0])
     r = np.array([0.5, 0.4, 0.3, 0.2])
     state = arm.make_state_rhs({"m3": 14.0})
-    pd_rhs = arm.make_pd_rhs({"m3": 14.0}, kp=kp, kd=kd, reference=lambda t: r * t)
-    pd_const = arm.make_pd_rhs({"m3": 14.0}, kp=kp, kd=kd, reference=r)
+    pd_fun = pd_rhs(arm, {"m3": 14.0}, kp=kp, kd=kd, reference=lambda t: r * t)
+    pd_const = pd_rhs(arm, {"m3": 14.0}, kp=kp, kd=kd, reference=r)
     for i in range(5):
         y = np.r_[q[i], qd[i]]
         tau = kp * (r * 2.0 - q[i]) - kd * qd[i]  # the paper's PD law at t = 2 s
         qdd = arm.forward_dynamics(q[i : i + 1], qd[i : i + 1], tau[None], {"m3": 14.0})[0]
-        np.testing.assert_allclose(pd_rhs(2.0, y), np.r_[qd[i], qdd], rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(pd_fun(2.0, y), np.r_[qd[i], qdd], rtol=1e-10, atol=1e-9)
         np.testing.assert_allclose(state(y, tau), np.r_[qd[i], qdd], rtol=1e-10, atol=1e-9)
         tau1 = kp * (r - q[i]) - kd * qd[i]
         qdd1 = arm.forward_dynamics(q[i : i + 1], qd[i : i + 1], tau1[None], {"m3": 14.0})[0]
@@ -379,7 +380,7 @@ def test_bad_parameters_and_shapes_raise(arm):
     with pytest.raises(InputError, match=r"unknown option\(s\) \['mass'\]"):
         load_model("manipulator", mass=3)
     with pytest.raises(ShapeError, match=r"kp must hold one value per joint \(4\)"):
-        arm.make_pd_rhs(kp=[1, 2], kd=[1, 2, 3, 4], reference=[0, 0, 0, 0])
+        pd_rhs(arm, kp=[1, 2], kd=[1, 2, 3, 4], reference=[0, 0, 0, 0])
 
 
 def test_inputs_are_not_mutated(arm):

@@ -4,7 +4,8 @@
   mass–spring–damper) or a TOML model file (``docs/model-files.md``).
 * `ChainModel` — serial manipulators: inverse/forward dynamics, mass matrix, bias and gravity
   torques, ∂τ/∂θ, the regressor form τ = Y β(θ), base parameters, and fast single-state
-  right-hand sides for ODE integrators (`ChainModel.make_rhs`, `make_state_rhs`, `make_pd_rhs`).
+  right-hand sides for ODE integrators (`ChainModel.make_rhs`, `make_state_rhs`; the PD closed
+  loop is `physid.simulate.pd.pd_rhs`, which fuses its law in through `scalar_factory`).
 * `LinearODEModel` — Σ a_i y^(i) = Σ b_i u^(i), with the MSD conversions.
 """
 

@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .._validate import as_1d, as_2d, check_finite, parameter_vector, per_joint
+from .._validate import as_2d, check_finite, parameter_vector
 from ..errors import IdentifiabilityError, InputError, ShapeError
 from . import _cache
 from .codegen import cholesky_solve_lines, source_to_function
@@ -137,34 +138,61 @@ def _derive_jacobian(spec: ChainSpec) -> dict:
     return {"source": src}
 
 
-def _scalar_sources(n: int, n_params: int, const: list[str], body: list[str], zero_lower) -> dict:
-    """Compose the factories of the single-state right-hand sides from the scalar code.
+def _scalar_factory_source(
+    n: int,
+    n_params: int,
+    const: list[str],
+    body: list[str],
+    zero_lower,
+    name: str,
+    outer_args: str,
+    outer_extra: list[str],
+    inner_args: str,
+    prologue: list[str],
+    ret: str,
+) -> str:
+    """Source of ``make_<name>(<outer_args>)``: a factory of one single-state right-hand side.
 
-    Each factory takes the parameters (and gains), evaluates the parameter-only lines once, and
-    returns an inner function whose free variables are closure cells (as fast as locals).
+    The factory evaluates the parameter-only lines once and returns an inner function whose free
+    variables are closure cells (as fast as locals). The inner function runs `prologue` (which must
+    bind ``_q<i>``, ``_qd<i>`` and the torques ``T<i>``), the dynamics ``M q̈ = τ − h`` (Cholesky,
+    solution ``X<i>``) and `ret`.
     """
     zero = {tuple(z) for z in zero_lower}
-    q = ", ".join(f"_q{i}" for i in range(n))
-    qd = ", ".join(f"_qd{i}" for i in range(n))
     th = (", ".join(f"_th{i}" for i in range(n_params)) + ", = TH") if n_params else "pass"
     solve = [f"B{i} = T{i} - H{i}" for i in range(n)]  # M q̈ = τ − h
     solve += cholesky_solve_lines(n, "M", "B", "X", zero)
+    lines = [f"def make_{name}({outer_args}):", f"    {th}"]
+    lines += ["    " + line for line in outer_extra + const]
+    lines += [f"    def {name}({inner_args}):"]
+    lines += ["        " + line for line in prologue + body + solve + [ret]]
+    lines += [f"    return {name}"]
+    return "\n".join(lines) + "\n"
+
+
+def _scalar_sources(n: int, n_params: int, const: list[str], body: list[str], zero_lower) -> dict:
+    """The factories of the open-loop single-state right-hand sides (``rhs``, ``state``)."""
+    q = ", ".join(f"_q{i}" for i in range(n))
+    qd = ", ".join(f"_qd{i}" for i in range(n))
     qdd_list = ", ".join(f"X{i}" for i in range(n))
     qd_list = ", ".join(f"_qd{i}" for i in range(n))
     taus = ", ".join(f"T{i}" for i in range(n))
 
     def make(name, outer_args, outer_extra, inner_args, prologue, ret):
-        lines = [f"def make_{name}({outer_args}):", f"    {th}"]
-        lines += ["    " + line for line in outer_extra + const]
-        lines += [f"    def {name}({inner_args}):"]
-        lines += ["        " + line for line in prologue + body + solve + [ret]]
-        lines += [f"    return {name}"]
-        return "\n".join(lines) + "\n"
+        return _scalar_factory_source(
+            n,
+            n_params,
+            const,
+            body,
+            zero_lower,
+            name,
+            outer_args,
+            outer_extra,
+            inner_args,
+            prologue,
+            ret,
+        )
 
-    gains = [
-        f"{', '.join(f'KP{i}' for i in range(n))}, = KP",
-        f"{', '.join(f'KD{i}' for i in range(n))}, = KD",
-    ]
     return {
         "rhs": make(
             "rhs",
@@ -180,18 +208,6 @@ def _scalar_sources(n: int, n_params: int, const: list[str], body: list[str], ze
             [],
             "Y, TAU",
             [f"{q}, {qd}, = Y", f"{taus}, = TAU"],
-            f"return [{qd_list}, {qdd_list}]",
-        ),
-        "pd": make(
-            "pd",
-            "TH, KP, KD",
-            gains,
-            "Y, R",
-            [
-                f"{q}, {qd}, = Y",
-                f"{', '.join(f'R{i}' for i in range(n))}, = R",
-                *[f"T{i} = KP{i}*(R{i} - _q{i}) - KD{i}*_qd{i}" for i in range(n)],
-            ],
             f"return [{qd_list}, {qdd_list}]",
         ),
     }
@@ -516,13 +532,9 @@ class ChainModel:
         self._f_bias = source_to_function(src["bias"], "bias")
         self._f_gravity = source_to_function(src["gravity"], "gravity")
         self._f_jacobian = None  # symbolic ∂τ/∂θ, only for models not polynomial in θ
-        scal = _scalar_sources(
-            self.n_joints,
-            len(self.parameter_names),
-            data["scalar_const"],
-            data["scalar_body"],
-            data["zero_lower"],
-        )
+        self._scalar_code = (data["scalar_const"], data["scalar_body"], data["zero_lower"])
+        self._factories: dict = {}
+        scal = _scalar_sources(self.n_joints, len(self.parameter_names), *self._scalar_code)
         self._scalar = {
             name: source_to_function(text, f"make_{name}", scalar=True)
             for name, text in scal.items()
@@ -877,48 +889,63 @@ class ChainModel:
 
         return state_rhs
 
-    def make_pd_rhs(self, params=None, *, kp, kd, reference):
-        """Fused closed-loop right-hand side ``f(t, y) -> ẏ`` under the paper's PD law.
+    def scalar_factory(
+        self,
+        name: str,
+        *,
+        outer_args: str,
+        outer_extra: Sequence[str] = (),
+        inner_args: str,
+        prologue: Sequence[str],
+        ret: str,
+    ):
+        """Generated factory of a fused single-state right-hand side with a torque law of its own.
 
-        τ_k = Kp_k (r_k(t) − q_k) − Kd_k q̇_k (Cedro & Janecki, section 4: Mzr = Kp (M − φ) − Kd φ̇),
-        then ẏ = [q̇, M⁻¹(τ − h)], all in one generated scalar function.
+        The hook through which a later stage fuses a control law into the generated dynamics
+        (`physid.simulate.pd.pd_rhs` does, for the PD law) without the model knowing the law. The
+        factory is ``make_<name>(TH, ...)`` with ``TH`` the parameter vector and `outer_args`
+        after it; it returns ``<name>(<inner_args>)``, whose body is `prologue`, then the
+        generated dynamics, then `ret`. Names the lines may use: ``_q<i>``, ``_qd<i>`` (the
+        prologue binds them), ``T<i>`` (the torques, bound by the prologue), ``X<i>`` (q̈, bound by
+        the dynamics). Compiled once per model and name.
 
         Parameters
         ----------
-        params : dict or array_like, optional
-            Model parameters.
-        kp, kd : array_like (n_joints,)
-            Proportional [N·m/rad] and derivative [N·m·s/rad] gains.
-        reference : callable or array_like (n_joints,)
-            r(t) [rad]: a function of time returning n_joints values, or a constant set-point.
+        name : str
+            Python identifier of the inner function (the cache key, with the code).
+        outer_args : str
+            Arguments of the factory, starting with ``TH``.
+        outer_extra : sequence of str
+            Lines run once in the factory (e.g. unpacking gains).
+        inner_args : str
+            Arguments of the inner function.
+        prologue : sequence of str
+            Lines run first on every call; they bind ``_q<i>``, ``_qd<i>`` and ``T<i>``.
+        ret : str
+            The inner function's return statement.
 
         Returns
         -------
         callable
-            ``f(t, y)`` returning ẏ as a list of 2·n_joints floats, for ``solve_ivp(f, ...)``.
+            The factory ``make_<name>``.
         """
-        nj = self.n_joints
-        kp_l = per_joint(kp, "kp", nj).tolist()
-        kd_l = per_joint(kd, "kd", nj).tolist()
-        core = self._scalar["pd"](self.parameter_vector(params).tolist(), kp_l, kd_l)
-        if callable(reference):
-            ref = reference
-
-            def pd_rhs(t, y):
-                r = ref(t)
-                return core(
-                    y.tolist() if hasattr(y, "tolist") else y,
-                    r.tolist() if hasattr(r, "tolist") else r,
-                )
-        else:
-            r_const = as_1d(reference, "reference").tolist()
-            if len(r_const) != nj:
-                raise ShapeError(f"reference must hold {nj} angles; got {len(r_const)}.")
-
-            def pd_rhs(t, y):
-                return core(y.tolist() if hasattr(y, "tolist") else y, r_const)
-
-        return pd_rhs
+        key = (name, outer_args, tuple(outer_extra), inner_args, tuple(prologue), ret)
+        factory = self._factories.get(key)
+        if factory is None:
+            text = _scalar_factory_source(
+                self.n_joints,
+                len(self.parameter_names),
+                *self._scalar_code,
+                name,
+                outer_args,
+                list(outer_extra),
+                inner_args,
+                list(prologue),
+                ret,
+            )
+            factory = source_to_function(text, f"make_{name}", scalar=True)
+            self._factories[key] = factory
+        return factory
 
     # -- linear-in-parameters form ----------------------------------------------------------
     def _regressor_data(self) -> dict:

@@ -426,42 +426,6 @@ class RigidBodyModel(ChainModel):
 
         return state_rhs
 
-    def make_pd_rhs(self, params=None, *, kp, kd, reference, coulomb_smoothing: float = 0.0):
-        """PD closed-loop right-hand side (see `physid.simulate.closed_loop.closed_loop_rhs`).
-
-        Parameters
-        ----------
-        params : dict or array_like, optional
-        kp, kd : array_like (n_joints,)
-        reference : callable or array_like (n_joints,)
-        coulomb_smoothing : float [rad/s]
-            As in `make_rhs`.
-
-        Returns
-        -------
-        callable
-            ``f(t, y)``.
-        """
-        accel = self.make_rhs(params, coulomb_smoothing=coulomb_smoothing)
-        n = self.n_joints
-        kp_a = np.broadcast_to(np.asarray(kp, dtype=float), (n,)).copy()
-        kd_a = np.broadcast_to(np.asarray(kd, dtype=float), (n,)).copy()
-        if callable(reference):
-            ref = reference
-        else:
-            r_const = np.asarray(reference, dtype=float)
-
-            def ref(t):
-                return r_const
-
-        def pd_rhs(t, y):
-            y = np.asarray(y, dtype=float)
-            q, qd = y[:n], y[n:]
-            tau = kp_a * (np.asarray(ref(t), dtype=float) - q) - kd_a * qd
-            return np.concatenate([qd, accel(q, qd, tau)])
-
-        return pd_rhs
-
     def symbolic_equations(self):
         """Not available: rigid-body models are evaluated numerically (Newton–Euler).
 

@@ -5,7 +5,7 @@
   with parameter jumps, white noise at a given SNR and sinusoidal disturbances (Oueslati et al.,
   2011).
 * `simulate_closed_loop` / `paper_manipulator_experiment`: PD control of a manipulator integrated
-  with scipy's DOP853 (Cedro & Janecki, section 4).
+  with scipy's DOP853 (Cedro & Janecki, section 4); `pd_rhs` is the PD law fused with a model.
 """
 
 from .closed_loop import (
@@ -19,6 +19,7 @@ from .closed_loop import (
 )
 from .linear import linear_ode_state_space, simulate_linear_ode, uniform_time
 from .msd import PAPER_MSD, MSDParameters, msd_paper_scenario, msd_parameters, simulate_msd
+from .pd import pd_rhs
 from .recordings import ClosedLoopRecording, LinearODERecording
 from .references import FilteredSteps, filtered_steps
 
@@ -35,6 +36,7 @@ __all__ = [
     "paper_manipulator_experiment",
     "paper_reference",
     "closed_loop_rhs",
+    "pd_rhs",
     "make_reference",
     "ReferenceTrajectory",
     "FilteredSteps",

@@ -27,6 +27,7 @@ from .._validate import as_1d, check_finite, check_positive, per_joint, sample_p
 from ..errors import InputError, ShapeError, SimulationError
 from ..signals.noise import add_white_noise
 from .linear import uniform_time
+from .pd import pd_rhs
 from .recordings import ClosedLoopRecording
 from .references import FilteredSteps, ReferenceTrajectory, filtered_steps, make_reference
 
@@ -110,7 +111,7 @@ def closed_loop_rhs(
     backend : {"auto", "compiled", "generated", "pinocchio"}
         ``"compiled"``: the model's equations as C compiled once and cached
         (`physid.simulate.compiled`); ``"generated"``: the model's fused generated Python scalar
-        code (``make_pd_rhs`` when the model has it, else ``make_rhs``); ``"auto"``: compiled when
+        code with the PD law fused in (`physid.simulate.pd.pd_rhs`); ``"auto"``: compiled when
         a C compiler works, else generated. ``"pinocchio"``: pinocchio's ABA on an equivalent
         model (`physid.models.peers.pinocchio_model`), for benchmarks and checks.
     coulomb_smoothing : float [rad/s]
@@ -166,28 +167,16 @@ def closed_loop_rhs(
             )
         backend = "generated"
     if backend == "generated":
-        if hasattr(model, "chain"):
-            fused = model.make_pd_rhs(
-                params, kp=kp_a, kd=kd_a, reference=reference, coulomb_smoothing=coulomb_smoothing
-            )
-            fused.backend = "generated"
-            return fused
-        if hasattr(model, "make_pd_rhs"):
-            fused = model.make_pd_rhs(params, kp=kp_a, kd=kd_a, reference=reference)
-            fused.backend = "generated"
-            return fused
-        accel = model.make_rhs(params)
-        kp_l, kd_l = kp_a.tolist(), kd_a.tolist()
-
-        def rhs(t, y):
-            q = y[:n]
-            qd = y[n:]
-            r = reference(t)
-            tau = [kp_l[j] * (r[j] - q[j]) - kd_l[j] * qd[j] for j in range(n)]
-            return np.concatenate((qd, accel(q, qd, tau)))
-
-        rhs.backend = "generated"
-        return rhs
+        fused = pd_rhs(
+            model,
+            params,
+            kp=kp_a,
+            kd=kd_a,
+            reference=reference,
+            coulomb_smoothing=coulomb_smoothing,
+        )
+        fused.backend = "generated"
+        return fused
     if backend == "pinocchio":
         import pinocchio as pin
 
