@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
 from .errors import InputError
 
@@ -13,13 +14,23 @@ MEMORY_FRACTION = 0.5
 
 
 def available_memory() -> int:
-    """Physical memory available now [bytes] (Linux/macOS ``sysconf``), else 4 GiB assumed.
+    """Memory available to a new allocation now [bytes].
+
+    Linux ``MemAvailable`` (free memory plus the page cache the kernel can drop), else the free
+    physical pages (``sysconf``, macOS), else 4 GiB assumed.
 
     Returns
     -------
     int
         Bytes.
     """
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         pages = os.sysconf("SC_AVPHYS_PAGES")
         size = os.sysconf("SC_PAGE_SIZE")
@@ -42,15 +53,25 @@ def format_bytes(n: float) -> str:
     -------
     str
     """
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB"):
-        if abs(n) < 1000 or unit == "PB":
+    for unit in ("B", "kB", "MB", "GB", "TB", "PB", "EB"):
+        if abs(n) < 1000 or unit == "EB":
             return f"{n:.3g} {unit}"
         n /= 1000.0
-    return f"{n:.3g} PB"  # pragma: no cover
+    return f"{n:.3g} EB"  # pragma: no cover
 
 
-def check_memory(nbytes: float, *, what: str, fix: str, available: int | None = None) -> None:
+def check_memory(
+    nbytes: float,
+    *,
+    what: str,
+    fix: str,
+    available: int | None = None,
+    message: Callable[[float, int], str] | None = None,
+) -> None:
     """Refuse a request whose arrays would take more than half the available memory.
+
+    The one memory check of physid (design-input, sweeps): estimate the peak from the request's
+    sizes, call this before allocating anything of that size.
 
     Parameters
     ----------
@@ -62,6 +83,9 @@ def check_memory(nbytes: float, *, what: str, fix: str, available: int | None = 
         What to change (``"lower samples"``).
     available : int, optional
         Available memory [bytes]; default `available_memory`.
+    message : callable ``(nbytes, available) -> str``, optional
+        Builds the whole message instead of the default wording, for a caller that can say more
+        (the sweep names its largest feasible trial count); `what` and `fix` are then unused.
 
     Raises
     ------
@@ -71,6 +95,8 @@ def check_memory(nbytes: float, *, what: str, fix: str, available: int | None = 
     """
     avail = available_memory() if available is None else int(available)
     if nbytes > MEMORY_FRACTION * avail:
+        if message is not None:
+            raise InputError(message(nbytes, avail))
         raise InputError(
             f"{what} needs about {format_bytes(nbytes)} of memory, more than half of the "
             f"{format_bytes(avail)} available; {fix}."

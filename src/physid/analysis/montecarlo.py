@@ -69,6 +69,7 @@ from typing import Any
 import numpy as np
 
 from .._paths import atomic_write
+from .._resources import MEMORY_FRACTION, check_memory, format_bytes
 from .._validate import check_int, check_positive
 from ..errors import InputError, MissingDependencyError, SchedulerError, arg
 from ..estimators.results import jsonable
@@ -93,8 +94,6 @@ IN_PROCESS_LIMIT = 8
 #: Bytes one trial costs in memory while a sweep runs: its TrialSpec, its row dict (about 20
 #: columns of floats and short strings) and the CSV text (measured: ~2.3 kB for an MSD trial).
 BYTES_PER_TRIAL = 3000
-#: Fraction of the available memory a sweep's table may use.
-MEMORY_FRACTION = 0.5
 #: Seconds to wait for a Dask scheduler address to answer.
 SCHEDULER_TIMEOUT = 30.0
 #: Moved to physid.analysis.msd_study; still importable from here (see `__getattr__`).
@@ -541,29 +540,6 @@ def _kill_pool(pool: cf.ProcessPoolExecutor) -> None:
             pass
 
 
-def _available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux MemAvailable; else total RAM)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, OSError, ValueError):
-        return None
-
-
-def _bytes(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB", "TB", "PB", "EB"):
-        if n < 1000 or unit == "EB":
-            return f"{n:.3g} {unit}"
-        n /= 1000
-    return f"{n:.3g} EB"  # pragma: no cover
-
-
 def table_memory(grid: Mapping[str, Sequence], trials: int) -> tuple[int, int]:
     """Number of trials of a sweep and the memory [bytes] its table needs while it runs.
 
@@ -592,18 +568,19 @@ def table_memory(grid: Mapping[str, Sequence], trials: int) -> tuple[int, int]:
 
 def _check_memory(grid, trials) -> None:
     n, need = table_memory(grid, trials)
-    available = _available_memory()
-    if available is None or need <= MEMORY_FRACTION * available:
-        return
     cells = n // trials
-    raise InputError(
-        f"a sweep of {n:,} trials ({cells} grid point(s) × {arg('trials')} = {trials:,}) needs "
-        f"about {_bytes(need)} of memory for its table ({BYTES_PER_TRIAL} B per trial), but this "
-        f"machine has {_bytes(available)} available (a sweep may use "
-        f"{MEMORY_FRACTION:.0%}). Use fewer {arg('trials')} or grid points (at most about "
-        f"{int(MEMORY_FRACTION * available / BYTES_PER_TRIAL / cells):,} trials per point here), "
-        "or split the study into several sweeps with different seeds."
-    )
+
+    def message(need: float, available: int) -> str:
+        return (
+            f"a sweep of {n:,} trials ({cells} grid point(s) × {arg('trials')} = {trials:,}) "
+            f"needs about {format_bytes(need)} of memory for its table ({BYTES_PER_TRIAL} B per "
+            f"trial), but this machine has {format_bytes(available)} available (a sweep may use "
+            f"{MEMORY_FRACTION:.0%}). Use fewer {arg('trials')} or grid points (at most about "
+            f"{int(MEMORY_FRACTION * available / BYTES_PER_TRIAL / cells):,} trials per point "
+            "here), or split the study into several sweeps with different seeds."
+        )
+
+    check_memory(need, what="the sweep", fix=f"use fewer {arg('trials')}", message=message)
 
 
 def _dask_client(distributed, address: str, timeout: float):
