@@ -130,3 +130,36 @@ def test_check_memory_default_wording_and_units():
     with pytest.raises(InputError, match=r"^x needs about 501 MB of memory, more than half of "):
         check_memory(5.01e8, what="x", fix="lower y", available=10**9)
     assert format_bytes(9e15) == "9 PB" and format_bytes(2.5e18) == "2.5 EB"
+
+
+# ------------------------------------------------------------------ one save_figure
+def _toy_trial(settings, seed):
+    return {"mean": float(np.random.default_rng(seed).normal(settings["mu"], 1.0, 50).mean())}
+
+
+def test_sweep_and_validation_figures_go_through_save_figure(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    import physid.report.style as style
+    from physid.analysis.montecarlo import run_sweep
+    from physid.analysis.sweep_table import write_sweep
+    from physid.report.style import figure_png
+
+    saved = []
+    real = style.save_figure
+
+    def spy(fig, path):
+        saved.append(Path(path).name)
+        return real(fig, path)
+
+    monkeypatch.setattr(style, "save_figure", spy)
+    res = run_sweep(_toy_trial, {"mu": [0.0, 1.0]}, trials=2, seed=1, scheduler="serial",
+                    progress=False)  # fmt: skip
+    fig = Figure(figsize=(3, 2))
+    fig.add_subplot().plot([0, 1], [0, 1])
+    paths = write_sweep(res, tmp_path, figures={"toy": fig})
+    assert saved == ["toy.png"]
+    assert paths["figure:toy"].read_bytes() == figure_png(fig)  # style.DPI, tight bounding box

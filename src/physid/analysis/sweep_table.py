@@ -355,12 +355,11 @@ def write_sweep(
     paths["summary"] = atomic_write(
         out / "summary.json", lambda fh: json.dump(doc, fh, indent=2, allow_nan=False)
     )
-    for name, fig in (figures or {}).items():
-        paths[f"figure:{name}"] = atomic_write(
-            out / f"{name}.png",
-            lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110),
-            binary=True,
-        )
+    if figures:
+        from ..report.style import save_figure  # lazy: report comes after analysis
+
+        for name, fig in figures.items():
+            paths[f"figure:{name}"] = save_figure(fig, out / f"{name}.png")
     return paths
 
 

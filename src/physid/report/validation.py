@@ -88,6 +88,7 @@ def write_validation_plots(report, out_dir) -> dict[str, str]:
         name -> path of each file written.
     """
     from .._paths import atomic_write
+    from .style import save_figure
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -104,7 +105,7 @@ def write_validation_plots(report, out_dir) -> dict[str, str]:
     written = {}
     for name, fig in figures.items():
         path = out / f"{name}.png"
-        atomic_write(path, lambda fh, fig=fig: fig.savefig(fh, format="png", dpi=110), binary=True)
+        save_figure(fig, path)
         written[name] = str(path)
     rows = "".join(
         f"<li>{html.escape(line.strip())}</li>" for line in report.summary().splitlines()[1:]
