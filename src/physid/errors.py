@@ -25,6 +25,8 @@ missing from ``flags`` keeps its Python spelling, so a partial mapping is never 
 Python-worded. `physid.cli.main` builds that mapping per verb from its argparse options
 (``dest`` → option string) plus the verb module's optional ``ARGUMENT_FLAGS`` dict (keyword →
 flag, or None for a keyword the verb has no flag for) and prints ``error.render(flags)``.
+Warnings do the same: a warning class derived from `PhysidWarning` takes marked messages, and the
+command prints ``warning.render(flags)`` on its ``physid: warning:`` lines.
 
 The `physid._validate` helpers mark the argument name they are given, so every shape, range and
 integer check is translated without extra work at the call site. Errors survive pickling (sweep
@@ -38,6 +40,7 @@ from collections.abc import Mapping
 
 __all__ = [
     "PhysidError",
+    "PhysidWarning",
     "InputError",
     "ShapeError",
     "SamplingError",
@@ -116,25 +119,8 @@ def _rebuild(cls, args, state):
     return err
 
 
-class PhysidError(Exception):
-    """Base class of every error physid raises on purpose.
-
-    Parameters
-    ----------
-    message : str
-        The message; argument references may be marked with `arg` (see the module docstring).
-    *args
-        Further positional arguments, kept in ``args`` as for any exception.
-    arguments : sequence of str, optional
-        Python argument names the error is about, in addition to the ones marked in the message.
-
-    Attributes
-    ----------
-    arguments : tuple of str
-        Python argument names the message refers to.
-    template : str
-        The message with its argument marks (equal to ``str(error)`` when it has none).
-    """
+class _Marked:
+    """Argument marks in a message (see the module docstring): shared by errors and warnings."""
 
     def __init__(self, *args, arguments=()):
         template = args[0] if args and isinstance(args[0], str) else None
@@ -166,6 +152,60 @@ class PhysidError(Exception):
 
     def __reduce__(self):
         return _rebuild, (type(self), self.args, dict(self.__dict__))
+
+
+class PhysidError(_Marked, Exception):
+    """Base class of every error physid raises on purpose.
+
+    Parameters
+    ----------
+    message : str
+        The message; argument references may be marked with `arg` (see the module docstring).
+    *args
+        Further positional arguments, kept in ``args`` as for any exception.
+    arguments : sequence of str, optional
+        Python argument names the error is about, in addition to the ones marked in the message.
+
+    Attributes
+    ----------
+    arguments : tuple of str
+        Python argument names the message refers to.
+    template : str
+        The message with its argument marks (equal to ``str(error)`` when it has none).
+    """
+
+
+class PhysidWarning(_Marked, UserWarning):
+    """Base class of physid's warnings whose message may name arguments (marked with `arg`).
+
+    ``str(warning)`` names Python arguments (``cutoff='auto'``); the ``physid`` command prints
+    ``warning.render(flags)`` on its ``physid: warning:`` lines (``--cutoff auto``), exactly as it
+    does for errors.
+
+    Parameters
+    ----------
+    message : str
+        The message, argument references marked with `arg`.
+    *args
+        Further positional arguments, kept in ``args``.
+    arguments : sequence of str, optional
+        Python argument names the warning is about, besides the marked ones.
+
+    Attributes
+    ----------
+    arguments : tuple of str
+        Python argument names the message refers to.
+    template : str
+        The message with its argument marks.
+
+    Examples
+    --------
+    >>> w = PhysidWarning(f"or use {arg('cutoff', repr('auto'), cli='auto')}")
+    >>> str(w)
+    "or use cutoff='auto'"
+    >>> w.render({"cutoff": "--cutoff"})
+    'or use --cutoff auto'
+    """
 
 
 class InputError(PhysidError, ValueError):

@@ -190,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
     from ._common import check_outputs, report_warnings
 
     caught: list = []
+    flags = argument_flags(parser, args)  # keyword -> flag, for errors and warnings alike
+    args.argument_flags = flags  # verbs that report warnings early (report_warnings(caught, args))
     try:
         # warnings (numpy's RuntimeWarnings, physid's own) are collected and printed as
         # "physid: warning: ..." lines, once each, instead of raw file:line text
@@ -197,15 +199,15 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("default")
             check_outputs(args)  # no --out/--plot may name an input file (every verb)
             status = int(args.func(args) or 0)
-        report_warnings(caught)
+        report_warnings(caught, flags)
         return status
     except Terminated:
-        report_warnings(caught)
+        report_warnings(caught, flags)
         print("physid: terminated", file=sys.stderr)
         return 143
     except PhysidError as exc:
-        report_warnings(caught)
-        print(f"physid: error: {exc.render(argument_flags(parser, args))}", file=sys.stderr)
+        report_warnings(caught, flags)
+        print(f"physid: error: {exc.render(flags)}", file=sys.stderr)
         return 2
     except (
         FileNotFoundError,
@@ -214,7 +216,7 @@ def main(argv: list[str] | None = None) -> int:
         NotADirectoryError,
         PermissionError,
     ) as exc:
-        report_warnings(caught)
+        report_warnings(caught, flags)
         print(f"physid: error: {exc.strerror or exc}: {exc.filename}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -9,7 +9,7 @@ import re
 import sys
 from typing import Any
 
-from ..errors import InputError, OutputError
+from ..errors import InputError, OutputError, PhysidWarning
 
 __all__ = [
     "float_list",
@@ -235,21 +235,31 @@ def check_figure_path(path: str, option: str) -> str:
     return suffix[1:]
 
 
-def report_warnings(caught) -> None:
+def report_warnings(caught, flags=None) -> None:
     """Print recorded warnings as ``physid: warning: ...`` lines on stderr, once per message.
 
     numpy's floating-point RuntimeWarnings ("overflow encountered in multiply") name no input
     and no fix; they are summarised as one line per message with a count and a hint. physid's
-    own warnings are printed with their message only (no file and line).
+    own warnings are printed with their message only (no file and line); a `PhysidWarning` names
+    the verb's flags instead of Python arguments (``--cutoff auto``, not ``cutoff='auto'``), as
+    errors do.
 
     Parameters
     ----------
     caught : list of warnings.WarningMessage
         From ``warnings.catch_warnings(record=True)``.
+    flags : mapping of str to str or None, or argparse.Namespace, optional
+        Python keyword → flag (`physid.cli.argument_flags`), or the verb's parsed arguments,
+        which carry that mapping as ``argument_flags`` (set by `physid.cli.main`); None keeps
+        the Python spelling.
     """
+    if flags is not None and not isinstance(flags, dict):
+        flags = getattr(flags, "argument_flags", None)
     counts: dict = {}
     for w in caught or ():
-        key = (w.category.__name__, str(w.message))
+        message = w.message
+        text = message.render(flags) if isinstance(message, PhysidWarning) else str(message)
+        key = (w.category.__name__, text)
         counts[key] = counts.get(key, 0) + 1
     for (category, message), n in counts.items():
         times = f" ({n} times)" if n > 1 else ""

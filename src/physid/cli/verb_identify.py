@@ -19,6 +19,7 @@ from ._common import (
     print_json,
     progress,
     read_recording,
+    report_warnings,
 )
 
 ORDER = 30
@@ -313,8 +314,7 @@ def _run_input_error(args, model, recordings) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         estimator.fit(recording, initial=assignments(args.initial, "--initial"))
-    for w in caught:
-        progress(f"warning: {w.message}")
+    report_warnings(caught, args)  # now, before the result: "physid: warning:" with flags
     result = estimator.result_
     _save(args, result)
     if result.filter_choice:
@@ -377,8 +377,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         estimator.fit(recordings)
-    for w in caught:
-        progress(f"warning: {w.message}")
+    report_warnings(caught, args)  # now, before the result: "physid: warning:" with flags
     result = estimator.result_
     _save(args, result)
     if args.json:

@@ -32,7 +32,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..errors import IdentifiabilityError, InputError, arg
+from ..errors import IdentifiabilityError, InputError, PhysidWarning, arg
 
 __all__ = [
     "IdentifiabilityWarning",
@@ -57,8 +57,11 @@ STRUCTURAL_RTOL = 1e-9
 NUMERIC_RTOL = 1e-7
 
 
-class IdentifiabilityWarning(UserWarning):
-    """Warning: parameters are held fixed because the data cannot determine them."""
+class IdentifiabilityWarning(PhysidWarning):
+    """Warning: parameters are held fixed because the data cannot determine them.
+
+    A `physid.errors.PhysidWarning`: the command line shows its arguments as flags.
+    """
 
 
 @dataclass(frozen=True)
@@ -437,8 +440,8 @@ def hold_plan(
             warnings.warn(
                 f"{combo.text}: the data cannot separate them, so {hold} is held at its initial "
                 f"value {plan[hold]:g} and only {combo.expression} is meaningful. Pass "
-                f"fixed={{'{hold}': VALUE}} with a measured value to "
-                "choose, or fix another parameter of the combination.",
+                f"{arg('fixed', f'{{{hold!r}: VALUE}}', cli=f'{hold}=VALUE')} with a measured "
+                "value to choose, or fix another parameter of the combination.",
                 IdentifiabilityWarning,
                 stacklevel=3,
             )
