@@ -194,3 +194,80 @@ def test_warning_names_python_argument_in_python_and_flag_on_the_cli(tmp_path, c
     assert line.startswith("physid: warning: m1 and l1 enter only as m1*l1**2")
     assert "Pass --fix l1=VALUE with a measured value" in line  # the verb's flag
     assert "fixed=" not in err and "\x1e" not in err
+
+
+# ------------------------------------------------------------------ cache integrity before exec
+PENDULUM = """
+name = "pendulum_wave3_arch"
+gravity = [0.0, -9.81, 0.0]
+[parameters]
+m = { value = 1.3, unit = "kg" }
+l = { value = 0.7, unit = "m" }
+[[joints]]
+dh = { a = "l", alpha = 0 }
+mass = "m"
+"""
+
+
+def test_tampered_cached_source_is_regenerated_and_never_runs(tmp_path, monkeypatch):
+    from physid.models.chain import build_chain_model
+    from physid.models.spec import parse_model_text
+
+    monkeypatch.setenv("PHYSID_CACHE_DIR", str(tmp_path / "cache"))
+    first = build_chain_model(parse_model_text(PENDULUM, source="<test>"))
+    assert not first.loaded_from_cache
+    (entry_path,) = (tmp_path / "cache").glob("chain-*.json")
+    entry = json.loads(entry_path.read_text())
+    marker = tmp_path / "tampered-code-ran"
+    evil = f"__import__('pathlib').Path({str(marker)!r}).write_text('ran')\n"
+    entry["data"]["sources"]["tau"] = evil + entry["data"]["sources"]["tau"]
+    entry_path.write_text(json.dumps(entry))  # format, key and the old sha256 kept
+
+    second = build_chain_model(parse_model_text(PENDULUM, source="<test>"))
+    assert not marker.exists()  # the altered source was refused before exec
+    assert not second.loaded_from_cache  # ... and derived again
+    q = np.array([[0.3]])
+    # τ = m l² q̈ + m g l cos q (point mass at the link's end, gravity along −y)
+    expected = 1.3 * 0.7**2 * 2.0 + 1.3 * 9.81 * 0.7 * np.cos(0.3)
+    np.testing.assert_allclose(second.inverse_dynamics(q, 0 * q, q * 0 + 2.0), [[expected]],
+                               rtol=1e-12)  # fmt: skip
+    assert "__import__" not in json.loads(entry_path.read_text())["data"]["sources"]["tau"]
+    third = build_chain_model(parse_model_text(PENDULUM, source="<test>"))
+    assert third.loaded_from_cache  # the rewritten entry verifies
+
+
+def test_cached_shared_library_is_verified_before_loading(tmp_path, monkeypatch):
+    import subprocess
+    import sys
+
+    from physid.models.codegen import build_shared_library, compiler
+
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("PHYSID_CACHE_DIR", str(cache))
+    good = "int answer(void) { return 7; }\n"
+    if compiler() is None:  # nothing is built or loaded without a compiler
+        assert build_shared_library(good, "wave3good") is None
+        return
+    # an earlier process built and cached the good library
+    script = (
+        "from physid.models.codegen import build_shared_library as b; "
+        f"print(b({good!r}, 'wave3good').answer())"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.stdout.strip() == "7", done.stderr
+    (lib_path,) = cache.glob("wave3good-*.so")
+    marker = tmp_path / "tampered-library-ran"
+    evil = (
+        "#include <stdio.h>\n"
+        "__attribute__((constructor)) static void run(void) {\n"
+        f'  FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n'
+        "int answer(void) { return 666; }\n"
+    )
+    assert build_shared_library(evil, "wave3evil").answer() == 666
+    assert marker.exists()  # the evil library runs its constructor when it is loaded ...
+    marker.unlink()
+    (evil_path,) = cache.glob("wave3evil-*.so")
+    lib_path.write_bytes(evil_path.read_bytes())  # ... and now sits in place of the good one
+    again = build_shared_library(good, "wave3good")
+    assert not marker.exists()  # the tampered file was never loaded
+    assert again.answer() == 7  # it was rebuilt from the source

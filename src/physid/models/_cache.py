@@ -11,6 +11,13 @@ reader never sees half a file; every entry records `CACHE_FORMAT` and its own ke
 unreadable, from another format, or with a mismatching key counts as a miss and is rebuilt (and
 overwritten). A cache folder that cannot be written is not an error: the model is simply
 derived again next time.
+
+Integrity: the cached data are Python source that `physid.models.codegen.source_to_function`
+executes, so every entry stores the SHA-256 of its data's canonical JSON (`data_digest`) when it
+is written, and an entry whose data no longer hash to it (edited, truncated, tampered with) is a
+miss: the code is derived again and the entry overwritten, and the altered source never runs.
+(The hash detects changes made without recomputing it; someone who can rewrite the cache folder
+and the hash can also rewrite physid itself, so the folder must stay the user's own.)
 """
 
 from __future__ import annotations
@@ -23,10 +30,18 @@ from pathlib import Path
 
 from .._paths import atomic_write, cache_dir
 
-__all__ = ["CACHE_FORMAT", "cache_dir", "content_key", "load_entry", "save_entry", "cached"]
+__all__ = [
+    "CACHE_FORMAT",
+    "cache_dir",
+    "content_key",
+    "data_digest",
+    "load_entry",
+    "save_entry",
+    "cached",
+]
 
 #: Bump when the generated code or the metadata layout changes: old entries then miss.
-CACHE_FORMAT = "physid-models-9"
+CACHE_FORMAT = "physid-models-10"
 
 
 @functools.lru_cache(maxsize=1)
@@ -57,6 +72,17 @@ def content_key(content) -> str:
     return hashlib.sha256(payload.encode("utf-8")).hexdigest()[:32]
 
 
+def data_digest(data) -> str:
+    """SHA-256 (hex) of the canonical JSON of an entry's ``data`` (the integrity check).
+
+    Canonical: sorted keys, no spaces, so the digest of the data as written equals the digest of
+    the same data read back from the file.
+    """
+    normal = json.loads(json.dumps(data))  # as read back: tuples → lists, keys → str
+    text = json.dumps(normal, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 def _path(kind: str, key: str) -> Path:
     return cache_dir() / f"{kind}-{key}.json"
 
@@ -76,12 +102,24 @@ def load_entry(kind: str, key: str) -> dict | None:
     ):
         return None
     data = entry.get("data")
-    return data if isinstance(data, dict) else None
+    if not isinstance(data, dict):
+        return None
+    try:
+        digest = data_digest(data)
+    except (TypeError, ValueError):
+        return None
+    if entry.get("sha256") != digest:  # altered since it was written: never run it
+        return None
+    return data
 
 
 def save_entry(kind: str, key: str, data: dict) -> bool:
     """Write an entry atomically; return False (silently) if the folder is not writable."""
-    entry = {"format": CACHE_FORMAT, "key": key, "data": data}
+    try:
+        digest = data_digest(data)
+    except (TypeError, ValueError):  # not JSON data: nothing to cache
+        return False
+    entry = {"format": CACHE_FORMAT, "key": key, "sha256": digest, "data": data}
     try:
         atomic_write(_path(kind, key), lambda fh: json.dump(entry, fh))
     except OSError:

@@ -1196,7 +1196,7 @@ class ChainModel:
             rename[s] = sp.Symbol(name, real=True)
 
         def rn(e):
-            return sp.sympify(e).xreplace(rename)
+            return sp.sympify(e, strict=True).xreplace(rename)
 
         return ChainEquations(
             q=tuple(rename[s] for s in sym["q"]),

@@ -125,7 +125,7 @@ def vector_function_source(
     import sympy as sp
 
     vec, _ = _printers()
-    outputs = [sp.sympify(e) for e in outputs]
+    outputs = [sp.sympify(e, strict=True) for e in outputs]
     replacements, reduced = _cse(outputs)
     lines = [f"def {name}({', '.join(g for g, _ in arg_groups)}, n):"]
     if docstring:
@@ -283,7 +283,7 @@ class SharedExpressions:
     def __init__(self, exprs, angles: Sequence = ()):
         import sympy as sp
 
-        exprs = [sp.sympify(e) for e in exprs]
+        exprs = [sp.sympify(e, strict=True) for e in exprs]
         defs: list = []
         if angles:
             exprs, defs = angle_sum_definitions(exprs, angles)
@@ -326,7 +326,7 @@ class SharedExpressions:
         import sympy as sp
 
         vec, _ = _printers()
-        outputs = [sp.sympify(e) for e in outputs]
+        outputs = [sp.sympify(e, strict=True) for e in outputs]
         lines = [f"def {name}({', '.join(g for g, _ in arg_groups)}, n):"]
         for group, syms in arg_groups:
             syms = list(syms)
@@ -353,7 +353,7 @@ class SharedExpressions:
 
         _, sca = _printers()
         const = set(constant_symbols)
-        exprs = [sp.sympify(e) for _, e in assignments]
+        exprs = [sp.sympify(e, strict=True) for _, e in assignments]
         needed = self._needed(exprs)
         const_rep: set = set()
         head, body = [], []
@@ -432,6 +432,12 @@ def build_shared_library(source, tag: str, *, key: str | None = None, cc="auto")
     -------
     ctypes.CDLL or None
         None when no compiler works or the build fails (callers fall back to numpy/Python).
+
+    Notes
+    -----
+    Loading a library runs its code, so the SHA-256 of the built file is written beside it
+    (``tag-<hash>.so.sha256``) and checked before every load; a library that no longer matches
+    (or has no digest) is built again, never loaded.
     """
     import ctypes
     import hashlib
@@ -441,16 +447,25 @@ def build_shared_library(source, tag: str, *, key: str | None = None, cc="auto")
     import tempfile
     from pathlib import Path
 
-    from .._paths import cache_dir
+    from .._paths import atomic_write, cache_dir
 
     if key is None:
         text = source + sys.platform + str(sys.version_info[:2])
         key = hashlib.sha256(text.encode()).hexdigest()[:32]
     folder = cache_dir()
     lib_path = folder / f"{tag}-{key}.so"
+    digest_path = folder / f"{tag}-{key}.so.sha256"
     if str(lib_path) in _LIBRARIES:
         return _LIBRARIES[str(lib_path)]
-    if not lib_path.exists():
+
+    def intact() -> bool:  # the library's bytes still hash to the digest written beside it
+        try:
+            digest = hashlib.sha256(lib_path.read_bytes()).hexdigest()
+            return digest_path.read_text(encoding="ascii").strip() == digest
+        except OSError:
+            return False
+
+    if not intact():  # absent, or altered since it was built: build it again, never load it
         cc = compiler() if cc == "auto" else cc
         if cc is None:
             return None
@@ -466,15 +481,21 @@ def build_shared_library(source, tag: str, *, key: str | None = None, cc="auto")
                 src.write_text(source, encoding="utf-8")
                 out = Path(tmp) / f"{tag}.so"
                 proc = subprocess.run(
-                    [cc, "-O3", "-shared", "-fPIC", "-o", str(out), str(src), "-lm"],
+                    # relative names, run in the build folder: the same bytes from every build
+                    [cc, "-O3", "-shared", "-fPIC", "-o", out.name, src.name, "-lm"],
+                    cwd=tmp,
                     capture_output=True,
                     text=True,
                     timeout=120,
                 )
                 if proc.returncode != 0:
                     return None
+                digest = hashlib.sha256(out.read_bytes()).hexdigest()
                 os.replace(out, lib_path)  # atomic: a reader never sees half a library
+                atomic_write(digest_path, lambda fh: fh.write(digest + "\n"))
         except (OSError, subprocess.SubprocessError):
+            return None
+        if not intact():  # another process replaced it meanwhile: load nothing unverified
             return None
     try:
         lib = ctypes.CDLL(str(lib_path))
@@ -523,7 +544,7 @@ def c_pd_rhs_source(eqs) -> str:
         names[th] = sp.Symbol(f"TH[{k}]")
 
     def c(expr) -> str:
-        return ccode(sp.sympify(expr).xreplace(names), standard="c99")
+        return ccode(sp.sympify(expr, strict=True).xreplace(names), standard="c99")
 
     lines = [
         "#include <math.h>",

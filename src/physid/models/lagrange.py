@@ -362,7 +362,7 @@ def theta_polynomial(expr, theta) -> dict:
     """
     import sympy as sp
 
-    expr = sp.sympify(expr)
+    expr = sp.sympify(expr, strict=True)  # sympy objects only: strict refuses text
     if expr == 0:
         return {}
     if not (expr.free_symbols & set(theta)):
