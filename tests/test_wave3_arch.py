@@ -271,3 +271,17 @@ def test_cached_shared_library_is_verified_before_loading(tmp_path, monkeypatch)
     again = build_shared_library(good, "wave3good")
     assert not marker.exists()  # the tampered file was never loaded
     assert again.answer() == 7  # it was rebuilt from the source
+
+
+# ------------------------------------------------------------------ metadata
+def test_pyproject_has_no_placeholder_urls():
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+
+    root = Path(__file__).resolve().parents[1]
+    project = tomllib.loads((root / "pyproject.toml").read_text())["project"]
+    assert "urls" not in project  # no public repository exists: no invented links
+    assert "invalid" not in (root / "pyproject.toml").read_text()
+    assert project["authors"] and len(project["classifiers"]) >= 10
