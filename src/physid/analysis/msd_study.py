@@ -16,15 +16,16 @@ from dataclasses import dataclass
 from typing import Any
 
 from .._validate import check_positive
-from ..errors import InputError, arg
 from ..models.linear_ode import MSD_NATURAL_FREQUENCY
-from .montecarlo import SweepResult, parse_scheduler, run_sweep
+from .montecarlo import SweepResult, parse_scheduler
 from .studies import (
-    MIN_SAMPLES,
     TIME_COLUMNS,
     EstimationTrial,
+    check_ratios,
+    check_record_length,
     estimator_variants,
     make_estimator,
+    run_estimator_sweep,
 )
 
 __all__ = [
@@ -133,37 +134,9 @@ def msd_trial(settings: Mapping[str, Any], seed: int) -> dict[str, Any]:
 msd_trial.preload_modules = _MSD_TRIAL.preload_modules  # type: ignore[attr-defined]
 
 
-def msd_estimator_variants(
-    methods: Sequence[str] = ("algebraic", "rls"),
-    *,
-    windows: Sequence[float] = (0.05,),
-    forgettings: Sequence[float] = (1.0,),
-) -> list[dict]:
-    """Estimator configurations for the MSD sweep (see `physid.analysis.studies.estimator_variants`).
-
-    Parameters
-    ----------
-    methods : sequence of {"algebraic", "rls"}
-        The methods to compare.
-    windows : sequence of float [s]
-        Algebraic window lengths.
-    forgettings : sequence of float
-        RLS forgetting factors λ in (0, 1].
-
-    Returns
-    -------
-    list of dict
-        ``{"method", "window", "forgetting"}`` per configuration.
-
-    Examples
-    --------
-    >>> msd_estimator_variants(["algebraic", "rls"], windows=[0.05], forgettings=[1.0, 0.99])
-    ... # doctest: +NORMALIZE_WHITESPACE
-    [{'method': 'algebraic', 'window': 0.05, 'forgetting': None},
-     {'method': 'rls', 'window': None, 'forgetting': 1.0},
-     {'method': 'rls', 'window': None, 'forgetting': 0.99}]
-    """
-    return estimator_variants(methods, windows=windows, forgettings=forgettings)
+#: Estimator configurations for the MSD sweep: the same as every linear-ODE sweep's
+#: (`physid.analysis.studies.estimator_variants`; the MSD name is kept for its callers).
+msd_estimator_variants = estimator_variants
 
 
 def _warm_up(variants: Sequence[Mapping[str, Any]]) -> None:
@@ -213,22 +186,10 @@ def msd_sweep(
 
     Parameters
     ----------
-    snr_db : sequence of float [dB]
-        Signal-to-noise ratios (None = noise-free).
-    ratio : sequence of float
-        Input frequency ratios Z = ω1 / ω0.
-    trials : int
-        Noise realisations per (SNR, Z).
-    methods : sequence of {"algebraic", "rls"}
-        The estimators to compare.
-    windows : sequence of float [s]
-        Algebraic window lengths.
-    forgettings : sequence of float
-        RLS forgetting factors λ in (0, 1].
-    duration, dt : float [s]
-        Record length and sample period.
-    seed : int
-        Root seed.
+    snr_db, ratio, trials, methods, windows, forgettings, duration, dt, seed
+        As in `physid.analysis.studies.model_sweep` (SNR [dB], Z = ω1 / ω0, noise realisations
+        per (SNR, Z), the estimators, algebraic windows [s], RLS forgetting factors, record
+        length and sample period [s], root seed).
     scheduler, workers, chunksize, progress, scheduler_timeout
         See `physid.analysis.montecarlo.run_sweep`.
     estimator_options : mapping, optional
@@ -240,20 +201,11 @@ def msd_sweep(
         One row per (SNR, Z, estimator, trial).
     """
     snr_values = [None if s is None else float(s) for s in snr_db]
-    ratio_values = [float(z) for z in ratio]
-    if any(z <= 0 for z in ratio_values) or not ratio_values:
-        raise InputError(
-            f"{arg('ratio')} must be a non-empty list of positive numbers; got {list(ratio)}."
-        )
+    ratio_values = check_ratios(ratio)
     duration = check_positive(duration, "duration")
     dt = check_positive(dt, "dt")
-    if duration / dt < MIN_SAMPLES:
-        raise InputError(
-            f"{arg('dt')} = {dt:g} s leaves only {int(duration / dt)} sample(s) in "
-            f"{arg('duration')} = {duration:g} s; a sweep needs at least {MIN_SAMPLES} (the "
-            f"estimators many more): use a smaller {arg('dt')} or a longer {arg('duration')}."
-        )
-    variants = msd_estimator_variants(methods, windows=windows, forgettings=forgettings)
+    check_record_length(duration, dt)
+    variants = estimator_variants(methods, windows=windows, forgettings=forgettings)
     options = dict(estimator_options or {})
     for v in variants:
         v["duration"] = duration
@@ -264,17 +216,16 @@ def msd_sweep(
     kind, _ = parse_scheduler(scheduler)
     if kind == "local":
         _warm_up(variants)  # derive the estimators' kernels once here; forked workers inherit them
-    return run_sweep(
+    return run_estimator_sweep(
         msd_trial,
         grid,
+        label="sweep msd",
+        censored_columns=MSD_TIME_COLUMNS,
         trials=trials,
         seed=seed,
         scheduler=scheduler,
         workers=workers,
         chunksize=chunksize,
-        shared_seed_axes=("estimator",),
-        censored_columns=MSD_TIME_COLUMNS,
-        progress=progress,
-        label="sweep msd",
         scheduler_timeout=scheduler_timeout,
+        progress=progress,
     )

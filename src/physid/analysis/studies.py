@@ -37,7 +37,11 @@ __all__ = [
     "estimator_variants",
     "reference_frequency",
     "model_sweep",
+    "run_estimator_sweep",
+    "check_ratios",
+    "check_record_length",
     "TIME_COLUMNS",
+    "MIN_SAMPLES",
 ]
 
 #: Columns of a study's table that are convergence times (NaN = not converged).
@@ -46,6 +50,94 @@ TIME_COLUMNS = ("t_first_hit", "t_settle")
 LINEAR_ODE_METHODS = ("algebraic", "rls")
 #: Fewest samples per record a sweep accepts (the estimators need far more; see their messages).
 MIN_SAMPLES = 20
+
+
+def check_record_length(duration: float, dt: float) -> None:
+    """Refuse a record of fewer than `MIN_SAMPLES` samples (``duration / dt``), naming ``dt``.
+
+    Parameters
+    ----------
+    duration : float [s]
+        Record length.
+    dt : float [s]
+        Sample period.
+
+    Raises
+    ------
+    InputError
+        ``dt = 1 s leaves only 5 sample(s) in duration = 5 s; …``.
+    """
+    n = duration / dt
+    if n < MIN_SAMPLES:
+        raise InputError(
+            f"{arg('dt')} = {dt:g} s leaves only {int(n)} sample(s) in "
+            f"{arg('duration')} = {duration:g} s; a sweep needs at least {MIN_SAMPLES} "
+            f"(the estimators many more): use a smaller {arg('dt')} or a longer "
+            f"{arg('duration')}."
+        )
+
+
+def check_ratios(ratio: Sequence[float]) -> list[float]:
+    """The input frequency ratios Z of a sweep as floats; refuses an empty list or Z ≤ 0 or NaN.
+
+    Parameters
+    ----------
+    ratio : sequence of float
+        Z = ω1 / ω_ref.
+
+    Returns
+    -------
+    list of float
+        The ratios.
+    """
+    values = [float(z) for z in ratio]
+    if not values or any(not z > 0 for z in values):
+        raise InputError(
+            f"{arg('ratio')} must be a non-empty list of positive numbers; got {list(ratio)}."
+        )
+    return values
+
+
+def run_estimator_sweep(
+    trial: Callable,
+    grid: Mapping[str, Sequence],
+    *,
+    label: str,
+    censored_columns: Sequence[str] = TIME_COLUMNS,
+    **run_options: Any,
+) -> SweepResult:
+    """`run_sweep` of an estimator study: every estimator configuration sees the same records.
+
+    The grid's ``estimator`` axis shares its seeds (``shared_seed_axes``), so each (SNR, Z,
+    trial) record is simulated once and fitted by every configuration: a paired comparison.
+
+    Parameters
+    ----------
+    trial : callable
+        ``trial(settings, seed) -> dict`` (an `EstimationTrial`).
+    grid : mapping
+        Axis name → values, with an ``estimator`` axis.
+    label : str
+        Progress label.
+    censored_columns : sequence of str
+        Convergence-time columns (NaN = not converged).
+    **run_options
+        ``trials``, ``seed``, ``scheduler``, ``workers``, ``chunksize``, ``scheduler_timeout``,
+        ``progress``: see `physid.analysis.montecarlo.run_sweep`.
+
+    Returns
+    -------
+    SweepResult
+        One row per grid point × trial.
+    """
+    return run_sweep(
+        trial,
+        grid,
+        shared_seed_axes=("estimator",),
+        censored_columns=censored_columns,
+        label=label,
+        **run_options,
+    )
 
 
 @lru_cache(maxsize=8)
@@ -128,14 +220,7 @@ class SineScenario:
         check_positive(self.amplitude, "amplitude")
         if self.reference_frequency is not None:
             check_positive(self.reference_frequency, "reference_frequency")
-        n = self.duration / self.dt
-        if n < MIN_SAMPLES:
-            raise InputError(
-                f"{arg('dt')} = {self.dt:g} s leaves only {int(n)} sample(s) in "
-                f"{arg('duration')} = {self.duration:g} s; a sweep needs at least {MIN_SAMPLES} "
-                f"(the estimators many more): use a smaller {arg('dt')} or a longer "
-                f"{arg('duration')}."
-            )
+        check_record_length(self.duration, self.dt)
 
     def truth(self) -> dict[str, float]:
         """The values the estimates are compared with: nominal parameters (+ ω0, ζ for order 2).
@@ -446,9 +531,7 @@ def model_sweep(
             f"processes); got {type(model).__name__}."
         )
     _load(model)  # refuse a bad model file here, not in every trial
-    ratio_values = [float(z) for z in ratio]
-    if not ratio_values or any(not z > 0 for z in ratio_values):
-        raise InputError(f"{arg('ratio')} must hold positive numbers; got {list(ratio)}.")
+    ratio_values = check_ratios(ratio)
     scenario = SineScenario(
         model, duration=duration, dt=dt, amplitude=amplitude, reference_frequency=reference
     )
@@ -457,18 +540,15 @@ def model_sweep(
         "ratio": ratio_values,
         "estimator": estimator_variants(methods, windows=windows, forgettings=forgettings),
     }
-    trial = EstimationTrial(scenario, model, track=track)
-    return run_sweep(
-        trial,
+    return run_estimator_sweep(
+        EstimationTrial(scenario, model, track=track),
         grid,
+        label=f"sweep {model}",
         trials=trials,
         seed=seed,
         scheduler=scheduler,
         workers=workers,
         chunksize=chunksize,
         scheduler_timeout=scheduler_timeout,
-        shared_seed_axes=("estimator",),
-        censored_columns=TIME_COLUMNS,
         progress=progress,
-        label=f"sweep {model}",
     )

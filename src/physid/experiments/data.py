@@ -27,7 +27,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["SectionData", "FigureData", "Table", "Erratum", "Cell"]
+__all__ = ["SectionData", "FigureData", "Table", "Erratum", "Cell", "errata_list"]
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
 
@@ -188,3 +188,44 @@ class SectionData:
             if f.name == name:
                 return f
         raise KeyError(name)
+
+
+def errata_list(sections: Sequence[SectionData], key: str, title: str, paper: str) -> SectionData:
+    """A part's closing list of errata, gathered from its sections (the full table ends the report).
+
+    Parameters
+    ----------
+    sections : sequence of SectionData
+        The part's sections, in order; their ``errata`` are listed in that order.
+    key, title : str
+        The list section's renderer key and title.
+    paper : str
+        Authors of the paper, for the table's caption (``"Cedro & Janecki"``).
+
+    Returns
+    -------
+    SectionData
+        ``results={"count": n}`` and one table of (where, correct).
+
+    Examples
+    --------
+    >>> e = Erratum("X et al.", "eq. 2", "Y = u - ẋ", "Y = u - ẍ", "not the model with ẋ")
+    >>> out = errata_list([SectionData("k", "A", errata=(e,))], "p.errata", "Errata", "X et al.")
+    >>> out.results, out.tables[0].rows
+    ({'count': 1}, (('eq. 2', 'Y = u - ẍ'),))
+    >>> out.tables[0].caption
+    'Errata of X et al. (evidence in the full table at the end)'
+    """
+    found = [e for s in sections for e in s.errata]
+    return SectionData(
+        key,
+        title,
+        results={"count": len(found)},
+        tables=(
+            Table(
+                f"Errata of {paper} (evidence in the full table at the end)",
+                ("where", "correct"),
+                [(e.location, e.correct) for e in found],
+            ),
+        ),
+    )

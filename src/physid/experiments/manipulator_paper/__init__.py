@@ -34,7 +34,7 @@ import numpy as np
 from ...estimators.input_error import InputErrorEstimator
 from ...models import load_model
 from ...simulate.closed_loop import PAPER_MANIPULATOR, paper_manipulator_experiment
-from ..data import SectionData, Table
+from ..data import SectionData, Table, errata_list
 from . import errata as _errata_module
 from . import filters, identifiability, identification, noise, simulation
 from ._common import (
@@ -108,23 +108,6 @@ def _overview(ident: SectionData, ident_ability: SectionData, noise_sec: Section
         tables=(
             Table(
                 "The paper's claims beside our measurements", ("quantity", "paper", "physid"), rows
-            ),
-        ),
-    )
-
-
-def _errata_list(sections) -> SectionData:
-    """The part's closing list of errata (the full table, with evidence, ends the report)."""
-    found = [e for s in sections for e in s.errata]
-    return SectionData(
-        KEYS["errata"],
-        TITLES["errata"],
-        results={"count": len(found)},
-        tables=(
-            Table(
-                "Errata of Cedro & Janecki (evidence in the full table at the end)",
-                ("where", "correct"),
-                [(e.location, e.correct) for e in found],
             ),
         ),
     )
@@ -233,4 +216,8 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
     say(progress, f"done in {time.perf_counter() - t_start:.1f} s")
     if not math.isfinite(result.cost):  # pragma: no cover - a broken run must not pass silently
         raise RuntimeError("the identification returned a non-finite J")
-    return [_overview(ident, ident_ability, noisy), *body, _errata_list(body)]
+    return [
+        _overview(ident, ident_ability, noisy),
+        *body,
+        errata_list(body, KEYS["errata"], TITLES["errata"], "Cedro & Janecki"),
+    ]

@@ -27,29 +27,12 @@ import dataclasses
 import time
 from collections.abc import Callable
 
-from ..data import SectionData, Table
+from ..data import SectionData, errata_list
 from . import claims, disturbance, jumps, maps, traces, variance
 from . import errata as _errata_module
 from ._common import KEYS, PAPER, SEED, TITLES
 
 __all__ = ["run", "SEED", "PAPER", "TITLES"]
-
-
-def _errata_list(sections) -> SectionData:
-    """The part's closing list of errata (the full table, with evidence, ends the report)."""
-    found = [e for s in sections for e in s.errata]
-    return SectionData(
-        KEYS["errata"],
-        TITLES["errata"],
-        results={"count": len(found)},
-        tables=(
-            Table(
-                "Errata of Oueslati et al. (evidence in the full table at the end)",
-                ("where", "correct"),
-                [(e.location, e.correct) for e in found],
-            ),
-        ),
-    )
 
 
 def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> list[SectionData]:
@@ -107,4 +90,4 @@ def run(quick: bool = False, progress: Callable[[str], None] | None = None) -> l
         disturbance_section,
         jumps_section,
     ]
-    return [*body, _errata_list(body)]
+    return [*body, errata_list(body, KEYS["errata"], TITLES["errata"], "Oueslati et al.")]
