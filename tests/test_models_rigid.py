@@ -343,15 +343,18 @@ def test_worked_example_of_the_docs():
     assert "m1" in base.no_effect
 
 
-def test_coulomb_smoothing_is_the_same_in_every_backend():
+@pytest.mark.parametrize("smoothing", [0.01, 0.0])
+def test_coulomb_smoothing_is_the_same_in_every_backend(smoothing):
     """arm6 has Coulomb friction: the C kernel, the numpy fallback and pinocchio's peer all
-    simulate Fc·tanh(q̇ / v_s), so their runs agree."""
+    simulate Fc·tanh(q̇ / v_s) (smoothing > 0) or the exact law by events (0, the default since
+    wave 3; this test pinned the old default 0.01), so their runs agree."""
     from physid.simulate import simulate_closed_loop
 
     model = physid.load_model("arm6")
     fallback = physid.load_model("arm6")
     fallback._kernel_tried, fallback._kernel = True, None  # as on a machine without cc
     kw = dict(kp=[300] * 6, kd=[30] * 6, reference=[0.1] * 6, duration=0.2, dt=0.01)
+    kw["coulomb_smoothing"] = smoothing
     runs = {
         "compiled": simulate_closed_loop(model, backend="compiled", **kw),
         "pinocchio": simulate_closed_loop(model, backend="pinocchio", **kw),
@@ -359,7 +362,8 @@ def test_coulomb_smoothing_is_the_same_in_every_backend():
     }
     for name in ("pinocchio", "numpy"):
         np.testing.assert_allclose(runs[name]["q2"], runs["compiled"]["q2"], atol=1e-7)
-    assert runs["compiled"].metadata["coulomb_smoothing"] == 0.01
+    assert runs["compiled"].metadata["coulomb_smoothing"] == smoothing
+    assert ("coulomb" in runs["compiled"].metadata) == (smoothing == 0)
     # the model itself (identification) keeps the exact sign
     qd = np.array([[1e-4] * 6])
     z = np.zeros_like(qd)

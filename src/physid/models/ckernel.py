@@ -17,7 +17,7 @@ import numpy as np
 
 from .rigid import DRIVE_NAMES, RigidChain
 
-__all__ = ["ChainKernel", "load_kernel", "model_buffer"]
+__all__ = ["ChainKernel", "load_kernel", "model_buffer", "offset_slots"]
 
 _JS = 35
 _MAXJ = 64
@@ -77,6 +77,23 @@ def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.
             J[26 + DRIVE_NAMES.index(name)] = drive[i, c]
         J[34] = coulomb_smoothing
     return buf
+
+
+def offset_slots(n_joints: int) -> np.ndarray:
+    """Indices of the drive offset ``OF`` of each joint in a model buffer (see `model_buffer`).
+
+    The event-driven exact Coulomb simulation (`physid.simulate.coulomb`) writes the frozen
+    Coulomb torque of each joint there, in place, between segments.
+
+    Parameters
+    ----------
+    n_joints : int
+
+    Returns
+    -------
+    ndarray of int (n_joints,)
+    """
+    return 4 + _JS * np.arange(int(n_joints)) + 26 + DRIVE_NAMES.index("OF")
 
 
 class ChainKernel:
