@@ -243,7 +243,12 @@ def _coverage_trials(n_trials, quick, methods=("ols", "wls", "iv"), sigma_q=1e-5
             r = _fit(model, method, rec, max_iter=3)
             est[method].append(r.beta_vector())
             se[method].append(np.array([r.stderr[n] for n in r.names]))
-    return info, truth, {m: np.array(v) for m, v in est.items()}, {m: np.array(v) for m, v in se.items()}
+    return (
+        info,
+        truth,
+        {m: np.array(v) for m, v in est.items()},
+        {m: np.array(v) for m, v in se.items()},
+    )
 
 
 def coverage_rows(n_trials, quick, sigma_q=1e-5):

@@ -346,8 +346,11 @@ def simulate_closed_loop(
         "kd": kd_a.tolist(),
         "controller": "tau = Kp (r - q) - Kd qd",
         **({"coulomb_smoothing": float(coulomb_smoothing)} if hasattr(model, "chain") else {}),
-        **({"coulomb": {"law": "exact sign with stiction, event-driven", **coulomb}}
-           if coulomb is not None else {}),  # fmt: skip
+        **(
+            {"coulomb": {"law": "exact sign with stiction, event-driven", **coulomb}}
+            if coulomb is not None
+            else {}
+        ),  # fmt: skip
         "dt": period,
         "integrator": {
             "method": method,

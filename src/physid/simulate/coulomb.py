@@ -72,7 +72,7 @@ def _frozen_parameters(model, theta, coulomb):
 class _Loop:
     """``ẏ(t, y)`` of the closed loop with the Coulomb torques of some joints given (frozen)."""
 
-    def __init__(self, model, theta0, offset, kp, kd, reference, backend):
+    def __init__(self, model, theta0, kp, kd, reference, backend):
         from .closed_loop import closed_loop_rhs
 
         n = int(model.n_joints)
@@ -170,9 +170,8 @@ def integrate_coulomb(
     n = int(model.n_joints)
     lo, hi, of, coulomb = coulomb_limits(model, theta)
     theta0 = _frozen_parameters(model, theta, coulomb)
-    loop = _Loop(model, theta0, of, kp, kd, reference, backend)
+    loop = _Loop(model, theta0, kp, kd, reference, backend)
     mode = np.zeros(n, dtype=int)  # +1 / −1 slipping, 0 stuck (Coulomb joints only)
-    extra = np.zeros(n)
     out = np.empty((t.size, 2 * n))
     y = np.array(y0, dtype=float)
     tc = float(t[0])
