@@ -319,7 +319,7 @@ def simulate_closed_loop(
         if coulomb_limits(model, theta)[3].any():  # exact Coulomb law: event-driven (wave 3)
             y, coulomb = integrate_coulomb(
                 model, theta, kp=kp_a, kd=kd_a, reference=ref, t=t, y0=y0, method=method,
-                rtol=rtol, atol=atol, backend=backend,
+                rtol=rtol, atol=atol, backend=backend, closed_loop_rhs=closed_loop_rhs,
             )  # fmt: skip
     if coulomb is None:
         y, sol = _integrate(model, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0,

@@ -72,9 +72,7 @@ def _frozen_parameters(model, theta, coulomb):
 class _Loop:
     """``ẏ(t, y)`` of the closed loop with the Coulomb torques of some joints given (frozen)."""
 
-    def __init__(self, model, theta0, kp, kd, reference, backend):
-        from .closed_loop import closed_loop_rhs
-
+    def __init__(self, model, theta0, kp, kd, reference, backend, closed_loop_rhs):
         n = int(model.n_joints)
         self.n = n
         self.extra = np.zeros(n)  # frozen friction torque minus OF, per joint [N·m]
@@ -139,7 +137,7 @@ class _Loop:
 
 
 def integrate_coulomb(
-    model, theta, *, kp, kd, reference, t, y0, method, rtol, atol, backend
+    model, theta, *, kp, kd, reference, t, y0, method, rtol, atol, backend, closed_loop_rhs
 ) -> tuple[np.ndarray, dict]:
     """Integrate the PD closed loop with exact Coulomb friction (slip and stick, see the module).
 
@@ -155,6 +153,8 @@ def integrate_coulomb(
         Initial [q, q̇].
     method, rtol, atol : `scipy.integrate.solve_ivp` settings (per segment).
     backend : {"auto", "compiled", "generated", "pinocchio"}
+    closed_loop_rhs : callable
+        `physid.simulate.closed_loop.closed_loop_rhs` (passed in: this module sits below it).
 
     Returns
     -------
@@ -170,7 +170,7 @@ def integrate_coulomb(
     n = int(model.n_joints)
     lo, hi, of, coulomb = coulomb_limits(model, theta)
     theta0 = _frozen_parameters(model, theta, coulomb)
-    loop = _Loop(model, theta0, kp, kd, reference, backend)
+    loop = _Loop(model, theta0, kp, kd, reference, backend, closed_loop_rhs)
     mode = np.zeros(n, dtype=int)  # +1 / −1 slipping, 0 stuck (Coulomb joints only)
     out = np.empty((t.size, 2 * n))
     y = np.array(y0, dtype=float)
