@@ -340,8 +340,7 @@ def _register_model(systems) -> None:
         "--duration",
         metavar="S",
         default=None,
-        help="duration [s] (default: 5); with a --reference file: the file's length, or at "
-        "most it",
+        help="duration [s] (default: 5); with a --reference file: the file's length, or at most it",
     )
     chain.add_argument(
         "--dt", metavar="S", default="0.001", help="sample period [s] (default 1 ms)"
