@@ -14,6 +14,11 @@ Rows
    d²/dt²), and — for honesty — savgol with the best polyorder found by scanning 2..7 against
    the true derivative (an oracle choice no user has).
 3. pynumdiff, if importable (it is not a physid dependency; the row says so when missing).
+4. ``physid.analysis.validation.residual_analysis`` (the ``validate`` command's test (c): one
+   autocorrelation and one cross-correlation at ±25 lags) on white noise of 2e4, 8e4 and 6e5
+   samples (quick: 2e4), against the full ``np.correlate(mode="full")`` it used before wave 3
+   (O(n²); timed only up to 8e4 samples, ~8 s there on a loaded machine), best of 3. The
+   correlations agree to 1e-12 (tests/test_wave3_clifix2.py).
 """
 
 from __future__ import annotations
@@ -176,9 +181,47 @@ def _pynumdiff_rows(t, noisy, first, valid, cutoff) -> list[dict]:
     ]
 
 
+def _full_correlation_lags(a, b, max_lag):
+    """The pre-wave-3 kernel: every lag by np.correlate, then the ±max_lag slice (O(n²))."""
+    n = a.size
+    return np.correlate(a, b, mode="full")[n - 1 - max_lag : n + max_lag]
+
+
+def _residual_rows(quick: bool) -> list[dict]:
+    from physid.analysis.validation import residual_analysis
+
+    rng = np.random.default_rng(3)
+    rows = []
+    for n in (20_000,) if quick else (20_000, 80_000, 600_000):
+        e, u = rng.standard_normal(n), rng.standard_normal(n)
+        t_new = best_time(lambda e=e, u=u: residual_analysis(e, u), 1 if quick else 3)
+        t_old = None
+        if n <= 80_000:  # the O(n²) baseline: one auto- and one cross-correlation
+            t_old = best_time(
+                lambda e=e, u=u: (
+                    _full_correlation_lags(e, e, 25),
+                    _full_correlation_lags(e, u, 25),
+                ),
+                1,
+            )
+        rows.append(
+            {
+                "case": f"residual_analysis (test (c)), {n:.0e} samples, ±25 lags",
+                "value": t_new,
+                "unit": "s",
+                "baseline": "np.correlate(mode='full') (pre-wave-3 kernel)",
+                "baseline_value": t_old,
+                "ratio": None if t_old is None else t_old / t_new,
+                "goal": "O(n*L): < 1 s at 6e5 samples",
+                "met": bool(t_new < 1.0) if n == 600_000 else None,
+            }
+        )
+    return rows
+
+
 def run(quick: bool = False) -> list[dict]:
     """Rows for benchmarks/run.py (see the module docstring)."""
-    return _throughput_rows(quick) + _accuracy_rows(quick)
+    return _throughput_rows(quick) + _accuracy_rows(quick) + _residual_rows(quick)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ __all__ = [
     "OUTPUT_OPTIONS",
     "check_outputs",
     "FIGURE_SUFFIXES",
+    "RECORDING_SUFFIXES",
+    "check_recording_path",
     "check_figure_path",
     "report_warnings",
     "add_recording_options",
@@ -233,6 +235,53 @@ def check_figure_path(path: str, option: str) -> str:
             f"example {option} {root + '.png'!r}."
         )
     return suffix[1:]
+
+
+#: Suffixes `physid.signals.save_recording` writes (checked by `check_recording_path`).
+RECORDING_SUFFIXES = (".csv", ".npz")
+
+
+def check_recording_path(path: str, option: str) -> None:
+    """Refuse a recording output (``--out F``) that cannot be written, before any work is done.
+
+    ``save_recording`` would refuse the same path, but only after the simulation or design
+    that produced the data (seconds to minutes), losing it.
+
+    Parameters
+    ----------
+    path : str
+        The path the user gave.
+    option : str
+        The option's flag (``"--out"``), named in the message.
+
+    Raises
+    ------
+    OutputError
+        A suffix other than ``.csv``/``.npz``, an existing folder, or a folder that does not
+        exist or is not writable.
+    """
+    text = os.fspath(path)
+    root, suffix = os.path.splitext(text)
+    if suffix.lower() not in RECORDING_SUFFIXES:
+        raise OutputError(
+            f"{option} {text!r}: recordings are written as {' or '.join(RECORDING_SUFFIXES)}; "
+            f"got suffix {suffix or 'none'!r}. For example {option} {(root or 'out') + '.csv'!r}."
+        )
+    if os.path.isdir(text):
+        raise OutputError(f"{option} {text!r} is a folder; give a file name inside it.")
+    parent = os.path.dirname(os.path.abspath(text))
+    if not os.path.isdir(parent):
+        raise OutputError(
+            f"{option} {text!r}: the folder {parent!r} does not exist; create it first "
+            "(mkdir -p) or choose another path."
+        )
+    if not os.access(parent, os.W_OK | os.X_OK) or (
+        os.path.exists(text) and not os.access(text, os.W_OK)
+    ):
+        raise OutputError(
+            f"{option} {text!r}: cannot write there (permissions); choose another path or fix "
+            "them (chmod u+w)."
+        )
 
 
 def report_warnings(caught, flags=None) -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .._resources import check_memory
 from ..errors import InputError
-from ._common import float_list, print_json, progress
+from ._common import check_recording_path, float_list, print_json, progress
 
 ORDER = 45
 #: Keywords of `design_excitation` whose flag is not spelled like them.
@@ -101,6 +101,8 @@ def run(args) -> int:
 
     from ..analysis.excitation import design_excitation
     from ..signals import save_recording
+
+    check_recording_path(args.out, "--out")  # before the design, not after it
 
     model = physid.load_model(args.model)
     position = None

@@ -181,7 +181,7 @@ def run(args) -> int:
     if args.save:
         from ..estimators.results import save_result
 
-        save_result(result, args.save, model=args.model, recording=args.file)
+        save_result(result, args.save, model=args.model, recording=args.file, model_options={})
         progress(f"estimate: result written to {args.save}")
     if args.json:
         print_json(

@@ -270,7 +270,19 @@ def _save(args, result) -> None:
         return
     from ..estimators.results import save_result
 
-    save_result(result, args.save, model=args.model, recording=args.recordings[0])
+    # how the model was loaded and the gains given on the command line, so that validate
+    # rebuilds the same model and the same PD torque (not the defaults, not the held-out
+    # record's metadata)
+    options = {"kinetic": args.kinetic} if args.kinetic is not None else {}
+    gains = {k: float_list(getattr(args, k), "--" + k) for k in ("kp", "kd") if getattr(args, k)}
+    save_result(
+        result,
+        args.save,
+        model=args.model,
+        recording=args.recordings[0],
+        model_options=options,
+        gains=gains or None,
+    )
     progress(f"identify: result written to {args.save}")
 
 

@@ -17,7 +17,7 @@ import math
 import time
 
 from ..errors import InputError
-from ._common import float_list, progress, read_recording
+from ._common import check_recording_path, float_list, progress, read_recording
 
 ORDER = 20
 
@@ -203,6 +203,8 @@ def run_manipulator(args) -> int:
     from ..signals import save_recording
     from ..simulate import paper_manipulator_experiment
 
+    check_recording_path(args.out, "--out")  # before the simulation, not after it
+
     noise = _number(args.noise_std, "--noise-std", positive=True, allow_zero=True)
     seed = _seed(args.seed)
     if seed is not None and noise is None:
@@ -228,6 +230,8 @@ def run_msd(args) -> int:
     from ..signals import save_recording
     from ..signals.noise import alias_frequency
     from ..simulate import msd_paper_scenario
+
+    check_recording_path(args.out, "--out")  # before the simulation, not after it
 
     mass = _number(args.mass, "--mass [kg]", positive=True)
     stiffness = _number(args.stiffness, "--stiffness [N/m]", positive=True)
@@ -380,6 +384,8 @@ def run_model(args) -> int:
     from ..models import ChainModel, load_model
     from ..signals import save_recording
     from ..simulate import simulate_closed_loop
+
+    check_recording_path(args.out, "--out")  # before the simulation, not after it
 
     model = load_model(args.model)
     if not isinstance(model, ChainModel):

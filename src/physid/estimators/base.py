@@ -120,6 +120,18 @@ class EstimatorMixin:
                 "fit_arrays(t, **channels) needs the channels by name, e.g. "
                 "fit_arrays(t, u=u, x=x); got none."
             )
+        from .._validate import as_1d
+        from ..errors import ShapeError
+
+        times = as_1d(t, "t")
         names = list(channels)
-        data = np.column_stack([np.asarray(channels[n], dtype=float).ravel() for n in names])
-        return self.fit(Recording(np.asarray(t, dtype=float), data, names))
+        columns = []
+        for n in names:  # each channel by name: not numpy's "the array at index 0 has size ..."
+            col = as_1d(channels[n], n)
+            if col.size != times.size:
+                raise ShapeError(
+                    f"channel {n!r} has {col.size} samples but t has {times.size}; give one "
+                    "value per sample time."
+                )
+            columns.append(col)
+        return self.fit(Recording(times, np.column_stack(columns), names))

@@ -297,7 +297,7 @@ class ResultMixin:
         raise InputError(f"{type(self).__name__} does not implement predict().")
 
 
-def save_result(result, path, *, model=None, recording=None) -> str:
+def save_result(result, path, *, model=None, recording=None, model_options=None, gains=None) -> str:
     """Write a result file (JSON) that `load_result` and ``physid validate`` read back.
 
     Parameters
@@ -311,6 +311,16 @@ def save_result(result, path, *, model=None, recording=None) -> str:
         absolute). Default: the result's ``model_name``.
     recording : str, optional
         The recording the result was fitted on (kept for reference).
+    model_options : mapping, optional
+        The options `physid.load_model` was given for the fitted model (``kinetic="paper"``,
+        ``strict=True``, ...), written as ``"model_options"`` so that `load_result` loads the
+        same model. Default: taken from the result's model where it carries one (a chain's
+        ``kinetic``), else not recorded (`load_result` then uses the defaults and
+        ``validate`` says so in a note).
+    gains : mapping, optional
+        PD gains given explicitly to the fit, ``{"kp": [...], "kd": [...]}`` (one value per
+        joint; ``torque="pd"`` of input-error, IDIM-IV's closed loop), written as ``"gains"``;
+        ``validate`` rebuilds the torque with them instead of the held-out record's metadata.
 
     Returns
     -------
@@ -327,6 +337,21 @@ def save_result(result, path, *, model=None, recording=None) -> str:
     if ref and Path(str(ref)).suffix:  # a file path: absolute, so the file can be moved
         ref = str(Path(str(ref)).resolve())
     data["model"] = ref
+    if model_options is None:
+        model_options = _model_options_of(getattr(result, "model", None))
+    if model_options is not None:
+        if not isinstance(model_options, Mapping):
+            raise InputError(
+                f"model_options must be a mapping of load_model options (kinetic=..., "
+                f"strict=...); got {type(model_options).__name__}."
+            )
+        data["model_options"] = jsonable(dict(model_options))
+    if gains is not None:
+        if not isinstance(gains, Mapping) or set(gains) - {"kp", "kd"}:
+            raise InputError(f"gains must be a mapping with keys 'kp' and/or 'kd'; got {gains!r}.")
+        data["gains"] = {
+            k: None if v is None else [float(x) for x in np.ravel(v)] for k, v in gains.items()
+        }
     if recording is not None:
         data["recording"] = str(Path(str(recording)).resolve())
         if Path(str(recording)).resolve() == Path(path).resolve():
@@ -337,3 +362,15 @@ def save_result(result, path, *, model=None, recording=None) -> str:
     text = json.dumps(data, indent=1, allow_nan=False)
     atomic_write(path, lambda fh: fh.write(text + "\n"))
     return str(path)
+
+
+def _model_options_of(model) -> dict | None:
+    """The `load_model` options that rebuild ``model`` (None: cannot tell from the object)."""
+    if model is None:
+        return None
+    if hasattr(model, "a_names"):  # linear ODE: the result holds every coefficient
+        return {}
+    kinetic = getattr(model, "kinetic", None)
+    if any(c.__name__ == "RigidBodyModel" for c in type(model).__mro__):  # exact T only
+        return {}
+    return {"kinetic": kinetic} if kinetic in ("exact", "paper") else None
