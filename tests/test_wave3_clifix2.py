@@ -21,6 +21,7 @@ from physid.cli import main
 from physid.errors import InputError, ShapeError
 from physid.estimators.idim import IDIMEstimator
 from physid.estimators.results import save_result
+from physid.signals import save_recording
 from physid.simulate.closed_loop import simulate_closed_loop
 
 PLANAR2 = Path(__file__).parent / "data" / "planar2.urdf"
@@ -191,3 +192,80 @@ def test_result_file_keeps_the_model_options_and_the_cli_gains(tmp_path, capsys)
     assert len(notes) == 1
     assert "does not record the options the model was loaded with" in notes[0]
     assert "kinetic 'exact'" in notes[0] and "gains in the held-out record's metadata" in notes[0]
+
+
+# ------------------------------------------------------------------------------ R16 / R21
+AXIS_TOML = """
+name = "axis"
+gravity = [0.0, 0.0, -9.81]
+
+[parameters]
+m1 = { value = 12.0, unit = "kg" }
+Fv1 = { value = 8.0, unit = "N*s/m" }
+OF1 = { value = 1.5, unit = "N" }
+
+[[joints]]
+name = "carriage"
+type = "prismatic"
+transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
+axis = [1, 0, 0]
+mass = "m1"
+viscous = "Fv1"
+torque_offset = "OF1"
+
+[recording]
+q1 = "pos"
+tau1 = "force"
+"""
+
+
+def _axis_log(model, path, phase):
+    t = np.arange(4001) * 1e-3
+    ramp = 0.5 * (1 - np.cos(np.pi * np.clip(t, 0, 1)))
+    r = ramp * (0.1 * np.sin(2 * np.pi * 0.4 * t + phase) + 0.03 * np.sin(2 * np.pi * 1.3 * t))
+    w = 2 * np.pi * 5
+    rec = simulate_closed_loop(model, kp=[w**2 * 12], kd=[2 * w * 12], reference=r[:, None], t=t)
+    data = np.column_stack([rec["q1"], rec["tau1"]])
+    save_recording(physid.Recording(t, data, ["pos", "force"], units=["m", "N"]), path)
+
+
+def test_validate_reads_the_held_out_log_through_the_result_models_recording_table(
+    tmp_path, capsys
+):
+    # docs/your-data.md §7: `physid validate axis_fit.json axis_heldout.mat` without --model
+    # used to ignore the [recording] table of the model file the result names (exit 2).
+    toml = tmp_path / "axis.toml"
+    toml.write_text(AXIS_TOML)
+    model = physid.load_model(toml)
+    fit, held = tmp_path / "fit.csv", tmp_path / "held.csv"
+    _axis_log(model, fit, 0.0)
+    _axis_log(model, held, 1.0)
+    res = tmp_path / "axis_fit.json"
+    assert main(["identify", str(fit), "--model", str(toml), "--save", str(res)]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(res), str(held), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["relative_error"]["overall"] < 1e-3  # noise-free, the model that made the data
+
+
+def test_identifying_a_robot_doc_recipe_gives_the_fit_rows():
+    # docs/identifying-a-robot.md §5 used to say idim_rows(model, held_out), whose "auto"
+    # settings are recomputed on the held-out record (other filters than the fit's).
+    from physid.estimators.idim import idim_rows
+
+    doc = (Path(__file__).parents[1] / "docs" / "identifying-a-robot.md").read_text()
+    assert "cutoff=result.cutoff, half_width=result.half_width, decimate=result.decimate" in doc
+    model = physid.load_model(PLANAR2)
+    result = IDIMEstimator(model, "ols").fit(_run(model)).result_
+    held = _run(model, phase=0.7, duration=3.0)
+    rows = idim_rows(
+        model,
+        held,
+        differentiation=result.differentiation,
+        cutoff=result.cutoff,
+        half_width=result.half_width,
+        decimate=result.decimate,
+    )
+    pred = result.predict(held, measured=True)
+    np.testing.assert_array_equal(result.predict_rows(rows), pred.select(["tau1", "tau2"]))
+    np.testing.assert_array_equal(rows.tau, pred.select(["tau1_measured", "tau2_measured"]))

@@ -268,7 +268,10 @@ def check_recording_path(path: str, option: str) -> None:
             f"got suffix {suffix or 'none'!r}. For example {option} {(root or 'out') + '.csv'!r}."
         )
     if os.path.isdir(text):
-        raise OutputError(f"{option} {text!r} is a folder; give a file name inside it.")
+        raise OutputError(
+            f"{option} {text!r}: it is a folder; give a file name, e.g. "
+            f"{option} {os.path.join(text, 'out' + suffix.lower())!r}."
+        )
     parent = os.path.dirname(os.path.abspath(text))
     if not os.path.isdir(parent):
         raise OutputError(

@@ -56,8 +56,13 @@ def run(args) -> int:
 
     check_output_folder(args.plot, "--plot")  # before any work
     loaded = load_result(args.result, model=args.model)
-    # the held-out file is read like the fit's (--map, units, --detrend; checked against the model)
-    rec = read_recording(args, args.file, model=getattr(loaded, "model", None))
+    # the held-out file is read like the fit's (--map, units, --detrend; checked against the
+    # model), with the [recording] table of the model file the result names when --model is not
+    # given (it used to be read only from --model)
+    import argparse
+
+    reading = argparse.Namespace(**{**vars(args), "model": args.model or loaded.data.get("model")})
+    rec = read_recording(reading, args.file, model=getattr(loaded, "model", None))
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
     report = validate(loaded, rec)
     if args.plot:

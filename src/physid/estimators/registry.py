@@ -1,8 +1,10 @@
 """One registry of estimators: build any estimator from its method name.
 
 ``make("algebraic", "msd", window=0.05)`` is how the CLI, the sweeps and the paper experiments
-build estimators; a new method registers itself with `register` and is then available everywhere
-(``physid estimate --method NAME``, sweeps). Built in: ``"algebraic"``, ``"rls"`` (linear ODE
+build estimators; a new method registers itself with `register` and is then available to `make`
+and `methods` (the library). The command line and the sweeps accept fixed lists — ``physid
+estimate``: algebraic, rls; ``physid identify``: input-error, idim-*; sweeps: algebraic, rls — so
+a registered method reaches the CLI only once its verb lists it. Built in: ``"algebraic"``, ``"rls"`` (linear ODE
 models) and ``"input-error"`` (chain models); the IDIM methods (``"idim-ols"``, ``"idim-wls"``,
 ``"idim-iv"``) register themselves from `physid.estimators.idim` when that module exists.
 

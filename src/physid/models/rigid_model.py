@@ -337,7 +337,8 @@ class RigidBodyModel(ChainModel):
         params : dict or array_like, optional
             Unused for the base set (it depends only on the geometry); kept for the signature.
         n_states : int, optional
-            Random states (default max(50, 2·n_parameters / n_joints + 20)).
+            Random states (default max(60, 2·n_parameters / n_joints + 20), as
+            `physid.models.base.base_parameters_of_regressor`).
         seed : int
         rtol : float
             Rank threshold on |R_kk| / |R_00| of the column-scaled regressor.
