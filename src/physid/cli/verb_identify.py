@@ -140,11 +140,11 @@ def register(subparsers) -> None:
     )
     p.add_argument(
         "--noise",
-        choices=("ignore", "compensate"),
-        default="ignore",
-        help="ignore the noise on q, or compensate its errors-in-variables bias (the noise level "
-        "is estimated from the spectrum; standard errors from re-noised replicates) "
-        "(default: ignore)",
+        choices=("auto", "ignore", "compensate"),
+        default="auto",
+        help="compensate the errors-in-variables bias of the noise on q (the noise level is "
+        "estimated from the spectrum; standard errors from re-noised replicates), ignore it, "
+        "or auto: compensate when the spectrum shows noise (default: auto)",
     )
     add_recording_options(p)
     p.add_argument(

@@ -110,7 +110,7 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         message += " Identifiable only as combinations: " + "; ".join(structural.texts) + "."
     f = problem.filtered
     advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
-    if est.noise == "ignore" and advice.noisy:
+    if solution.noise == "ignore" and advice.noisy:
         message += (
             f" q is noisy (σ ≈ {np.max(advice.noise_std):.2g}): the standard errors describe "
             "the scatter, not the errors-in-variables bias that noise causes, so their "
@@ -167,7 +167,7 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         uncertainty=est.uncertainty,
         hac_lags=lags,
         stderr_iid=standard_errors(cov_iid),
-        noise=est.noise,
+        noise=solution.noise,
         noise_shift=dict(solution.noise_shift or {}),
         t=problem.t,
         residuals=e_hat,

@@ -114,4 +114,4 @@ def quality_factor(residuals) -> float:
 #: Ways `InputErrorEstimator` computes standard errors (``uncertainty=``).
 STDERR_METHODS = ("hac", "iid")
 #: What `InputErrorEstimator` does about the noise on q (``noise=``).
-NOISE_METHODS = ("ignore", "compensate")
+NOISE_METHODS = ("auto", "ignore", "compensate")

@@ -382,29 +382,17 @@ def filter_recording(est, recording) -> _Filtered:
     )
 
 
-def prepare(est, recording, initial) -> _Problem:
-    """Filtered signals, filter-band check, hold plan, bounds, start and the residual maps."""
-    model = est.model
-    f = filter_recording(est, recording)
-    t_valid, qf, qdf, qddf, tau_f, dt = f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt
-    names = tuple(model.parameter_names)
-    p = len(names)
-    fixed_values, hold = _fixed_spec(est.fixed, names)
-    given = _initial_values(initial, names)
-    _check_initial_vs_fixed(given, fixed_values)
-    start_values = dict(model.parameters)
-    start_values.update(given)
-    start_values.update(fixed_values)
-    user_fixed = fixed_values | {n: float(start_values[n]) for n in hold}
-    notes: list[str] = []
-    if f.choice is not None:
-        notes.append(f.choice.reason)
+def check_band(est, f: _Filtered, notes: list[str], *, stacklevel: int = 3):
+    """The filter-band check before a fit: the motion must lie in the flat part of the pass band.
 
-    # -- filter guidance: the motion must lie in the flat part of the pass band
-    band = filter_band_check(f.q, f.half_width, f.cutoff, dt)
+    Warns (`FilterWarning`, at ``stacklevel``) when it does not, saying in which direction to move
+    the cut-off, and appends the text to ``notes``. Returns ``(band, advice)``: the
+    `FilterBandCheck` and the automatic filter choice (None when none was needed).
+    """
+    band = filter_band_check(f.q, f.half_width, f.cutoff, f.dt)
     advice = f.choice
     if est.check_filter and not band.ok:
-        advice = advice or choose_filter(f.q, dt, half_width=f.half_width)
+        advice = advice or choose_filter(f.q, f.dt, half_width=f.half_width)
         motion_fits = advice.signal_band <= band.passband_edge
         worst = int(np.argmax(band.fractions))
         head = (
@@ -428,8 +416,30 @@ def prepare(est, recording, initial) -> _Problem:
                 f"motion is Ω_g = {advice.cutoff:.3g} for this M (cutoff='auto')."
             )
         if f.choice is None or not motion_fits:
-            warnings.warn(text, FilterWarning, stacklevel=3)
+            warnings.warn(text, FilterWarning, stacklevel=stacklevel)
             notes.append(text)
+    return band, advice
+
+
+def prepare(est, recording, initial) -> _Problem:
+    """Filtered signals, filter-band check, hold plan, bounds, start and the residual maps."""
+    model = est.model
+    f = filter_recording(est, recording)
+    t_valid, qf, qdf, qddf, tau_f, dt = f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt
+    names = tuple(model.parameter_names)
+    p = len(names)
+    fixed_values, hold = _fixed_spec(est.fixed, names)
+    given = _initial_values(initial, names)
+    _check_initial_vs_fixed(given, fixed_values)
+    start_values = dict(model.parameters)
+    start_values.update(given)
+    start_values.update(fixed_values)
+    user_fixed = fixed_values | {n: float(start_values[n]) for n in hold}
+    notes: list[str] = []
+    if f.choice is not None:
+        notes.append(f.choice.reason)
+
+    band, advice = check_band(est, f, notes, stacklevel=4)
 
     # -- structural identifiability and the hold plan
     structural: StructuralIdentifiability = structural_identifiability(model, start_values)

@@ -90,7 +90,8 @@ class InputErrorResult(ResultMixin):
     stderr_iid : dict name -> float
         The iid standard errors ``s² (JᵀJ)⁻¹``, for comparison.
     noise : str
-        ``"ignore"`` or ``"compensate"`` (see `InputErrorEstimator`).
+        ``"ignore"`` or ``"compensate"``: what the fit did (``noise="auto"`` resolved; see
+        `InputErrorEstimator`).
     noise_shift : dict name -> float
         With ``noise="compensate"``: compensated minus plain least-squares estimate of each free
         parameter (the errors-in-variables bias removed); else empty.
@@ -98,6 +99,15 @@ class InputErrorResult(ResultMixin):
         Times of the valid (filtered) samples.
     residuals : ndarray, shape (n_valid, n_joints) [N·m]
         ``τ̂ - τ^f`` at the estimate.
+    units : dict name -> str
+        Units of the parameters.
+    parameter_set : str
+        ``"model"``: the model's own parameters were fitted; ``"base"``: the base parameters of
+        a model linear in its parameters (``parameters="base"``), named by their leading
+        standard parameter (as in IDIM's results).
+    base_expressions : dict name -> str
+        With ``parameter_set="base"``: each base parameter as a combination of the standard
+        ones (``"ZZ1 + ..."``); else empty.
     """
 
     parameters: dict[str, float]
@@ -142,6 +152,8 @@ class InputErrorResult(ResultMixin):
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     units: dict[str, str] = field(default_factory=dict)
+    parameter_set: str = "model"
+    base_expressions: dict[str, str] = field(default_factory=dict)
 
     method = "input-error"
     _history_fields = ("history", "cost_history", "t", "residuals")

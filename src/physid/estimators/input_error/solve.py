@@ -47,12 +47,13 @@ class _Solution:
     history: np.ndarray
     cost_history: np.ndarray
     covariance: np.ndarray | None = None  # noise="compensate": from the noise replicates
+    noise: str = "ignore"  # what was done about the noise on q ("auto" resolved)
     noise_shift: dict[str, float] | None = None  # compensated minus plain least squares
 
 
 def solve(est, problem: _Problem) -> _Solution:
     """Linear start (optional), trust-region least squares, and the bound check."""
-    if est.noise == "compensate":
+    if resolve_noise(est, problem) == "compensate":
         return solve_compensated(est, problem)
     free_idx, scale = problem.free_idx, problem.scale
     lower, upper = problem.lower[free_idx], problem.upper[free_idx]
@@ -121,6 +122,23 @@ def solve(est, problem: _Problem) -> _Solution:
         history=np.array(history) if history else np.empty((0, len(problem.names))),
         cost_history=np.array(cost_history),
     )
+
+
+def resolve_noise(est, problem: _Problem) -> str:
+    """``"compensate"`` or ``"ignore"``: ``noise="auto"`` resolved for this recording.
+
+    ``"auto"`` compensates when the spectrum of q shows a noise floor that reaches frequencies a
+    cut-off could pass (`physid.filters.FilterChoice.noisy`) and the model has the linear form
+    the compensation needs (``regressor`` and ``beta``); else it ignores the noise (noise-free
+    or nearly noise-free data cost nothing extra and give the same estimate as before).
+    """
+    if est.noise != "auto":
+        return est.noise
+    model, f = problem.model, problem.filtered
+    if not all(hasattr(model, a) for a in ("regressor", "beta")):
+        return "ignore"
+    advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
+    return "compensate" if advice.noisy else "ignore"
 
 
 def bound_check(est, problem: _Problem, sol) -> tuple[tuple[str, ...], str]:
@@ -299,6 +317,7 @@ def solve_compensated(est, problem: _Problem) -> _Solution:
         cost_history=np.full(hist.shape[0], quality_factor(residuals)),
         covariance=cov,
         noise_shift=shift,
+        noise="compensate",
     )
 
 

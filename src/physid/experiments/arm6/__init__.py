@@ -4,8 +4,9 @@ One module per report section, each returning `physid.experiments.data.SectionDa
 
 * `excitation` — an optimal Fourier excitation (condition number of the base regressor) against
   random trajectories with the same limits;
-* `identification` — closed-loop records with encoder and torque noise, IDIM-OLS and IDIM-IV
-  over seeds: bias per base parameter and the coverage of the standard errors;
+* `identification` — closed-loop records with encoder and torque noise, IDIM-OLS, IDIM-IV and
+  input-error (over the base parameters) over seeds: bias per base parameter, mean |error|,
+  the coverage of the standard errors and the time per fit;
 * `consistency` — a physically consistent estimate and how far it is from the unconstrained one;
 * `validation` — the torque of a held-out trajectory predicted by each fit, and the residual's
   whiteness;
@@ -47,6 +48,8 @@ def _overview(setup, sections: dict[str, SectionData], seconds: float) -> Sectio
         results["n_base"] = ident["n_base"]
         results["ols_bias"] = ident["mean_abs_noise_bias"]["idim-ols"]
         results["iv_bias"] = ident["mean_abs_noise_bias"]["idim-iv"]
+        if "input-error" in ident["mean_abs_noise_bias"]:
+            results["ie_bias"] = ident["mean_abs_noise_bias"]["input-error"]
         results["noise_free_error"] = ident["mean_abs_noise_free_error"]
         results["n_seeds"] = len(ident["seeds"])
     if ex.get("available"):
@@ -63,8 +66,10 @@ def _overview(setup, sections: dict[str, SectionData], seconds: float) -> Sectio
         text = (
             f"{results['n_base']} base parameters from a closed loop with encoder noise: "
             f"IDIM-IV bias {100 * results['iv_bias']:.2g} % against IDIM-OLS "
-            f"{100 * results['ols_bias']:.2g} %; held-out torque error "
-            f"{100 * results['held_out_error_iv']:.2g} %."
+            f"{100 * results['ols_bias']:.2g} %"
+            + (f" and input-error {100 * results['ie_bias']:.2g} %" if "ie_bias" in results else "")
+            + "; held-out torque error "
+            + f"{100 * results['held_out_error_iv']:.2g} %."
         )
     else:
         text = "not run in this build: it needs " + "; ".join(setup.missing) + "."

@@ -72,9 +72,12 @@ def say(progress, text: str) -> None:
 def fit(model, rec, *, initial=PAPER_INITIAL, **settings):
     """Fit with warnings captured; returns (result, whether a FilterWarning was raised).
 
-    Unless told otherwise this uses the paper's derivative filters, to reproduce its numbers.
+    Unless told otherwise this uses the paper's derivative filters and, as the paper, ignores
+    the noise on q (``noise="ignore"``; the library's default compensates it), to reproduce its
+    numbers.
     """
     settings.setdefault("derivatives", "paper")
+    settings.setdefault("noise", "ignore")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = InputErrorEstimator(model, **settings).fit(rec, initial=initial).result_

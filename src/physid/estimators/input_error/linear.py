@@ -1,0 +1,252 @@
+"""Input-error over the base parameters of a model that is linear in its parameters.
+
+Part of `physid.estimators.input_error` (``parameters="base"``, the default for rigid-body and
+URDF models). A rigid-body model's torque is ``τ = Y(q, q̇, q̈) θ`` with θ the standard inertial
+and drive parameters; only the base combinations ``β = K θ`` reach the torque
+(``τ = W_b β``, ``W_b = Y[..., independent]``; `physid.models.base`). Over θ the input-error
+Jacobian is singular (arm6: 78 parameters, 52 base combinations). Over β the residual of the
+paper's quality factor, evaluated on the filtered signals::
+
+    e(β) = W_b(q^f, q̇^f, q̈^f) β - τ^f                               (paper, eq. 5)
+
+is linear in β: its Jacobian is W_b itself, exact, and one Gauss–Newton step from any start is
+the minimum (a linear least-squares solve, done once). The filters are the paper's (the
+input-error FIR low-pass and derivative filters of `physid.filters.filter_derivatives`, or
+``cutoff="auto"``), applied to q and τ; there is no parallel filtering or decimation (that is
+IDIM's recipe): this is the paper's method applied to the robot.
+
+Standard errors: the HAC sandwich with the filtered residual's autocorrelation over 2M lags
+(`sandwich_covariance`), or the iid formula; with ``noise="compensate"`` the normal equations are
+corrected for the errors-in-variables bias of the noise on q with re-noised replicates, which
+also give the covariance (as for the nonlinear fit, `.solve.solve_compensated`).
+
+Memory: W_b, ``n_valid · n_joints · n_base`` floats, plus one block of the full regressor
+(``BLOCK`` samples); the noise replicates are reduced to their normal equations block by block.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InputError, arg
+from ...filters.band import noise_floor, white_floor
+from ...models.identifiability import (
+    NUMERIC_RTOL,
+    StructuralIdentifiability,
+    numeric_identifiability,
+    raise_if_not_excited,
+    svd_tall,
+)
+from .core import _gram_least_squares, quality_factor
+from .prepare import _Filtered, _Problem, check_band, filter_recording
+from .solve import _Solution, resolve_noise
+
+#: Samples per block of the full regressor while W_b is built.
+BLOCK = 4096
+
+
+def linear_in_parameters(model) -> bool:
+    """True when the model's parameters are its regressor's columns (``τ = Y θ``).
+
+    Parameters
+    ----------
+    model : ChainModel
+
+    Returns
+    -------
+    bool
+        True for rigid-body (URDF, DH) models: their parameters are the columns of
+        ``regressor`` (``regressor_names``), ``β(θ) = θ``, and they give ``base_parameters()``;
+        False for symbolic chains (the paper's arm, whose lengths enter nonlinearly).
+    """
+    needed = ("regressor", "regressor_names", "base_parameters", "beta_names", "beta_jacobian")
+    if not all(hasattr(model, a) for a in needed):
+        return False
+    try:
+        if tuple(model.beta_names) != tuple(model.parameter_names):
+            return False
+        jac = np.asarray(model.beta_jacobian(), dtype=float)
+    except Exception:  # no usable linear form
+        return False
+    return jac.shape == (len(model.parameter_names),) * 2 and np.allclose(jac, np.eye(jac.shape[0]))
+
+
+def base_regressor(model, columns, qf, qdf, qddf) -> np.ndarray:
+    """W_b = Y(q^f, q̇^f, q̈^f)[..., columns], shape (n, n_joints, n_base), built in blocks.
+
+    Parameters
+    ----------
+    model : RigidBodyModel
+    columns : sequence of int
+        The independent (base) columns of the regressor.
+    qf, qdf, qddf : ndarray, shape (n, n_joints) [rad, rad/s, rad/s²]
+
+    Returns
+    -------
+    ndarray, shape (n, n_joints, n_base) [N·m per unit of each base parameter]
+    """
+    columns = np.asarray(columns, dtype=int)
+    n, nj = qf.shape
+    out = np.empty((n, nj, columns.size))
+    for s in range(0, n, BLOCK):
+        sl = slice(s, s + BLOCK)
+        out[sl] = np.asarray(model.regressor(qf[sl], qdf[sl], qddf[sl]), dtype=float)[:, :, columns]
+    return out
+
+
+def _normal_equations(model, columns, qf, qdf, qddf, tau_f):
+    """``(W_bᵀW_b, W_bᵀτ^f)`` block by block, never holding W_b of the whole record."""
+    p = len(columns)
+    gram, rhs = np.zeros((p, p)), np.zeros(p)
+    for s in range(0, qf.shape[0], BLOCK):
+        sl = slice(s, s + BLOCK)
+        w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl]).reshape(-1, p)
+        gram += w.T @ w
+        rhs += w.T @ tau_f[sl].ravel()
+    return gram, rhs
+
+
+class _LinearSolve:
+    """What `least_squares` would return for the one exact step (message, success, counts)."""
+
+    def __init__(self, message: str):
+        self.message = message
+        self.success = True
+        self.nfev = 1
+        self.njev = 1
+
+
+def refuse_nonlinear_settings(est) -> None:
+    """Refuse ``fixed=`` and ``bounds=``, which name the model's own (standard) parameters."""
+    for name in ("fixed", "bounds"):
+        if getattr(est, name):
+            raise InputError(
+                f"{arg(name)} applies to the model's own parameters; with "
+                f"{arg('parameters', repr('base'), cli='base')} the fit estimates the base "
+                "parameters, a linear problem with one solution and no bounds. Drop "
+                f"{arg(name)}, or use {arg('parameters', repr('model'), cli='model')}."
+            )
+
+
+def prepare_base(est, recording) -> _Problem:
+    """Filter, check the band, and set up the base-parameter problem (no hold plan needed)."""
+    model = est.model
+    f: _Filtered = filter_recording(est, recording)
+    notes: list[str] = []
+    if f.choice is not None:
+        notes.append(f.choice.reason)
+    band, advice = check_band(est, f, notes, stacklevel=4)
+    bp = model.base_parameters()
+    names = tuple(bp.independent)
+    truth = np.asarray(bp.base_matrix, dtype=float) @ np.asarray(model.beta(), dtype=float)
+    structural = StructuralIdentifiability(
+        parameter_names=names,
+        identifiable=names,
+        combinations=(),
+        singular_values=np.ones(len(names)),
+    )
+    p = len(names)
+    problem = _Problem(
+        model=model,
+        filtered=f,
+        advice=advice,
+        names=names,
+        t=f.t,
+        qf=f.qf,
+        qdf=f.qdf,
+        qddf=f.qddf,
+        tau_f=f.tau_f,
+        dt=float(f.dt),
+        band=band,
+        structural=structural,
+        fixed={},
+        free_idx=list(range(p)),
+        theta0=truth,  # the nominal base parameters: reported as `initial`, not needed to solve
+        scale=np.where(truth != 0.0, np.abs(truth), 1.0),
+        lower=np.full(p, -np.inf),
+        upper=np.full(p, np.inf),
+        notes=notes,
+    )
+    problem.base = bp  # type: ignore[attr-defined]
+    return problem
+
+
+def solve_base(est, problem: _Problem) -> _Solution:
+    """The exact linear least-squares solve over β (optionally noise-compensated)."""
+    model, f = problem.model, problem.filtered
+    columns = problem.base.independent_index  # type: ignore[attr-defined]
+    names = problem.names
+    p = len(names)
+    w = base_regressor(model, columns, f.qf, f.qdf, f.qddf)
+    w2 = w.reshape(-1, p)
+    norms = np.linalg.norm(w2, axis=0)
+    problem.before = numeric_identifiability(
+        w2, names, 1.0 / np.where(norms > 0, norms, 1.0), beta_names=names
+    )
+    raise_if_not_excited(problem.before, "the base regressor of this recording")
+    covariance = None
+    shift = None
+    noise = resolve_noise(est, problem)
+    if noise == "compensate":
+        beta, covariance, shift = _compensated(est, problem, w2)
+        how = f"noise-compensated normal equations ({est.noise_replicates} replicates)"
+    else:  # min |W_b β - τ^f|²: QR of the column-scaled W_b, exact in one step
+        d = 1.0 / np.where(norms > 0, norms, 1.0)
+        beta = d * np.linalg.lstsq(w2 * d, f.tau_f.ravel(), rcond=None)[0]
+        how = "linear least squares"
+    residuals = (w @ beta) - f.tau_f
+    message = (
+        f"{how} over the {p} base parameters: the residual is linear in them, so one "
+        "Gauss–Newton step is the minimum."
+    )
+    return _Solution(
+        sol=_LinearSolve(message),
+        theta_hat=beta,
+        residuals=residuals,
+        jacobian=w2,
+        after=problem.before,
+        at_bound=(),
+        bound_text="",
+        start_nfev=0,
+        njev=1,
+        history=beta[None, :].copy(),
+        cost_history=np.array([quality_factor(residuals)]),
+        covariance=covariance,
+        noise_shift=shift,
+        noise=noise,
+    )
+
+
+def _compensated(est, problem: _Problem, w2: np.ndarray):
+    """β̂ from ``A_c = 2A(x) - mean A(x + ε_k)``, and its covariance from the replicates.
+
+    The same simulation-extrapolation as `.solve.solve_compensated`, with ∂β/∂θ = identity.
+    """
+    model, f = problem.model, problem.filtered
+    columns = problem.base.independent_index  # type: ignore[attr-defined]
+    p = len(problem.names)
+    gram, rhs = w2.T @ w2, w2.T @ f.tau_f.ravel()
+    sigma_q = noise_floor(f.q)
+    sigma_tau = white_floor(f.tau) if f.tau is not None else None
+    rng = np.random.default_rng(est.random_state)
+    grams, rhss = [], []
+    for _ in range(int(est.noise_replicates)):
+        q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
+        tau_k = None if sigma_tau is None else f.tau + rng.normal(size=f.tau.shape) * sigma_tau
+        g_k, r_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k))
+        grams.append(g_k)
+        rhss.append(r_k)
+    gram_c = 2.0 * gram - np.mean(grams, axis=0)
+    rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
+    beta, r_c = _gram_least_squares(gram_c, rhs_c)
+    plain, _ = _gram_least_squares(gram, rhs)
+    scores = np.array([g @ beta - r for g, r in zip(grams, rhss, strict=True)])
+    omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(p, p)
+    sv, vt = svd_tall(r_c)  # H = A_c = R_cᵀ R_c
+    if sv.size < p or not np.all(sv > NUMERIC_RTOL * sv[0]):
+        cov = np.full((p, p), np.inf)
+    else:
+        h_inv = (vt.T / sv**2) @ vt
+        cov = h_inv @ omega @ h_inv
+    shift = {n: float(b - a) for n, a, b in zip(problem.names, plain, beta, strict=True)}
+    return beta, cov, shift
