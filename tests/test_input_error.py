@@ -473,7 +473,9 @@ def test_noise_compensation_removes_most_of_the_errors_in_variables_bias(paper_m
     noisy_q = paper_rec.select(q) + 1e-4 * np.random.default_rng(11).normal(size=(9701, 4))
     noisy = paper_rec.with_channels(dict(zip(q, noisy_q.T, strict=True)))
     common = dict(PAPER_FILTER, start="linear", fixed={"l1": 0.4})
-    plain = quiet_fit(InputErrorEstimator(paper_model, **common, noise="ignore"), noisy, initial=None)
+    plain = quiet_fit(
+        InputErrorEstimator(paper_model, **common, noise="ignore"), noisy, initial=None
+    )
     est = InputErrorEstimator(paper_model, **common, noise="compensate", noise_replicates=8)
     comp = quiet_fit(est, noisy, initial=None)
     assert rel_errors(plain)["m1*l1**2"] < -0.3

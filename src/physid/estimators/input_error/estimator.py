@@ -263,6 +263,9 @@ class InputErrorEstimator(EstimatorMixin):
                 result,
                 parameter_set="base",
                 base_expressions=dict(zip(bp.independent, bp.expressions, strict=True)),
+                # τ = W_b β = Y θ with θ = β on the base columns and 0 on the others: so held,
+                # the model's inverse dynamics of these parameters is the fitted torque
+                fixed={n: 0.0 for n in self.model.parameter_names if n not in bp.independent},
             )
         self.result_ = result
         self.structural_ = problem.structural

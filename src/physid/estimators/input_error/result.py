@@ -50,7 +50,10 @@ class InputErrorResult(ResultMixin):
         Value of each unidentifiable combination at the estimate (this is what is identified).
     combination_stderr : dict expression -> float
     fixed : dict name -> float
-        Parameters held fixed (by the user or by default).
+        Parameters held fixed (by the user or by default). With ``parameter_set="base"``: the
+        standard parameters outside the base set, at 0 (``τ = W_b β = Y θ`` for θ equal to β on
+        the base columns and 0 elsewhere, so ``parameters`` and ``fixed`` together give the
+        fitted torque through the model's inverse dynamics).
     initial : dict name -> float
         Starting values (after ``start="linear"``, the values the main fit started from).
     half_width : int
