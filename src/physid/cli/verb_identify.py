@@ -218,7 +218,7 @@ _INPUT_ERROR_ONLY = {
     "fix": ("--fix", None),
     "initial": ("--initial", None),
     "torque": ("--torque", "measured"),
-    "noise": ("--noise", "ignore"),
+    "noise": ("--noise", "auto"),
     "start": ("--start", "initial"),
     "derivatives": ("--derivatives", "consistent"),
     "max_nfev": ("--max-nfev", 200),
