@@ -246,8 +246,10 @@ def _input_error_coverage_note(r) -> str:
         "causes (mean standard error "
         f"{100 * ie['mean_relative_stderr_well_excited']:.2g} % of the truth), not the error "
         "its fit has without noise ("
-        f"{100 * r['input_error']['mean_abs_noise_free_error']:.2g} %, from the smoothed "
-        "Coulomb friction of the simulation), which IDIM's residual-based intervals absorb."
+        f"{100 * r['input_error']['mean_abs_noise_free_error']:.2g} %: the regressor is "
+        "evaluated on filtered signals, and filtering does not commute with its nonlinear "
+        "terms (velocity products, Coulomb friction's sign(q̇)); IDIM filters the regressor's columns "
+        "instead, and its residual-based intervals absorb what remains)."
     )
 
 
