@@ -140,7 +140,11 @@ def test_validate_skips_the_residual_test_on_few_rows_instead_of_failing(idim_fi
 def test_validate_of_an_idim_file_without_sample_period_says_so(idim_file, tmp_path):
     model, path = idim_file
     data = json.loads(path.read_text())
-    data.pop("dt", None)  # a file written before IDIM results carried dt
+    assert data["dt"] == pytest.approx(1e-3, rel=1e-12)  # IDIM results carry dt (idimfix)
+    held_2ms = _run(model, phase=0.7, duration=2.0)
+    with pytest.raises(InputError, match=r"sampled every 0\.002 s but the fit used 0\.001 s"):
+        validate(path, physid.Recording(held_2ms.t[::2], held_2ms.data[::2], held_2ms.names))
+    data.pop("dt")  # a file written before IDIM results carried dt
     old = tmp_path / "old.json"
     old.write_text(json.dumps(data))
     held = _run(model, phase=0.7, duration=2.0)
