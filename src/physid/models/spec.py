@@ -888,7 +888,7 @@ def parse_expression(
     from ..expressions import parse_expression as _parse
 
     try:
-        return _parse(text, symbols, source=where)
+        return _real_parts(_parse(text, symbols, source=where))
     except ExpressionError as exc:
         shown = _clip(text)
         if exc.reason == "unknown_function":
@@ -914,6 +914,21 @@ def parse_expression(
     raise ModelFileError(
         f"{where}: unknown symbol(s) {_clip_names(unknown)} in {shown}; declare each under "
         f"[parameters] (e.g. {unknown[0][:40]} = {{ value = 1.0{unit_text} }}){hint}."
+    )
+
+
+def _real_parts(expr):
+    """``expr`` with ``re(x)`` → ``x``, ``im(x)`` → 0 and ``conjugate(x)`` → ``x``: every name of a
+    model file is real, but sympy's symbols carry no assumptions, so it writes ``abs(exp(m1))`` as
+    ``exp(re(m1))``, which the code printers of the derivation cannot print (issue 16 fuzz)."""
+    import sympy as sp
+
+    if not expr.has(sp.re, sp.im, sp.conjugate):
+        return expr
+    return (
+        expr.replace(sp.re, lambda x: x)
+        .replace(sp.im, lambda x: 0)
+        .replace(sp.conjugate, lambda x: x)
     )
 
 
@@ -947,12 +962,14 @@ def check_transform(
                 f"got {np.round(Tn[3], 6).tolist()} at q{joint} = {qv:.3f} rad."
             )
         R = Tn[:3, :3]
-        err = float(np.abs(R @ R.T - np.eye(3)).max())
-        if err > 1e-8 or np.linalg.det(R) < 0:
+        with np.errstate(all="ignore"):  # entries near 1e308 overflow in R Rᵀ: not a rotation
+            err = float(np.abs(R @ R.T - np.eye(3)).max())
+            det = float(np.linalg.det(R)) if np.isfinite(err) else float("nan")
+        if not err <= 1e-8 or not det > 0:
             raise ModelFileError(
                 f"{where}: the rotation part (upper-left 3×3) of the transform of joint {joint} is "
                 f"not orthonormal with det +1 (max |R Rᵀ − I| = {err:.3g}, det = "
-                f"{np.linalg.det(R):.4g} at q{joint} = {qv:.3f} rad, nominal parameters). Check "
+                f"{det:.4g} at q{joint} = {qv:.3f} rad, nominal parameters). Check "
                 f"signs and sin/cos placement; a rotation about z is [[cos(q), -sin(q), 0], "
                 f"[sin(q), cos(q), 0], [0, 0, 1]]."
             )
