@@ -25,9 +25,16 @@ def test_stderr_matches_monte_carlo_spread(method, options):
     for seed in range(TRIALS):
         rec = msd_paper_scenario(1.0, 50, duration=2.0, seed=seed, damping_ratio=0.3)
         res = make(method, "msd", **options).fit(rec).result_
-        assert res.success and res.stderr is not None
+        assert res.success
+        if method == "algebraic" and not options and res.stderr is None:
+            # wave 3: the default withholds where it lies > 1 se from the bias-compensated
+            # estimate (5 of these 25 records); the ratio is over the intervals it gives
+            assert "final='bias-compensated'" in res.stderr_reason
+            continue
+        assert res.stderr is not None
         errors.append([res.parameters[k] - rec.metadata[k] for k in ("theta1", "theta2")])
         stderrs.append([res.stderr[k] for k in ("theta1", "theta2")])
+    assert len(errors) >= 15
     ratio = np.std(errors, axis=0, ddof=1) / np.mean(stderrs, axis=0)
     assert np.all((ratio > 0.7) & (ratio < 1.4)), ratio
 
