@@ -7,7 +7,8 @@ heavily damped MSD (same ω0, ζ = 0.5), both driven at Z = 1 for 5 s at 1 kHz �
 standard error of a coverage measured on 400 trials is 1.1 %; the quick run (25 trials, 4.4 %) is
 a smoke test with the goal 95 ± 10 %.
 
-Run: ``python benchmarks/bench_coverage.py [--quick]`` or ``make bench ARGS="--only coverage"``.
+Run: ``python benchmarks/bench_coverage.py [--quick] [--only algebraic|rls]`` or
+``make bench ARGS="--only coverage"``.
 """
 
 from __future__ import annotations
@@ -61,10 +62,13 @@ def _reason_kind(reason: str | None) -> str:
     return (reason or "no reason given").split(":")[0]
 
 
-def run(quick: bool = False) -> list[dict]:
+def run(quick: bool = False, only: str | None = None) -> list[dict]:
+    """Rows of the coverage table; ``only``: the estimators whose label starts with it."""
     trials = 25 if quick else 400
     tol = 10.0 if quick else 3.0
     estimators = {k: v for k, v in ESTIMATORS.items() if not quick or "default" not in k}
+    if only:
+        estimators = {k: v for k, v in estimators.items() if k.startswith(only)}
     # the defaults withhold their intervals (stderr None with the reason) where their estimate is
     # biased at the scale of its standard error: RLS by its estimated errors-in-variables bias,
     # the algebraic lstsq by its distance to the bias-compensated estimate (wave 3)
@@ -105,5 +109,7 @@ def run(quick: bool = False) -> list[dict]:
 
 
 if __name__ == "__main__":
-    for row in run(quick="--quick" in sys.argv):
+    # --only algebraic | rls: one estimator's rows (to share a long run between two processes)
+    only = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv else None
+    for row in run(quick="--quick" in sys.argv, only=only):
         print(row)
