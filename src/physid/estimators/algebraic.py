@@ -810,7 +810,12 @@ class AlgebraicSettings:
         least squares over *every* full window (no guard, no screen: selecting windows by their
         noisy level or estimate biases θ2 by ~1 % at 30 dB) with the errors-in-variables bias of
         the output noise removed (`_bias_compensated`); its standard errors reach nominal
-        coverage at 30 and 60 dB (benchmarks/bench_coverage.py).
+        coverage at 30 and 60 dB (benchmarks/bench_coverage.py). The default's standard errors
+        are withheld (``stderr`` None, ``stderr_reason`` with the numbers) where its estimate
+        lies more than `MAX_SHIFT_TO_STDERR` of them from the bias-compensated one: at 30 dB on
+        the paper's MSD (θ2 biased by ~6 of them) always, at 60 dB in a minority of records.
+        The default stays "lstsq": its screen keeps windows that straddle an input or parameter
+        jump out of the estimate, which "bias-compensated" (every window) does not.
 
     Examples
     --------
@@ -1587,8 +1592,10 @@ class AlgebraicEstimator(EstimatorMixin):
     -----
     Every setting is described in full in `AlgebraicSettings`. Standard errors (``result_.stderr``)
     propagate white output noise through the window kernels exactly, overlap of the windows
-    included (`_pooled_stderr`); ``final="median"`` has none (``stderr_reason`` says so). See
-    docs/algebraic.md for their measured coverage.
+    and the second-order noise × noise term included (`_pooled_stderr`); the default
+    (``final="lstsq"``) withholds them where its estimate is biased at their scale
+    (`_withhold_if_biased`), ``final="median"`` has none (``stderr_reason`` says so in both
+    cases). Measured coverage: benchmarks/bench_coverage.py.
 
     Examples
     --------

@@ -1212,7 +1212,7 @@ class RecursiveLeastSquares(EstimatorMixin):
                         "the output noise biases the estimate by more than "
                         f"{MAX_BIAS_TO_STDERR:g} standard error(s) (errors in the variables): "
                         + ", ".join(biased)
-                        + f"; a 95 % interval would not cover. Use {arg('bias_compensation', 'True')} "
+                        + "; a 95 % interval would not cover. Use bias_compensation=True "
                         "for an unbiased estimate with honest standard errors."
                     ),
                 )
