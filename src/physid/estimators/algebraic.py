@@ -814,8 +814,10 @@ class AlgebraicSettings:
         are withheld (``stderr`` None, ``stderr_reason`` with the numbers) where its estimate
         lies more than `MAX_SHIFT_TO_STDERR` of them from the bias-compensated one: at 30 dB on
         the paper's MSD (θ2 biased by ~6 of them) always, at 60 dB in a minority of records.
-        The default stays "lstsq": its screen keeps windows that straddle an input or parameter
-        jump out of the estimate, which "bias-compensated" (every window) does not.
+        The default stays "lstsq": on stationary records "bias-compensated" is more accurate
+        (ω0 RMS error over 5 seeds at 25 dB: 8e-4 against 4.5e-3 at Z = 10), but every window
+        enters it, and on the paper's disturbed record (ω2 = 500 ω0, aliased; 80 dB, Z = 10)
+        its ω0 error is 3.0 % against the screened default's 0.69 %.
 
     Examples
     --------
