@@ -8,7 +8,7 @@ The script writes the model file `axis.toml`, simulates two drive logs as `.mat`
 `qm`, `vir` and the scalar `gtau`; the second with another reference), then runs
 
     physid identify axis_log.mat --model axis.toml --cutoff 0.5 --half-width 60 --save axis_fit.json
-    physid validate axis_fit.json axis_heldout.mat --model axis.toml
+    physid validate axis_fit.json axis_heldout.mat
 
 prints their output and checks the numbers against the ranges the page states
 (tests/test_examples.py runs it in CI). The logs are those of the page, so PHYSID_EXAMPLE_QUICK
@@ -101,14 +101,14 @@ def main() -> None:
     axis = physid.load_model("axis.toml")
     write_log(Path("axis_log.mat"), axis, 10.0, [(0.10, 0.4, 0), (0.03, 1.3, 1), (0.01, 3.1, 2)])
     write_log(
-        Path("axis_heldout.mat"), axis, 6.0, [(0.08, 0.3, 0.5), (0.04, 1.7, 0), (0.01, 2.6, 1)]
+        Path("axis_heldout.mat"), axis, 10.0, [(0.08, 0.6, 0.5), (0.04, 1.7, 0), (0.01, 2.9, 1)]
     )
     out = physid_cli(
         "identify", "axis_log.mat", "--model", "axis.toml", "--cutoff", "0.5",
         "--half-width", "60", "--save", "axis_fit.json",
     )  # fmt: skip
     values = {k: float(re.search(rf"^\s+{k}\s+=\s+(\S+)", out, re.M).group(1)) for k in TRUTH}
-    val = physid_cli("validate", "axis_fit.json", "axis_heldout.mat", "--model", "axis.toml")
+    val = physid_cli("validate", "axis_fit.json", "axis_heldout.mat")
     heldout = float(re.search(r"relative error: overall (\S+),", val).group(1))
 
     print(
