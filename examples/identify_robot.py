@@ -59,7 +59,7 @@ q = hold.select([f"q{j}" for j in range(1, 7)])
 qd = hold.select([f"qd{j}" for j in range(1, 7)])
 tau2 = hold.select(tau_names)
 qdd = model.forward_dynamics(q, qd, tau2)
-columns = [model.regressor_names.index(n) for n in wls.names]
+columns = [model.regressor_names.index(n) for n in wls.columns]  # the kept regressor columns
 W = model.regressor(q, qd, qdd)[:, :, columns]
 for label, res in (("WLS", wls), ("IV", iv)):
     err = np.linalg.norm(W @ res.beta_vector() - tau2) / np.linalg.norm(tau2)

@@ -148,3 +148,182 @@ def test_f14_success_false_when_the_model_does_not_explain_the_torques(arm, trut
         sw = IDIMEstimator(arm).fit(swapped).result_
     assert not sw.success
     assert math.isfinite(sw.relative_error["overall"])
+
+
+# ---------------------------------------------------------------------- F6
+def test_f6_idim_refuses_a_model_with_known_parameters(arm, run1, tmp_path):
+    side = tmp_path / "planar2_side.toml"
+    side.write_text(
+        f'name = "planar2_side"\nextends = "{(DATA / "planar2.urdf").as_posix()}"\n'
+        'identify = ["m2", "mcx2"]\n'
+    )
+    model = physid.load_model(side)
+    assert model.unknown == ("m2", "mcx2")
+    with pytest.raises(InputError, match=r"marks m1, mcx1, .* as known") as info:
+        IDIMEstimator(model).fit(run1)
+    assert "input-error" in info.value.render({"method": "--method"})
+    # every parameter unknown (the default): no refusal
+    assert IDIMEstimator(arm).fit(run1).result_.success
+
+
+def test_f6_rigid_toml_identify_false_reaches_model_unknown(tmp_path):
+    text = (
+        'name = "axis"\ngravity = [0.0, 0.0, -9.81]\n\n[parameters]\n'
+        'm1 = { value = 12.0, unit = "kg", identify = false }\n'
+        'Fv1 = { value = 8.0, unit = "N*s/m" }\n\n'
+        '[[joints]]\nname = "carriage"\ntype = "prismatic"\naxis = [1, 0, 0]\n'
+        "transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+        'mass = "m1"\nviscous = "Fv1"\n'
+    )
+    path = tmp_path / "axis.toml"
+    path.write_text(text)
+    model = physid.load_model(path)
+    assert "m1" not in model.unknown
+    assert set(model.parameter_names) - set(model.unknown) == {"m1"}
+    # a symbol that is no model parameter cannot be held: refused, not dropped
+    path.write_text(text.replace("m1 = {", "mass1 = {").replace('mass = "m1"', 'mass = "mass1"'))
+    with pytest.raises(physid.errors.ModelFileError, match=r"identify = false on \['mass1'\]"):
+        physid.load_model(path)
+
+
+def test_f6_input_error_holds_identify_false_parameters(tmp_path):
+    from physid.estimators import InputErrorEstimator
+
+    src = Path(physid.__file__).parent / "models" / "data" / "manipulator.toml"
+    text = src.read_text()
+    line = next(s for s in text.splitlines() if s.startswith("l4 ="))
+    path = tmp_path / "man_fix.toml"
+    path.write_text(text.replace(line, line.replace("identify = true", "identify = false")))
+    model = physid.load_model(path)
+    assert "l4" not in model.unknown
+    t = np.arange(0.0, 6.0, 1e-3)
+    w0 = 2 * np.pi * np.array([0.2, 0.3, 0.5, 0.7])
+    ramp = np.clip(t / 1.0, 0.0, 1.0)[:, None] ** 3
+    ref = ramp * (0.8 * np.sin(np.outer(t, w0)) + 0.3 * np.sin(np.outer(t, 2.3 * w0) + 1))
+    # the data come from l4 = 0.21, so a fit that estimates l4 moves it away from 0.2
+    true = physid.load_model("manipulator")
+    rec = simulate_closed_loop(
+        true,
+        kp=(3800.0, 40000.0, 10000.0, 500.0),
+        kd=(159.5, 120.0, 50.0, 2.0),
+        reference=ref,
+        t=t,
+        params={"l4": 0.21},
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = InputErrorEstimator(model).fit(rec).result_
+        free = InputErrorEstimator(model).fit(rec, initial={"l4": 0.2}).result_
+    assert r.fixed["l4"] == 0.2  # held at the file's value (old: estimated, 0.21)
+    assert r.parameters.get("l4", 0.2) == 0.2
+    # initial= names it: estimated from there
+    assert "l4" not in free.fixed
+    assert free.parameters["l4"] == pytest.approx(0.21, rel=1e-3)
+
+
+# ---------------------------------------------------------------------- F8
+def _infeasible(arm, run1):
+    """Rows of run1 with torques from a base vector whose YY2 = −0.01 (no real arm has it)."""
+    est = IDIMEstimator(arm).fit(run1)
+    W, info = est.rows_.W, est.base_
+    b = est.result_.beta_vector().copy()
+    b[info.names.index("YY2")] = -0.01
+    rng = np.random.default_rng(1)
+    y = W @ b + 1e-3 * rng.standard_normal(est.rows_.tau.shape)
+    return W, y, info
+
+
+def test_f8_cost_ratio_is_measured_on_the_rows_for_a_non_ls_estimate(arm, run1):
+    from physid.estimators.consistent import consistent_estimate
+    from physid.estimators.idim import _lstsq
+
+    W, y, info = _infeasible(arm, run1)
+    ones = np.ones(2)
+    ls = _lstsq(W, y, ones)
+    fits = []
+    for beta_hat in (1.02 * ls, ls):  # an estimate that is not the LS solution (like IV), LS
+        c = consistent_estimate(arm, info, W, y, beta_hat, ones)
+        bc = np.array([c.base[n] for n in info.names])
+        true_ratio = np.sum((W @ bc - y) ** 2) / np.sum((W @ beta_hat - y) ** 2)
+        # old: 4.03 reported for the non-LS estimate against the true 3.91 (review F8)
+        assert c.cost_ratio == pytest.approx(true_ratio, rel=1e-9)
+        assert "link2" in c.at_boundary  # YY2 < 0 is outside the cone: the optimum is on it
+        fits.append(c)
+    assert fits[0].cost_ratio < 10.0 < 1e4 < fits[1].cost_ratio  # measured 3.91, 7.07e4
+    assert all(c.converged for c in fits)
+
+
+def test_f8_a_solver_that_stops_early_is_reported(arm, run1, monkeypatch):
+    import physid.estimators.consistent as cons
+    from physid.estimators.idim import _lstsq
+
+    W, y, info = _infeasible(arm, run1)
+    ls = _lstsq(W, y, np.ones(2))
+    full = cons.consistent_estimate(arm, info, W, y, ls, np.ones(2))
+    monkeypatch.setattr(cons, "MAX_NEWTON_STEPS", 5)
+    short = cons.consistent_estimate(arm, info, W, y, ls, np.ones(2))
+    assert full.converged and "did not converge" not in full.message
+    assert not short.converged
+    assert "did not converge" in short.message and "(5 Newton steps)" in short.message
+    assert short.cost_ratio > full.cost_ratio  # stopped early: a worse feasible point
+    # through the estimator: success False, the reason in the message and the warnings
+    r = IDIMEstimator(arm, consistent=True).fit(run1).result_
+    assert not r.consistent.converged
+    assert not r.success
+    assert "did not converge" in r.message
+    assert any("did not converge" in w for w in r.warnings)
+
+
+# ---------------------------------------------------------------------- F9
+def test_f9_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path):
+    from physid.analysis.validation import validate
+    from physid.estimators.idim import predict_torque
+    from physid.estimators.results import save_result
+
+    r = IDIMEstimator(arm).fit(run1).result_
+    bp = arm.base_parameters()
+    assert r.names == tuple(bp.base_names) == ("mcx1R", "mcz1", "YY1R", "mcx2", "mcz2", "YY2")
+    assert r.columns == tuple(bp.independent) == ("mcx1", "mcz1", "YY1", "mcx2", "mcz2", "YY2")
+    assert r.units["mcx1R"] == "kg*m" and r.units["YY1R"] == "kg*m**2"
+    assert r.expressions["mcx1R"] == bp.expressions[0]
+    # mcx1R = mcx1 + 0.45 m2 = 1.001 (the standard mcx1 is 0.506): no longer taken for mcx1
+    assert r.parameters["mcx1R"] == pytest.approx(1.001, rel=2e-3)
+    q = run2.select(["q1", "q2"])
+    with pytest.raises(InputError, match=r"\['mcx1R', 'YY1R'\] are base parameters"):
+        arm.inverse_dynamics(q, q, q, params=r.parameters)
+    # a result file keyed by the kept columns (before wave 3) still predicts the same torques
+    old = predict_torque(
+        arm,
+        r.columns,
+        r.beta_vector(),
+        run2,
+        cutoff=r.cutoff,
+        half_width=r.half_width,
+        decimate=r.decimate,
+    )
+    new = r.predict(run2)
+    np.testing.assert_array_equal(old.data, new.data)
+    path = save_result(r, tmp_path / "res.json", model=str(DATA / "planar2.urdf"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = validate(path, run2)
+    assert out.relative_error["overall"] < 0.01
+
+
+# ---------------------------------------------------------------------- F17
+def test_f17_instruments_model_reaches_a_sign_change(arm):
+    from physid.estimators.idim import _params_for_base
+
+    info = base_regressor_info(arm)
+    theta0 = np.asarray(arm.parameter_vector(None), dtype=float)
+    target = info.from_standard(arm.beta()).copy()
+    k = info.names.index("mcz2")
+    assert target[k] > 0  # nominal +0.0132
+    target[k] = -0.02
+    theta = _params_for_base(arm, info, target, theta0)
+    reached = info.from_standard(arm.beta(theta))
+    # old: mcz2 stopped at +1.3e-8 (its positive nominal value was taken as a bound)
+    np.testing.assert_allclose(reached, target, rtol=1e-6, atol=1e-9)
+    # masses keep their sign
+    masses = [i for i, n in enumerate(arm.parameter_names) if n in ("m1", "m2")]
+    assert np.all(theta[masses] > 0)

@@ -397,8 +397,17 @@ def parameter_vector(params, names: Sequence[str], nominal, *, model: str = "") 
     if isinstance(params, Mapping):
         bad = [k for k in params if k not in names]
         if bad:
+            base = [k for k in bad if isinstance(k, str) and k.endswith("R") and k[:-1] in names]
+            hint = (
+                f" {base} are base parameters (regrouped combinations of standard ones, as an "
+                "IDIM result holds them), not model parameters; a model takes standard "
+                "parameters, e.g. the physically consistent estimate (consistent=True: "
+                "result.derived), or predict with result.predict(recording)."
+                if base
+                else ""
+            )
             raise InputError(
-                f"{arg('params')} has unknown name(s) {bad}{of}; known parameters: {names}."
+                f"{arg('params')} has unknown name(s) {bad}{of}; known parameters: {names}.{hint}"
             )
         for k, v in params.items():
             try:

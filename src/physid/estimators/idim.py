@@ -103,15 +103,21 @@ class BaseInfo:
     Attributes
     ----------
     names : tuple of str
-        The regressor column kept for each base parameter (its leading term), e.g. ``"ZZ1"``.
+        The base parameters' names as ``model.base_parameters()`` (and ``physid model info``)
+        give them: the kept regressor column, with an ``R`` when other columns are regrouped
+        into it (``"ZZ1R"``), so that a base value is never taken for the standard parameter of
+        the same name. Models whose columns are monomials of their parameters (``"m3*l3"``)
+        keep the kept column's name (no model takes it as a parameter).
     expressions : tuple of str
         Each base parameter as a combination of the standard ones, e.g. ``"ZZ1 + YY2 + ..."``.
     columns : ndarray of int, shape (p,)
-        Indices of `names` in the model's regressor columns.
+        Indices of `independent` in the model's regressor columns.
     matrix : ndarray, shape (p, n_cols)
         K, with ``β_base = K β``.
     column_names : tuple of str
         The model's regressor column names (β).
+    independent : tuple of str
+        The regressor column kept for each base parameter (its leading term), e.g. ``"ZZ1"``.
     """
 
     names: tuple[str, ...]
@@ -119,6 +125,7 @@ class BaseInfo:
     columns: np.ndarray
     matrix: np.ndarray
     column_names: tuple[str, ...]
+    independent: tuple[str, ...] = ()
 
     @property
     def n_base(self) -> int:
@@ -156,11 +163,20 @@ def base_regressor_info(model) -> BaseInfo:
             )
     column_names = tuple(getattr(model, "regressor_names", None) or model.beta_names)
     bp = model.base_parameters()
-    names = tuple(bp.independent)
+    independent = tuple(bp.independent)
     expressions = tuple(getattr(bp, "expressions", None) or bp.base_names)
+    base_names = tuple(getattr(bp, "base_names", None) or independent)
+    names = independent if any(re.search(r"\s", n) for n in base_names) else base_names
     index = {n: i for i, n in enumerate(column_names)}
-    columns = np.array([index[n] for n in names], dtype=int)
-    return BaseInfo(names, expressions, columns, np.asarray(bp.base_matrix, float), column_names)
+    columns = np.array([index[n] for n in independent], dtype=int)
+    return BaseInfo(
+        names,
+        expressions,
+        columns,
+        np.asarray(bp.base_matrix, float),
+        column_names,
+        independent,
+    )
 
 
 # ---------------------------------------------------------------------- filters
@@ -618,12 +634,16 @@ class ConsistentEstimate:
     base : dict name -> float
         Its base parameters.
     cost_ratio : float
-        ``‖W β_c − τ‖² / ‖W β̂ − τ‖²`` (≥ 1): the price of consistency.
+        ``‖W β_c − τ‖² / ‖W β̂ − τ‖²`` on the fitted (weighted) rows: the price of consistency
+        (≥ 1 for OLS/WLS; an IV estimate is not the least-squares solution, so it can be < 1).
     at_boundary : tuple of str
         Links whose pseudo-inertia is (numerically) singular, and friction terms at zero.
     min_eigenvalues : dict link -> float
         Smallest eigenvalue of each link's pseudo-inertia [kg·m²].
     message : str
+    converged : bool
+        Whether the solver reached its duality-gap target (else `message` says why, and the
+        IDIM result reports ``success=False``).
     """
 
     standard: dict[str, float]
@@ -632,6 +652,7 @@ class ConsistentEstimate:
     at_boundary: tuple[str, ...]
     min_eigenvalues: dict[str, float]
     message: str
+    converged: bool = True
 
 
 @dataclass(frozen=True)
@@ -641,11 +662,15 @@ class IDIMResult(ResultMixin):
     Attributes
     ----------
     names : tuple of str
-        Base parameters (the regressor column kept for each), e.g. ``"ZZ1"``.
+        Base parameters as ``model.base_parameters()`` names them: ``"ZZ1R"`` when other
+        columns are regrouped into the kept column ``ZZ1`` (see `BaseInfo.names`). A model's
+        ``params=`` refuses these names: they are not standard parameters.
     parameters : dict name -> float
         Base-parameter estimates (SI units).
     expressions : dict name -> str
         What each base parameter is, as a combination of the standard parameters.
+    columns : tuple of str
+        The regressor column kept for each base parameter (``"ZZ1"``), in the order of `names`.
     stderr : dict name -> float or None
         Standard errors (`stderr_method`), or None with `stderr_reason`.
     stderr_reason : str or None
@@ -692,6 +717,7 @@ class IDIMResult(ResultMixin):
     names: tuple[str, ...]
     parameters: dict[str, float]
     expressions: dict[str, str]
+    columns: tuple[str, ...]
     stderr: dict[str, float] | None
     stderr_reason: str | None
     stderr_method: str
@@ -863,6 +889,8 @@ def predict_torque(
     info = base_regressor_info(model)
     names = tuple(names)
     beta = np.asarray(beta, dtype=float).ravel()
+    if names == info.independent:  # result files written before wave 3 keyed the kept columns
+        names = info.names
     if names != info.names or beta.size != len(names):
         raise InputError(
             f"the result has {len(names)} base parameters ({list(names)[:4]}…) and {beta.size} "
@@ -959,7 +987,7 @@ def _unit_of(name: str, model) -> str:
 
 
 def _joint_of(name: str) -> int | None:
-    match = re.search(r"(\d+)(?:\*\*\d+)?$", name)
+    match = re.search(r"(\d+)(?:\*\*\d+)?R?$", name)
     return int(match[1]) if match else None
 
 
@@ -1127,6 +1155,7 @@ class IDIMEstimator(EstimatorMixin):
         self._check_settings()
         recs = [recording] if isinstance(recording, Recording) else list(recording)
         model = self.model
+        _check_all_unknown(model)
         nj = int(model.n_joints)
         info = base_regressor_info(model)
         p = info.n_base
@@ -1187,7 +1216,7 @@ class IDIMEstimator(EstimatorMixin):
             rel[f"tau{j + 1}"] = float(np.linalg.norm(e[:, j]) / max(tau_norm[j], 1e-300))
         names = info.names
         params = dict(zip(names, beta.tolist(), strict=True))
-        units = {n: _unit_of(n, model) for n in names}
+        units = {n: _unit_of(c, model) for n, c in zip(names, info.independent, strict=True)}
         success = bool(np.all(np.isfinite(beta)))
         message = (
             f"IDIM-{self.method.upper()} on {len(recs)} recording(s), {n_rows} rows; condition "
@@ -1217,12 +1246,17 @@ class IDIMEstimator(EstimatorMixin):
             from .consistent import consistent_estimate
 
             consistent = consistent_estimate(model, info, W, y, beta, weights)
+            if not consistent.converged:
+                success = False
+                message += " " + consistent.message
+                notes.append(consistent.message)
             derived = dict(consistent.standard)
             units.update({n: _unit_of(n, model) for n in derived})
         self.result_ = IDIMResult(
             names=names,
             parameters=params,
             expressions=dict(zip(names, info.expressions, strict=True)),
+            columns=info.independent,
             stderr=None if sd is None else dict(zip(names, sd.tolist(), strict=True)),
             stderr_reason=reason,
             stderr_method=self.stderr,
@@ -1366,6 +1400,14 @@ class IDIMEstimator(EstimatorMixin):
         Z = None
         for _ in range(int(self.max_iter)):
             theta = _params_for_base(model, info, beta, theta)
+            reached = info.from_standard(model.beta(theta))
+            miss = float(np.max(np.abs(reached - beta) / np.maximum(np.abs(beta), 1e-9)))
+            if miss > 1e-3 and not any(n.startswith("IDIM-IV: the model of") for n in notes):
+                notes.append(
+                    "IDIM-IV: the model of the simulated closed loop reaches the current base "
+                    f"estimate only to a relative {miss:.2g} (it would need a negative mass, "
+                    "inertia, armature or friction); the instruments come from that model."
+                )
             Zs = []
             for k, rec in enumerate(recs):
                 kp, kd, ref = controller[k]
@@ -1425,6 +1467,30 @@ class IDIMEstimator(EstimatorMixin):
         return beta, Z, changes, theta
 
 
+def _check_all_unknown(model) -> None:
+    """Refuse a model that marks parameters as known: IDIM cannot hold them (review F6).
+
+    IDIM estimates every base parameter, i.e. combinations of all standard parameters; a value
+    marked known (``identify = false`` in a model file, a sidecar's ``identify = [...]``) would
+    be estimated anyway, so the fit refuses instead of ignoring the mark.
+    """
+    names = tuple(getattr(model, "parameter_names", ()))
+    unknown = getattr(model, "unknown", None)
+    if unknown is None:
+        return
+    known = [n for n in names if n not in set(unknown)]
+    if known:
+        shown = ", ".join(known[:8]) + (f", … ({len(known)} in all)" if len(known) > 8 else "")
+        raise InputError(
+            f"model {getattr(model, 'name', '')!r} marks {shown} as known (identify = false in "
+            "its model file, or a sidecar's identify = [...] list: model.unknown), but IDIM "
+            "estimates every base parameter, combinations of all of them, and cannot hold "
+            "some at given values. Remove the marks to estimate them all, or use "
+            f"{arg('method', repr('input-error'), cli='input-error')}, which holds the known "
+            "ones."
+        )
+
+
 def _lstsq(W, y, weights) -> np.ndarray:
     """argmin Σ_j w_j² ‖W_j β − y_j‖² by a column-scaled QR (numpy lstsq)."""
     p = W.shape[-1]
@@ -1458,12 +1524,19 @@ def _joint_sigma(W, y, beta, p) -> np.ndarray:
     return np.sqrt(np.sum(e**2, axis=0) / max(n - p / nj, 1.0))
 
 
+#: Standard parameters without a sign constraint (first moments, products of inertia, offsets).
+_SIGNED = re.compile(r"(mc[xyz]|XY|XZ|YZ|OF)\d+")
+
+
 def _params_for_base(model, info: BaseInfo, beta_base, theta0) -> np.ndarray:
     """Model parameters θ whose base parameters K β(θ) match ``beta_base`` (closest to θ0).
 
     For a model linear in its parameters this is ``θ0 + K⁺ (β̂ − K β(θ0))`` (one Gauss–Newton
     step is exact); otherwise a few `scipy.optimize.least_squares` iterations with a small pull
-    towards θ0 along directions the base parameters leave free.
+    towards θ0 along directions the base parameters leave free. Only parameters that cannot
+    change sign keep it (a positive mass, diagonal inertia, armature, friction or length stays
+    positive); first moments ``mc*``, products of inertia ``XY/XZ/YZ`` and offsets ``OF`` are
+    free, so a base parameter that must change sign is reached exactly.
     """
     from scipy import optimize
 
@@ -1486,7 +1559,8 @@ def _params_for_base(model, info: BaseInfo, beta_base, theta0) -> np.ndarray:
         db = np.asarray(model.beta_jacobian(dict(zip(names, th.tolist(), strict=True))), float)
         return np.vstack([(K @ db) / scale_b[:, None], 1e-4 * np.diag(1.0 / scale_t)])
 
-    positive = theta0 > 0
+    signed = np.array([bool(_SIGNED.fullmatch(n)) for n in names], dtype=bool)
+    positive = (theta0 > 0) & ~signed
     lower = np.where(positive, 1e-6 * theta0, -np.inf)
     sol = optimize.least_squares(
         fun, theta0, jac=jac, bounds=(lower, np.full(theta0.size, np.inf)), x_scale=scale_t

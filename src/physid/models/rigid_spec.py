@@ -16,6 +16,7 @@ previous link frame; the joint moves about/along ``axis``, default z) they are i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -158,6 +159,7 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
             f"{sorted(extra)} for a rigid-body chain; allowed: {sorted(_TOP)}."
         )
     strict = bool(data.get("strict", strict))
+    held = [p.name for p in params if not getattr(p, "identify", True)]
     evaluate = _evaluator(params, source)
     joints = data.get("joints")
     if data.get("kinetic_energy", "exact") != "exact":
@@ -320,7 +322,7 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
                 limits[key][k] = ev(lim[key], f"limits.{key}")
     present = [dn for dn in DRIVE_NAMES if any(dn in row for row in drive_rows)]
     drive = {dn: np.array([row.get(dn, 0.0) for row in drive_rows]) for dn in present}
-    return RigidChain(
+    chain = RigidChain(
         name=name,
         joint_names=tuple(names),
         joint_types=tuple(types),
@@ -334,8 +336,21 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
         limits=limits,
         source=source,
         description=str(data.get("description", "")),
-        identify=tuple(p.name for p in ()),
+        identify=(),
     )
+    if held:  # identify = false: model.unknown is every other model parameter (review F6)
+        names = chain.parameter_names()
+        stray = [h for h in held if h not in names]
+        if stray:
+            raise ModelFileError(
+                f"{_where(source, text, 'parameters', stray[0])}: identify = false on {stray}, "
+                "which are not parameters of the rigid-body model (its parameters are the "
+                "standard ones of each link, m1, mcx1, …, ZZ1, and the drive terms, Ia1, Fv1, "
+                "…); only a [parameters] entry named like one of them can be held. Remove "
+                "identify = false there."
+            )
+        chain = dataclasses.replace(chain, identify=tuple(n for n in names if n not in held))
+    return chain
 
 
 _ = inertial  # re-exported conversions are documented next to the format

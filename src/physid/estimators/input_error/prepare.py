@@ -435,6 +435,12 @@ def prepare(est, recording, initial) -> _Problem:
     start_values.update(given)
     start_values.update(fixed_values)
     user_fixed = fixed_values | {n: float(start_values[n]) for n in hold}
+    # parameters the model marks known (identify = false: model.unknown) are held at their
+    # values unless fixed= or initial= name them (initial= asks to estimate from there)
+    unknown = set(getattr(model, "unknown", names) or ())
+    for n in names:
+        if n not in unknown and n not in user_fixed and n not in given:
+            user_fixed[n] = float(start_values[n])
     notes: list[str] = []
     if f.choice is not None:
         notes.append(f.choice.reason)
