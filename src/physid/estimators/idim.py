@@ -185,6 +185,23 @@ def _decimation_sos(nd: int) -> np.ndarray:
     return signal.cheby1(8, 0.05, 0.8 / nd, output="sos")
 
 
+@functools.lru_cache(maxsize=32)
+def _decimated_noise_correlation(nd: int, lags: int = 8) -> np.ndarray:
+    """Autocorrelation ``ρ_0..ρ_lags`` (ρ_0 = 1) of white noise after `parallel_decimate`: the
+    zero-phase filter's autocorrelation sampled every ``nd`` samples (1, 0 … for nd = 1)."""
+    out = np.zeros(lags + 1)
+    out[0] = 1.0
+    if nd <= 1:
+        return out
+    half = 40 * nd
+    delta = np.zeros(2 * half + 1)
+    delta[half] = 1.0
+    g = signal.sosfiltfilt(_decimation_sos(nd), delta)
+    r = np.correlate(g, g, "full")[g.size - 1 :]
+    out[1:] = r[nd * np.arange(1, lags + 1)] / r[0]
+    return out
+
+
 def _decimation_edge(nd: int) -> int:
     """Samples dropped at each end after the parallel filter (its transient has died out)."""
     return 0 if nd <= 1 else int(12 * nd)
@@ -1022,8 +1039,12 @@ class IDIMEstimator(EstimatorMixin):
         FIR half-width M of the physid filter.
     decimate : int or "auto"
         Parallel-filter decimation factor nd.
-    stderr : {"hac", "iid"}
-        HAC (Newey–West) sandwich, or classical ``σ² (WᵀW)⁻¹``.
+    stderr : {"hac", "iid", "filtered"}
+        HAC (Newey–West) sandwich, or classical ``σ² (WᵀW)⁻¹``, or ``"filtered"``: white torque
+        noise per joint passed through the known parallel filter and decimation, so the
+        decimated residual's correlation ``ρ_l`` is the filter's own (lag 1 ≈ 0.18) and the
+        sandwich uses it instead of estimating it (wave 3: 95 % coverage on planar2, where the
+        HAC of ~64 rows gives 86–89 %).
     per_joint_variance : bool
         With ``stderr="iid"``: one noise variance per joint instead of a pooled one.
     hac_lag : int, optional
@@ -1079,8 +1100,8 @@ class IDIMEstimator(EstimatorMixin):
     def _check_settings(self) -> None:
         if self.method not in METHODS:
             raise InputError(f"method must be one of {METHODS}; got {self.method!r}.")
-        if self.stderr not in ("hac", "iid"):
-            raise InputError(f"stderr must be 'hac' or 'iid'; got {self.stderr!r}.")
+        if self.stderr not in ("hac", "iid", "filtered"):
+            raise InputError(f"stderr must be 'hac', 'iid' or 'filtered'; got {self.stderr!r}.")
         check_int(self.max_iter, "max_iter", minimum=1)
         check_int(self.hac_lag, "hac_lag", minimum=0, allow_none=True)
         check_int(self.half_width, "half_width", minimum=1, allow_none=True)
@@ -1207,7 +1228,9 @@ class IDIMEstimator(EstimatorMixin):
             iterations = len(changes)
             sigma = _joint_sigma(W, y, beta, p)
         e = y - W @ beta
-        cov, lag, reason = self._covariance(W, e, weights, Z, rows.segments, sigma, p)
+        cov, lag, reason = self._covariance(
+            W, e, weights, Z, rows.segments, sigma, p, decimate=rows.decimate
+        )
         sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if reason is None else None
 
         tau_norm = np.linalg.norm(y, axis=0)
@@ -1291,8 +1314,9 @@ class IDIMEstimator(EstimatorMixin):
         return self
 
     # pieces ------------------------------------------------------------------------------
-    def _covariance(self, W, e, weights, Z, segments, sigma, p):
-        """Covariance of the estimate: HAC sandwich or classical (per-joint variance)."""
+    def _covariance(self, W, e, weights, Z, segments, sigma, p, decimate=1):
+        """Covariance of the estimate: HAC sandwich, classical (per-joint variance), or classical
+        with the correlation the parallel filter gives white noise (``stderr="filtered"``)."""
         n, nj = e.shape
         Ww = W * weights[None, :, None]
         ew = e * weights[None, :]
@@ -1318,6 +1342,13 @@ class IDIMEstimator(EstimatorMixin):
             var = np.full(nj, np.sum(ew**2) / max(n * nj - p, 1))
         Zs = A_rows * np.sqrt(var)[None, :, None]
         meat = Zs.reshape(-1, p).T @ Zs.reshape(-1, p)
+        if self.stderr == "filtered":  # Σ_j = σ_j² R, R_kl = ρ(|k − l|) within a recording
+            rho = _decimated_noise_correlation(int(decimate))
+            for ell in range(1, min(rho.size, n)):
+                same = (segments[ell:] == segments[:-ell])[:, None, None]
+                G = np.einsum("tjp,tjq->pq", Zs[ell:] * same, Zs[:-ell])
+                meat += rho[ell] * (G + G.T)
+            return A_inv @ meat @ A_inv.T, rho.size - 1, None
         return A_inv @ meat @ A_inv.T, 0, None
 
     def _controller(self, recs, nj):
