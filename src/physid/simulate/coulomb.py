@@ -28,6 +28,8 @@ __all__ = ["coulomb_limits", "integrate_coulomb"]
 
 #: Most segments (events) a simulation may have before it is called chattering.
 MAX_EVENTS = 200_000
+#: Most switches in a row without the time advancing (Zeno: coupled joints flipping each other).
+MAX_STALLED = 50
 
 
 def coulomb_limits(model, theta) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -179,6 +181,7 @@ def integrate_coulomb(
     filled = 0
     nfev = 0
     events = 0
+    stalled = 0
     stick_time = np.zeros(n)
 
     def decide(j, tnow, ynow):
@@ -268,6 +271,13 @@ def integrate_coulomb(
         hit = [(float(te[0]), c) for c, te in enumerate(sol.t_events) if te.size]
         te, c = min(hit)
         stick_time[stuck] += te - tc
+        stalled = stalled + 1 if te - tc <= 1e-12 * max(1.0, abs(te)) else 0
+        if stalled > MAX_STALLED:
+            raise SimulationError(
+                f"{stalled} Coulomb slip/stick switches at t = {te:.9g} s without the time "
+                "advancing: the joints' friction limits hold each other (Zeno). Use "
+                "coulomb_smoothing > 0 [rad/s] for this case."
+            )
         y = np.array(sol.y_events[c][0], dtype=float)
         tc = te
         j, kind = what[c]
