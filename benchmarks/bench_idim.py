@@ -221,10 +221,10 @@ def _bias_table(model, name, ols, iv, clean, stick, sigma_q, quick):
     info = base_regressor_info(model)
     truth = info.from_standard(model.beta())
     n_seeds = ols.shape[0]
-    scale = np.abs(truth)
-    rsd_iv = np.std(iv, axis=0, ddof=1) / np.where(scale > 0, scale, np.inf)
-    rsd_ols = np.std(ols, axis=0, ddof=1) / np.where(scale > 0, scale, np.inf)
-    well = rsd_iv < 0.10
+    scale = np.where(np.abs(truth) > 0, np.abs(truth), np.nan)  # a zero truth has no relative
+    rsd_iv = np.std(iv, axis=0, ddof=1) / scale  # bias (it used to count as well excited)
+    rsd_ols = np.std(ols, axis=0, ddof=1) / scale
+    well = np.nan_to_num(rsd_iv, nan=np.inf) < 0.10
     b_ols = (ols.mean(0) - truth) / scale
     b_iv = (iv.mean(0) - truth) / scale
     b_clean = (clean - truth) / scale
