@@ -331,6 +331,10 @@ class IDIMRows:
         nd.
     dt : float [s]
         Sample period of the recordings (the cut-off in rad/sample refers to it).
+    stuck : ndarray of bool, shape (n_rows, n_joints), or None
+        Equations dropped (their rows of ``W`` and ``tau`` set to zero) because the joint was
+        at or near rest with Coulomb friction (``stick_threshold`` of `idim_rows`); None when
+        nothing was dropped.
     """
 
     W: np.ndarray
@@ -342,6 +346,7 @@ class IDIMRows:
     half_width: int
     decimate: int
     dt: float = float("nan")
+    stuck: np.ndarray | None = None
 
 
 def _recording_arrays(recording, n_joints: int, torque: bool = True):
@@ -437,6 +442,7 @@ def idim_rows(
     half_width: int | None = None,
     decimate: int | str = "auto",
     torque: bool = True,
+    stick_threshold: float = 0.0,
 ) -> IDIMRows:
     """Build the filtered, decimated IDIM regression of one or several recordings.
 
@@ -462,6 +468,13 @@ def idim_rows(
     torque : bool
         False: a recording may lack ``tau1..taun`` (for a prediction from the motion alone);
         ``tau`` of the rows is then zero.
+    stick_threshold : float
+        Drop joint j's equations where its filtered speed |q̇_j| is below ``stick_threshold``
+        times its rms (and within the parallel filter's reach of such a sample), for joints with
+        Coulomb friction (``Fc{j}``) only. While a joint sticks the friction torque holding it
+        lies anywhere in [−Fc, Fc], but the regressor writes Fc·sign(0) = 0, and the filters
+        smear each stick/slip switch; those equations are wrong, not noisy. 0 (the default here)
+        keeps every equation; `IDIMEstimator` uses 0.05.
 
     Returns
     -------
@@ -531,11 +544,22 @@ def idim_rows(
         rows_needed = max(20.0 * info.n_base / nj, 50.0)
         decimate = max(1, min(decimate, int(n_min / (rows_needed + 24.0))))
     nd = check_int(decimate, "decimate", minimum=1)
+    stick_threshold = float(stick_threshold)
+    if not (np.isfinite(stick_threshold) and 0.0 <= stick_threshold < 1.0):
+        raise InputError(
+            f"{arg('stick_threshold')} must be a fraction of the rms speed in [0, 1); got "
+            f"{stick_threshold!r}."
+        )
+    names = set(getattr(model, "parameter_names", ()))
+    coulomb = np.array([f"Fc{j + 1}" in names for j in range(nj)])
+    drop = stick_threshold > 0 and bool(coulomb.any())
 
-    Ws, taus, ts, segs, samples = [], [], [], [], []
+    Ws, taus, ts, segs, samples, stucks = [], [], [], [], [], []
     m_used = 0
     for k, (t, q, tau) in enumerate(arrays):
         idx, qf, qdf, qddf, m_used = _states(q, dts[k], differentiation, cutoff, half_width)
+        if drop:
+            stucks_full = _stuck_samples(qdf, coulomb, stick_threshold, _decimation_edge(nd))
         W = _base_regressor(model, info, qf, qdf, qddf)
         stacked = np.concatenate([W.reshape(W.shape[0], -1), tau[idx]], axis=1)
         if stacked.shape[0] <= 2 * _decimation_edge(nd) + 1:
@@ -546,8 +570,15 @@ def idim_rows(
             )
         dec, kept = parallel_decimate(stacked, nd)
         p = info.n_base
-        Ws.append(dec[:, : nj * p].reshape(-1, nj, p))
-        taus.append(dec[:, nj * p :])
+        Wk = dec[:, : nj * p].reshape(-1, nj, p)
+        tauk = dec[:, nj * p :]
+        if drop:
+            stuck = stucks_full[kept]
+            Wk[stuck] = 0.0  # joint j's equation at that row: no information, no weight
+            tauk[stuck] = 0.0
+            stucks.append(stuck)
+        Ws.append(Wk)
+        taus.append(tauk)
         ts.append(t[idx[kept]])
         segs.append(np.full(kept.size, k))
         samples.append(idx[kept])
@@ -561,7 +592,28 @@ def idim_rows(
         half_width=int(m_used),
         decimate=nd,
         dt=float(dts[0]),
+        stuck=np.concatenate(stucks) if drop else None,
     )
+
+
+def _stuck_samples(qd, coulomb, threshold: float, reach: int) -> np.ndarray:
+    """Samples × joints where a Coulomb joint is at or near rest, widened by ``reach`` samples.
+
+    ``qd`` (n, n_joints) are the filtered speeds; a sample is near rest when |q̇_j| is below
+    ``threshold`` · rms(q̇_j). The mask is dilated by ``reach`` (the parallel filter's half
+    length) on both sides, since a decimated row mixes that many neighbours. Vectorised: a
+    moving maximum by cumulative sums.
+    """
+    qd = np.asarray(qd, dtype=float)
+    rms = np.sqrt(np.mean(qd**2, axis=0))
+    near = (np.abs(qd) < threshold * np.where(rms > 0, rms, 1.0)) & coulomb[None, :]
+    if reach <= 0:
+        return near
+    c = np.concatenate([np.zeros((1, near.shape[1])), np.cumsum(near, axis=0)])
+    n = near.shape[0]
+    lo = np.clip(np.arange(n) - reach, 0, n)
+    hi = np.clip(np.arange(n) + reach + 1, 0, n)
+    return (c[hi] - c[lo]) > 0
 
 
 # ---------------------------------------------------------------------- linear algebra
@@ -1059,6 +1111,12 @@ class IDIMEstimator(EstimatorMixin):
         Also compute a physically consistent estimate (`ConsistentEstimate`).
     check_condition : bool
         Warn (`ConditionWarning`) above a condition number of 1e3 and refuse above 1e8.
+    stick_threshold : float
+        Joints with Coulomb friction: drop the equations where the joint is at or near rest
+        (filtered |q̇_j| below this fraction of its rms, widened by the parallel filter's
+        reach), where the friction torque is unknown (stiction) and the filters smear the
+        stick/slip switch (default 0.05; 0 keeps every equation). The message says how many
+        were dropped; `IDIMRows.stuck` marks them.
     """
 
     def __init__(
@@ -1079,6 +1137,7 @@ class IDIMEstimator(EstimatorMixin):
         tol: float = 1e-4,
         consistent: bool = False,
         check_condition: bool = True,
+        stick_threshold: float = 0.05,
     ):
         self.model = model
         self.method = method
@@ -1095,6 +1154,7 @@ class IDIMEstimator(EstimatorMixin):
         self.tol = tol
         self.consistent = consistent
         self.check_condition = check_condition
+        self.stick_threshold = stick_threshold
 
     # checks ---------------------------------------------------------------------------
     def _check_settings(self) -> None:
@@ -1191,6 +1251,7 @@ class IDIMEstimator(EstimatorMixin):
             cutoff=self.cutoff,
             half_width=self.half_width,
             decimate=self.decimate,
+            stick_threshold=self.stick_threshold,
         )
         n_rows = rows.W.shape[0]
         if n_rows * nj <= p:
@@ -1245,6 +1306,15 @@ class IDIMEstimator(EstimatorMixin):
             f"IDIM-{self.method.upper()} on {len(recs)} recording(s), {n_rows} rows; condition "
             f"number {cond:.3g}."
         )
+        if rows.stuck is not None and rows.stuck.any():
+            share = rows.stuck.mean(axis=0)
+            worst_j = int(np.argmax(share))
+            message += (
+                f" {int(rows.stuck.sum())} of {rows.stuck.size} joint equations dropped near "
+                f"rest (Coulomb joints at |q̇| < {self.stick_threshold:g}·rms, where stiction "
+                f"makes the friction torque unknown; most on joint {worst_j + 1}, "
+                f"{100 * share[worst_j]:.0f} %)."
+            )
         worst = max((k for k in rel if k != "overall"), key=rel.get)
         if rel["overall"] > REL_ERROR_FAIL or rel[worst] > REL_ERROR_FAIL_JOINT:
             success = False
@@ -1552,7 +1622,8 @@ def _joint_sigma(W, y, beta, p) -> np.ndarray:
     """Residual std per joint, σ̂_j² = ‖ρ_j‖² / (r − p/n_joints) (Gautier's two-step weights)."""
     e = y - W @ beta
     n, nj = e.shape
-    return np.sqrt(np.sum(e**2, axis=0) / max(n - p / nj, 1.0))
+    kept = np.sum(np.any(W != 0.0, axis=2), axis=0)  # equations not dropped (stick_threshold)
+    return np.sqrt(np.sum(e**2, axis=0) / np.maximum(kept - p / nj, 1.0))
 
 
 #: Standard parameters without a sign constraint (first moments, products of inertia, offsets).
