@@ -21,7 +21,14 @@ kd = 0.1 * kp  # [N·m·s/rad]
 
 # 1. excitation: 4 harmonics, 8 s period, within 1 rad/s and 4 rad/s² (and the URDF's positions)
 design = design_excitation(
-    model, harmonics=4, period=8.0, velocity=1.0, acceleration=4.0, n_random=4, max_seconds=5
+    model,
+    harmonics=4,
+    period=8.0,
+    velocity=1.0,
+    acceleration=4.0,
+    n_random=4,
+    max_iter=20,  # an iteration budget, not a time budget: the same trajectory on any machine
+    max_seconds=600,
 )
 print(design.summary())
 reference = design.to_recording(dt=1e-3)
@@ -65,4 +72,4 @@ for label, res in (("WLS", wls), ("IV", iv)):
     err = np.linalg.norm(W @ res.beta_vector() - tau2) / np.linalg.norm(tau2)
     print(f"held-out relative torque error, {label}: {err:.3g}")
     if label == "WLS":
-        assert err < 0.1, err  # the example checks itself (measured 0.017)
+        assert err < 0.05, err  # the example checks itself (measured 0.0027)

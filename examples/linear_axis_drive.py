@@ -113,7 +113,7 @@ def main() -> None:
 
     print(
         "identified "
-        + ", ".join(f"{k} = {values[k]:.5g}" for k in TRUTH)
+        + ", ".join(f"{k} = {values[k]:.4f}" for k in TRUTH)
         + " (true "
         + ", ".join(f"{v:g}" for v in TRUTH.values())
         + ")"
