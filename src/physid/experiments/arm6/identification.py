@@ -130,7 +130,7 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
         results["error"] = "every fit failed; the first: " + failures[0]["error"]
         return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
     # the same trajectory without noise: what the fit gives when only the model and the filters
-    # err (Coulomb friction smoothed by the simulator, weakly excited directions); the noise's
+    # err (the filters smear the stick/slip switches, weakly excited directions); the noise's
     # own bias (errors in variables, what IV is for) is the noisy mean minus this
     say(progress, "the same closed loop without noise")
     clean_rec = simulate(model, reference, t, noisy=False, kp=kp, kd=kd)

@@ -142,8 +142,9 @@ def identification(sd, r) -> ReportSection:
             else "Part of it"
         )
         + " is there without noise: the same trajectory without noise already gives "
-        f"{100 * r['mean_abs_noise_free_error']:.2g} % (the simulator smooths Coulomb friction, "
-        "the regressor uses its sign, and some directions are weakly excited). The bias the "
+        f"{100 * r['mean_abs_noise_free_error']:.2g} % (the state filter and the parallel filter "
+        "smear each stick/slip switch of the exact Coulomb friction, and some directions are "
+        "weakly excited). The bias the "
         "noise adds (noisy mean minus the noise-free fit, the errors-in-variables part that IV "
         f"is for) is {100 * r['mean_abs_noise_bias']['idim-ols']:.2g} % for OLS and "
         f"{100 * r['mean_abs_noise_bias']['idim-iv']:.2g} % for IV"
