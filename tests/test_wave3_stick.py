@@ -71,3 +71,22 @@ def test_bad_stick_threshold_is_refused(case):
     model, rec = case
     with pytest.raises(InputError, match="stick_threshold"):
         IDIMEstimator(model, stick_threshold=1.5).fit(rec)
+
+
+def test_input_error_base_fit_drops_stuck_equations_too(case):
+    # input-error over the base parameters of a URDF arm keeps every filtered sample unless told
+    # otherwise; near rest it now drops them as IDIM does (before: mcz1, Fv1, Fc1 off by ~5 %).
+    from physid.estimators.input_error import InputErrorEstimator
+
+    model, rec = case
+    bp = model.base_parameters()
+    truth = np.asarray(bp.base_matrix, dtype=float) @ np.asarray(model.beta(), dtype=float)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = InputErrorEstimator(model).fit(rec).result_
+    est = np.array([res.parameters[n] for n in bp.independent])
+    assert np.max(np.abs(est - truth) / np.abs(truth)) < 1e-3
+    notes = [w for w in res.warnings if "joint equations dropped near rest" in w]
+    assert len(notes) == 1
+    dropped, total = (int(x) for x in notes[0].split(" joint")[0].split(" of "))
+    assert 0 < dropped < 0.5 * total  # the main lobe, not the whole filter length

@@ -48,6 +48,7 @@ from scipy import linalg, signal
 
 from .._validate import check_int, check_positive, per_joint, sample_period
 from ..errors import IdentifiabilityError, InputError, SamplingError, ShapeError, arg
+from ._stiction import coulomb_joints, stuck_samples
 from .base import EstimatorMixin
 from .results import ResultMixin
 
@@ -550,8 +551,7 @@ def idim_rows(
             f"{arg('stick_threshold')} must be a fraction of the rms speed in [0, 1); got "
             f"{stick_threshold!r}."
         )
-    names = set(getattr(model, "parameter_names", ()))
-    coulomb = np.array([f"Fc{j + 1}" in names for j in range(nj)])
+    coulomb = coulomb_joints(model)
     drop = stick_threshold > 0 and bool(coulomb.any())
 
     Ws, taus, ts, segs, samples, stucks = [], [], [], [], [], []
@@ -559,7 +559,7 @@ def idim_rows(
     for k, (t, q, tau) in enumerate(arrays):
         idx, qf, qdf, qddf, m_used = _states(q, dts[k], differentiation, cutoff, half_width)
         if drop:
-            stucks_full = _stuck_samples(qdf, coulomb, stick_threshold, _decimation_edge(nd))
+            stucks_full = stuck_samples(qdf, coulomb, stick_threshold, _decimation_edge(nd))
         W = _base_regressor(model, info, qf, qdf, qddf)
         stacked = np.concatenate([W.reshape(W.shape[0], -1), tau[idx]], axis=1)
         if stacked.shape[0] <= 2 * _decimation_edge(nd) + 1:
@@ -594,26 +594,6 @@ def idim_rows(
         dt=float(dts[0]),
         stuck=np.concatenate(stucks) if drop else None,
     )
-
-
-def _stuck_samples(qd, coulomb, threshold: float, reach: int) -> np.ndarray:
-    """Samples × joints where a Coulomb joint is at or near rest, widened by ``reach`` samples.
-
-    ``qd`` (n, n_joints) are the filtered speeds; a sample is near rest when |q̇_j| is below
-    ``threshold`` · rms(q̇_j). The mask is dilated by ``reach`` (the parallel filter's half
-    length) on both sides, since a decimated row mixes that many neighbours. Vectorised: a
-    moving maximum by cumulative sums.
-    """
-    qd = np.asarray(qd, dtype=float)
-    rms = np.sqrt(np.mean(qd**2, axis=0))
-    near = (np.abs(qd) < threshold * np.where(rms > 0, rms, 1.0)) & coulomb[None, :]
-    if reach <= 0:
-        return near
-    c = np.concatenate([np.zeros((1, near.shape[1])), np.cumsum(near, axis=0)])
-    n = near.shape[0]
-    lo = np.clip(np.arange(n) - reach, 0, n)
-    hi = np.clip(np.arange(n) + reach + 1, 0, n)
-    return (c[hi] - c[lo]) > 0
 
 
 # ---------------------------------------------------------------------- linear algebra

@@ -37,6 +37,7 @@ from ...models.identifiability import (
     raise_if_not_excited,
     svd_tall,
 )
+from .._stiction import STICK_THRESHOLD, coulomb_joints, stuck_samples
 from .core import _gram_least_squares, quality_factor
 from .prepare import _Filtered, _Problem, check_band, filter_recording
 from .solve import _Solution, resolve_noise
@@ -94,16 +95,41 @@ def base_regressor(model, columns, qf, qdf, qddf) -> np.ndarray:
     return out
 
 
-def _normal_equations(model, columns, qf, qdf, qddf, tau_f):
-    """``(W_bᵀW_b, W_bᵀτ^f)`` block by block, never holding W_b of the whole record."""
+def _normal_equations(model, columns, qf, qdf, qddf, tau_f, keep=None):
+    """``(W_bᵀW_b, W_bᵀτ^f)`` block by block, never holding W_b of the whole record.
+
+    ``keep`` (n, n_joints) of 0/1, optional: the equations kept (`_keep_mask`).
+    """
     p = len(columns)
     gram, rhs = np.zeros((p, p)), np.zeros(p)
     for s in range(0, qf.shape[0], BLOCK):
         sl = slice(s, s + BLOCK)
-        w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl]).reshape(-1, p)
+        w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl])
+        t = tau_f[sl]
+        if keep is not None:
+            w = w * keep[sl][:, :, None]
+            t = t * keep[sl]
+        w = w.reshape(-1, p)
         gram += w.T @ w
-        rhs += w.T @ tau_f[sl].ravel()
+        rhs += w.T @ t.ravel()
     return gram, rhs
+
+
+def _keep_mask(model, f: _Filtered):
+    """0/1 per sample and joint: a Coulomb joint's equations near rest are dropped.
+
+    Stiction (see `physid.estimators._stiction`): |q̇^f_j| below ``STICK_THRESHOLD`` × its rms,
+    widened by one period at the filter's cut-off (its main lobe; at most M). None when the model
+    has no Coulomb term.
+    """
+    coulomb = coulomb_joints(model)
+    if not coulomb.any():
+        return None
+    # the filter's main lobe (one period at the cut-off), not its whole length M: the taps
+    # beyond it are small, and dropping M on each side of every stop would leave few equations
+    reach = min(int(f.half_width), int(np.ceil(2.0 * np.pi / float(f.cutoff))))
+    stuck = stuck_samples(f.qdf, coulomb, STICK_THRESHOLD, reach)
+    return (~stuck).astype(float)
 
 
 class _LinearSolve:
@@ -178,6 +204,18 @@ def solve_base(est, problem: _Problem) -> _Solution:
     names = problem.names
     p = len(names)
     w = base_regressor(model, columns, f.qf, f.qdf, f.qddf)
+    keep = _keep_mask(model, f)
+    tau_f = f.tau_f
+    if keep is not None:
+        w = w * keep[:, :, None]
+        tau_f = tau_f * keep
+        dropped = int(keep.size - keep.sum())
+        if dropped:
+            problem.notes.append(
+                f"{dropped} of {keep.size} joint equations dropped near rest (Coulomb joints at "
+                f"|q̇| < {STICK_THRESHOLD:g}·rms, widened by the filter's main lobe: stiction "
+                "makes the friction torque unknown there)"
+            )
     w2 = w.reshape(-1, p)
     norms = np.linalg.norm(w2, axis=0)
     problem.before = numeric_identifiability(
@@ -188,13 +226,13 @@ def solve_base(est, problem: _Problem) -> _Solution:
     shift = None
     noise = resolve_noise(est, problem)
     if noise == "compensate":
-        beta, covariance, shift = _compensated(est, problem, w2)
+        beta, covariance, shift = _compensated(est, problem, w2, tau_f, keep)
         how = f"noise-compensated normal equations ({est.noise_replicates} replicates)"
     else:  # min |W_b β - τ^f|²: QR of the column-scaled W_b, exact in one step
         d = 1.0 / np.where(norms > 0, norms, 1.0)
-        beta = d * np.linalg.lstsq(w2 * d, f.tau_f.ravel(), rcond=None)[0]
+        beta = d * np.linalg.lstsq(w2 * d, tau_f.ravel(), rcond=None)[0]
         how = "linear least squares"
-    residuals = (w @ beta) - f.tau_f
+    residuals = (w @ beta) - tau_f
     message = (
         f"{how} over the {p} base parameters: the residual is linear in them, so one "
         "Gauss–Newton step is the minimum."
@@ -217,7 +255,7 @@ def solve_base(est, problem: _Problem) -> _Solution:
     )
 
 
-def _compensated(est, problem: _Problem, w2: np.ndarray):
+def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, keep=None):
     """β̂ from ``A_c = 2A(x) - mean A(x + ε_k)``, and its covariance from the replicates.
 
     The same simulation-extrapolation as `.solve.solve_compensated`, with ∂β/∂θ = identity.
@@ -225,7 +263,7 @@ def _compensated(est, problem: _Problem, w2: np.ndarray):
     model, f = problem.model, problem.filtered
     columns = problem.base.independent_index  # type: ignore[attr-defined]
     p = len(problem.names)
-    gram, rhs = w2.T @ w2, w2.T @ f.tau_f.ravel()
+    gram, rhs = w2.T @ w2, w2.T @ tau_f.ravel()
     sigma_q = noise_floor(f.q)
     sigma_tau = white_floor(f.tau) if f.tau is not None else None
     rng = np.random.default_rng(est.random_state)
@@ -233,7 +271,7 @@ def _compensated(est, problem: _Problem, w2: np.ndarray):
     for _ in range(int(est.noise_replicates)):
         q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
         tau_k = None if sigma_tau is None else f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k))
+        g_k, r_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k), keep=keep)
         grams.append(g_k)
         rhss.append(r_k)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)
