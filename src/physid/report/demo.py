@@ -440,7 +440,8 @@ def _headline_section(sections: Sequence[ReportSection]) -> ReportSection:
             "the algebraic estimator's pooled windows; RLS reaches 2 % only "
             f"{h['rls_over_algebraic_25dB']:.2g}× later at {h['snr_db']:g} dB, not the paper's "
             f"{h['paper_ratio']:g}×; {h['claims_hold']} of the "
-            f"{h['claims']} claims checked hold as stated. " + link(c, "Part II") + "</li>"
+            f"{h['claims']} claims checked {'holds' if h['claims_hold'] == 1 else 'hold'} as "
+            "stated. " + link(c, "Part II") + "</li>"
         )
     a = next((t for t in res if t.startswith("6-DOF arm: what")), None)
     if a is not None:
