@@ -140,3 +140,27 @@ def test_folder_outputs_that_are_files_are_refused_first(tmp_path, capsys, argv)
     err = capsys.readouterr().err
     assert "is an existing file, not a folder" in err and "Traceback" not in err
     assert existing.read_text() == "mine\n"
+
+
+def test_rls_bias_compensation_flag_and_its_mention_in_cli_words(tmp_path, capsys):
+    # issue 15: the withholding reason named a Python keyword that had no flag.
+    import json
+
+    from physid.cli import main
+
+    rec = tmp_path / "m30.csv"
+    assert main(["simulate", "msd", "--out", str(rec), "--snr", "30", "--seed", "1"]) == 0
+    capsys.readouterr()
+    base = ["estimate", str(rec), "--model", "msd", "--method", "rls", "--json"]
+    assert main(base) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert plain["stderr"] is None
+    assert "--bias-compensation" in plain["stderr_reason"]
+    assert "bias_compensation=" not in plain["stderr_reason"]
+    assert main([*base, "--bias-compensation"]) == 0
+    comp = json.loads(capsys.readouterr().out)
+    assert set(comp["stderr"]) == {"theta1", "theta2"}
+    assert all(v > 0 for v in comp["stderr"].values())
+    assert comp["parameters"]["theta2"] != plain["parameters"]["theta2"]
+    argv = ["estimate", str(rec), "--model", "msd", "--method", "algebraic", "--bias-compensation"]
+    assert main(argv) == 2

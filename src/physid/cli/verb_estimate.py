@@ -17,7 +17,7 @@ from ._common import add_recording_options, assignments, print_json, progress, r
 ORDER = 40
 
 _ALGEBRAIC_ONLY = ("window", "mu", "integration", "block", "expanding", "final")
-_RLS_ONLY = ("forgetting", "prefilter_cutoff", "init_samples")
+_RLS_ONLY = ("forgetting", "prefilter_cutoff", "init_samples", "bias_compensation")
 
 
 def register(subparsers) -> None:
@@ -112,6 +112,14 @@ def register(subparsers) -> None:
         help="rows of the least-squares start (eq. 4), at least the number of unknowns "
         "(default 10 per unknown)",
     )
+    rls.add_argument(
+        "--bias-compensation",
+        action="store_const",
+        const=True,
+        default=None,
+        help="report the bias-compensated final estimate (errors in the variables removed) with "
+        "its standard errors; without it, intervals the noise bias would spoil are withheld",
+    )
     parser.add_argument(
         "--unknown",
         default=None,
@@ -183,6 +191,10 @@ def run(args) -> int:
 
         save_result(result, args.save, model=args.model, recording=args.file, model_options={})
         progress(f"estimate: result written to {args.save}")
+    # the result's texts name Python settings; the command line has a flag for this one
+    reason = result.stderr_reason
+    if reason:
+        reason = reason.replace("bias_compensation=True", "--bias-compensation")
     if args.json:
         print_json(
             {
@@ -191,7 +203,7 @@ def run(args) -> int:
                 "parameters": result.parameters,
                 "derived": result.derived,
                 "stderr": result.stderr,
-                "stderr_reason": result.stderr_reason,
+                "stderr_reason": reason,
                 "units": result.units,
                 "success": result.success,
                 "message": result.message,
@@ -200,7 +212,7 @@ def run(args) -> int:
             }
         )
     else:
-        print(result.summary())
+        print(result.summary().replace("bias_compensation=True", "--bias-compensation"))
     if not result.success:
         print(f"physid: estimate failed: {result.message}", file=sys.stderr)
     return 0 if result.success else 1
