@@ -385,6 +385,7 @@ _CLI_WORDS = (
     (re.compile(r"decimal=','"), "--decimal ,"),
     (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
     (re.compile(r"delimiter=';'"), "--delimiter ';'"),
+    (re.compile(r"bias_compensation=True"), "--bias-compensation"),  # RLS's withholding reason
 )
 
 

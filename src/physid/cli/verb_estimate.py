@@ -12,7 +12,14 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from ._common import add_recording_options, assignments, print_json, progress, read_recording
+from ._common import (
+    add_recording_options,
+    assignments,
+    cli_words,
+    print_json,
+    progress,
+    read_recording,
+)
 
 ORDER = 40
 
@@ -191,10 +198,8 @@ def run(args) -> int:
 
         save_result(result, args.save, model=args.model, recording=args.file, model_options={})
         progress(f"estimate: result written to {args.save}")
-    # the result's texts name Python settings; the command line has a flag for this one
-    reason = result.stderr_reason
-    if reason:
-        reason = reason.replace("bias_compensation=True", "--bias-compensation")
+    # the result's texts name Python settings; the command line shows its flags
+    reason = cli_words(result.stderr_reason) if result.stderr_reason else result.stderr_reason
     if args.json:
         print_json(
             {
@@ -212,7 +217,7 @@ def run(args) -> int:
             }
         )
     else:
-        print(result.summary().replace("bias_compensation=True", "--bias-compensation"))
+        print(cli_words(result.summary()))
     if not result.success:
         print(f"physid: estimate failed: {result.message}", file=sys.stderr)
     return 0 if result.success else 1
