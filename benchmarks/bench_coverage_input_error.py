@@ -241,7 +241,7 @@ def _urdf_rows(trials: int, log=None) -> list[dict]:
     model, rec = planar2_record()
     bp = model.base_parameters()
     truth = bp.base_matrix @ model.beta()
-    names = list(bp.independent)
+    names = list(bp.base_names)  # as input-error names its base results (mcx1R)
     q = rec.channels("q")
     settings = {
         "the default (cutoff='auto', noise='auto')": {},

@@ -144,6 +144,21 @@ def test_cost_is_the_papers_J_of_the_residuals(paper_fit):
     assert r.cost == pytest.approx(float(np.sum(np.mean(r.residuals**2, axis=0))), rel=1e-12)
 
 
+def test_predict_gives_the_fitted_torque_on_the_fit_record(paper_model, paper_rec, paper_fit):
+    # τ̂ of result.predict on the fit's own record minus the PD-rebuilt τ^f is the residual
+    r = paper_fit
+    pred = r.predict(paper_rec)
+    assert np.array_equal(pred.t, r.t) and pred.names == ("tau1", "tau2", "tau3", "tau4")
+    est = InputErrorEstimator(
+        paper_model, half_width=100, cutoff=0.2, torque="pd", derivatives="paper"
+    )
+    tau_f = est.filtered_signals(paper_rec)[4]
+    gap = np.abs(pred.select(list(pred.names)) - tau_f - r.residuals).max()
+    assert gap < 1e-9 * np.abs(tau_f).max()
+    with pytest.raises(InputError, match="sampled every"):
+        r.predict(paper_rec.resample(2 * paper_rec.dt))
+
+
 def test_uncertainty_shapes_and_invariants(paper_fit):
     r = paper_fit
     assert r.free == ("m1", "m2", "m3", "m4", "l2", "l3", "l4")

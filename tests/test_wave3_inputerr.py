@@ -62,7 +62,7 @@ def _planar2_record(duration=8.0, dt=1e-3):
 
 def _true_base(model):
     bp = model.base_parameters()
-    return dict(zip(bp.independent, bp.base_matrix @ model.beta(), strict=True))
+    return dict(zip(bp.base_names, bp.base_matrix @ model.beta(), strict=True))
 
 
 def test_one_torque_of_the_record_matches_pinocchio():
@@ -97,7 +97,9 @@ def test_base_parameters_recovered_noise_free_and_agree_with_idim_ols():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         o = ols.fit(rec).result_
-    idim = dict(zip(o.columns, o.beta_vector(), strict=True))  # IDIM keys base names (mcx1R)
+    assert o.names == r.names and r.columns == o.columns  # one naming: mcx1R, kept column mcx1
+    assert r.units == o.units
+    idim = dict(zip(o.names, o.beta_vector(), strict=True))
     agree = max(abs(r.parameters[n] - idim[n]) / abs(v) for n, v in truth.items())
     assert agree < 1e-5  # measured 1.1e-6 (IDIM filters τ with its own low-pass)
 
@@ -136,11 +138,40 @@ def test_a_saved_base_result_validates_with_the_fitted_torque(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         r = InputErrorEstimator(model, half_width=100, cutoff=0.2).fit(rec).result_
-    assert set(r.fixed) == set(model.parameter_names) - set(r.names)
-    assert all(v == 0.0 for v in r.fixed.values())
+    assert r.fixed == {}  # nothing is held: the base parameters are what the data determine
     path = save_result(r, tmp_path / "fit.json", model=str(PLANAR2))
     report = validate(path, rec)  # the fit's own record: the torque balances to the filter error
     assert report.relative_error["overall"] < 1e-3  # 0.43 before the base columns were held
+    # the in-memory result predicts the same torques as the saved one
+    pred = r.predict(rec, measured=True)
+    tau_hat, tau_f = pred.select(["tau1", "tau2"]), pred.select(["tau1_measured", "tau2_measured"])
+    rel = np.linalg.norm(tau_hat - tau_f) / np.linalg.norm(tau_f)
+    assert rel == pytest.approx(report.relative_error["overall"], rel=1e-9)
+
+
+def test_base_names_are_refused_as_model_parameters_and_model_parameters_predict():
+    """Review R6 for input-error: base values keyed like standard parameters (mcx1) were
+    silently taken as standard ones by ``params=`` (the other columns at nominal values): a
+    wrong torque without a word. Now they are named as IDIM names them (mcx1R) and refused."""
+    model, rec, (q, qd, qdd, _tau) = _planar2_record(duration=4.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = InputErrorEstimator(model, half_width=100, cutoff=0.2).fit(rec).result_
+    regrouped = [n for n in r.names if n.endswith("R")]
+    assert regrouped and all(n[:-1] in model.parameter_names for n in regrouped)
+    with pytest.raises(InputError, match="base parameters"):
+        model.inverse_dynamics(q, qd, qdd, r.parameters)
+    theta = r.model_parameters()
+    assert set(theta) == set(model.parameter_names)
+    assert sum(v != 0.0 for v in theta.values()) <= len(r.names)
+    # θ (β on the kept columns, 0 elsewhere) gives the true torque: τ = Y θ = W_b β
+    tau_theta = model.inverse_dynamics(q, qd, qdd, theta)
+    tau_true = model.inverse_dynamics(q, qd, qdd)
+    assert np.abs(tau_theta - tau_true).max() < 1e-3 * np.abs(tau_true).max()
+    # while the old keying (kept column -> base value, the rest nominal) is visibly wrong
+    old = {c: r.parameters[n] for n, c in zip(r.names, r.columns, strict=True)}
+    tau_old = model.inverse_dynamics(q, qd, qdd, old)
+    assert np.abs(tau_old - tau_true).max() > 0.05 * np.abs(tau_true).max()
 
 
 def test_default_on_the_papers_noisy_arm_is_the_compensated_fit_bit_for_bit():
@@ -178,3 +209,29 @@ def test_base_parameters_refused_where_they_do_not_apply():
     assert InputErrorEstimator(arm).parameter_set() == "model"
     with pytest.raises(InputError, match="linear in its parameters"):
         InputErrorEstimator(arm, parameters="base").parameter_set()
+
+
+def test_cli_identify_json_names_base_parameters_and_validate_uses_them(tmp_path, capsys):
+    """``physid identify --method input-error --json`` on a URDF arm: base names, units, kept
+    columns; the saved result validates at the filter's accuracy on its own record."""
+    import json
+
+    from physid.cli import main
+    from physid.signals import save_recording
+
+    model, rec, _ = _planar2_record(duration=4.0)
+    csv = tmp_path / "rec.csv"
+    save_recording(rec, csv)
+    fit = tmp_path / "fit.json"
+    argv = ["identify", str(csv), "--model", str(PLANAR2), "--method", "input-error"]
+    code = main(argv + ["--half-width", "100", "--cutoff", "0.2", "--save", str(fit), "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["parameter_set"] == "base"
+    truth = _true_base(model)
+    assert set(out["parameters"]) == set(truth) and set(out["units"]) == set(truth)
+    assert out["units"]["mcx1R"] == "kg*m" and out["columns"][0] == "mcx1"
+    rel = max(abs(out["parameters"][n] / v - 1) for n, v in truth.items())
+    assert rel < 5e-5  # measured 1.2e-5, as in the Python fit above
+    assert main(["validate", str(fit), str(csv), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["relative_error"]["overall"] < 1e-3

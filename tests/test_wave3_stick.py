@@ -84,7 +84,7 @@ def test_input_error_base_fit_drops_stuck_equations_too(case):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = InputErrorEstimator(model).fit(rec).result_
-    est = np.array([res.parameters[n] for n in bp.independent])
+    est = np.array([res.parameters[n] for n in bp.base_names])
     assert np.max(np.abs(est - truth) / np.abs(truth)) < 1e-3
     notes = [w for w in res.warnings if "joint equations dropped near rest" in w]
     assert len(notes) == 1

@@ -482,10 +482,45 @@ def _chain_inverse(loaded, recording):
         settings.update({k: gains[k] for k in ("kp", "kd") if gains.get(k) is not None})
     est = InputErrorEstimator(loaded.model, **settings)
     t, qf, qdf, qddf, tau_f = est.filtered_signals(recording)[:5]
-    params = {**dict(d.get("fixed") or {}), **loaded.parameters}
-    params = {k: v for k, v in params.items() if k in loaded.model.parameter_names}
+    params = _input_error_parameters(loaded)
     tau_hat = np.asarray(loaded.model.inverse_dynamics(qf, qdf, qddf, params), dtype=float)
     return t, tau_f, tau_hat
+
+
+def _input_error_parameters(loaded) -> dict[str, float]:
+    """The model's own parameters of an input-error result file (every one of them).
+
+    Over the model's parameters: the estimates and the held ones. Over base parameters
+    (``parameter_set="base"``, named ``mcx1R``…): each base value on its kept column
+    (``columns``) and 0 on the others, ``τ = Y θ = W_b β`` (as
+    `InputErrorResult.model_parameters`). Files written before base names (wave 3) keyed the
+    kept columns themselves and held the others at 0 in ``fixed``; they read as before.
+    """
+    d = loaded.data
+    names = tuple(loaded.model.parameter_names)
+    if d.get("parameter_set") == "base" and d.get("columns"):
+        free = list(d.get("free") or d.get("names") or loaded.parameters)
+        columns = list(d["columns"])
+        missing = [n for n in free if n not in loaded.parameters]
+        if missing or len(columns) != len(free) or not set(columns) <= set(names):
+            raise InputError(
+                "the result file's base parameters do not match the model "
+                f"{getattr(loaded.model, 'name', '')!r} (values missing for {missing[:4]}, or "
+                "kept columns the model does not have); validate with the model the result "
+                f"was fitted with ({arg('model', '...', cli='MODEL')})."
+            )
+        theta = dict.fromkeys(names, 0.0)
+        theta.update({c: float(loaded.parameters[n]) for n, c in zip(free, columns, strict=True)})
+        return theta
+    params = {**dict(d.get("fixed") or {}), **loaded.parameters}
+    unknown = [k for k in params if k not in names]
+    if d.get("parameter_set") == "base" and unknown:  # never drop a fitted value silently
+        raise InputError(
+            f"the result file's base parameters {unknown[:4]} are not parameters of the model "
+            f"{getattr(loaded.model, 'name', '')!r} and the file has no 'columns' to place them; "
+            "refit with this physid to write them."
+        )
+    return {k: v for k, v in params.items() if k in names}
 
 
 def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> ValidationReport:
@@ -583,7 +618,6 @@ def _chain_output_error(loaded, recording, series):
         )
     from ..simulate.closed_loop import simulate_closed_loop
 
-    d = loaded.data
     if _is_idim(loaded):
         # Base parameters do not determine a simulable model; the consistent estimate's standard
         # parameters (in ``derived``) do.
@@ -598,7 +632,7 @@ def _chain_output_error(loaded, recording, series):
             )
         params = standard
     else:
-        params = {**dict(d.get("fixed") or {}), **loaded.parameters}
+        params = _input_error_parameters(loaded)
     params = {k: v for k, v in params.items() if k in model.parameter_names}
     t = np.asarray(recording.t, dtype=float)
     reference = np.column_stack([recording[n] for n in r_names])

@@ -348,6 +348,11 @@ def _run_input_error(args, model, recordings) -> int:
             {
                 "parameters": result.parameters,
                 "stderr": result.stderr,
+                "units": result.units,
+                "parameter_set": result.parameter_set,
+                # base parameters (mcx1R): the kept column of each and what it combines
+                "columns": list(result.columns),
+                "base_expressions": result.base_expressions,
                 "cost": result.cost,
                 "nfev": result.nfev,
                 "njev": result.njev,

@@ -10,6 +10,7 @@ from dataclasses import replace
 
 from ...errors import InputError, arg
 from ..base import EstimatorMixin
+from ..idim import _unit_of as unit_of
 from .conclude import conclude
 from .linear import linear_in_parameters, prepare_base, refuse_nonlinear_settings, solve_base
 from .prepare import check_settings, filter_recording, prepare
@@ -259,14 +260,19 @@ class InputErrorEstimator(EstimatorMixin):
         result = conclude(self, problem, solution)
         if base:
             bp = problem.base
+            columns = tuple(bp.independent)
             result = replace(
                 result,
                 parameter_set="base",
-                base_expressions=dict(zip(bp.independent, bp.expressions, strict=True)),
-                # τ = W_b β = Y θ with θ = β on the base columns and 0 on the others: so held,
-                # the model's inverse dynamics of these parameters is the fitted torque
-                fixed={n: 0.0 for n in self.model.parameter_names if n not in bp.independent},
+                base_expressions=dict(zip(problem.names, bp.expressions, strict=True)),
+                columns=columns,
+                fixed={},
+                # a base parameter has the unit of its kept column (as in IDIM's results)
+                units={
+                    n: unit_of(c, self.model) for n, c in zip(problem.names, columns, strict=True)
+                },
             )
+        result = replace(result, model=self.model)
         self.result_ = result
         self.structural_ = problem.structural
         self.numeric_before_ = problem.before

@@ -38,6 +38,7 @@ from ...models.identifiability import (
     svd_tall,
 )
 from .._stiction import STICK_THRESHOLD, coulomb_joints, stuck_samples
+from ..idim import base_regressor_info
 from .core import _gram_least_squares, quality_factor
 from .prepare import _Filtered, _Problem, check_band, filter_recording
 from .solve import _Solution, resolve_noise
@@ -163,7 +164,10 @@ def prepare_base(est, recording) -> _Problem:
         notes.append(f.choice.reason)
     band, advice = check_band(est, f, notes, stacklevel=4)
     bp = model.base_parameters()
-    names = tuple(bp.independent)
+    # named as IDIM names them (`BaseInfo.names`: "mcx1R" where other columns are regrouped into
+    # the kept column mcx1), so that a base value is never taken for the standard parameter of
+    # the same name (a model's params= refuses these names)
+    names = tuple(base_regressor_info(model).names)
     truth = np.asarray(bp.base_matrix, dtype=float) @ np.asarray(model.beta(), dtype=float)
     structural = StructuralIdentifiability(
         parameter_names=names,

@@ -516,3 +516,103 @@ def prepare(est, recording, initial) -> _Problem:
     )
     raise_if_not_excited(problem.before, "at the initial values")
     return problem
+
+
+def predict_torque(
+    model,
+    params,
+    recording,
+    *,
+    half_width: int,
+    cutoff: float,
+    derivatives: str = "paper",
+    dt: float | None = None,
+    measured: bool = False,
+):
+    """τ̂ = τ(q^f, q̇^f, q̈^f; θ) on a recording, with the input-error fit's own filters.
+
+    Parameters
+    ----------
+    model : ChainModel
+    params : mapping name -> float
+        The model's own parameters (`InputErrorResult.model_parameters`).
+    recording : Recording
+        ``t`` [s], ``q1..qn`` [rad | m] (``tau1..taun`` [N·m | N] with ``measured=True``).
+    half_width : int
+        M of the fit [samples].
+    cutoff : float [rad/sample]
+        Ω_g of the fit.
+    derivatives : {"paper", "consistent"}
+        The derivative filters' design (`physid.filters.filter_derivatives`).
+    dt : float, optional [s]
+        The fit's sample period: a recording sampled otherwise is refused (the filters are
+        defined per sample, so on another period they would be other filters in Hz).
+    measured : bool
+        Also return the recording's torques through the same low-pass (``tau1_measured..``).
+
+    Returns
+    -------
+    Recording
+        The filter's valid samples; ``tau1..taun`` predicted (then the measured ones).
+        Peak memory: a few float64 copies of q (n_samples × n_joints).
+
+    Raises
+    ------
+    InputError
+        Another sample period than ``dt``; a missing torque channel with ``measured=True``.
+    DataFileError, ShapeError
+        Missing or extra joint-angle channels.
+    """
+    from ...signals.recording import Recording
+
+    if not isinstance(recording, Recording):
+        raise InputError(f"recording must be one physid Recording; got {type(recording).__name__}.")
+    nj = int(model.n_joints)
+    q_names = [f"q{j + 1}" for j in range(nj)]
+    missing = [n for n in q_names if n not in recording.names]
+    if missing:
+        raise DataFileError(
+            f"the recording lacks the joint-angle channel(s) {missing} (it has "
+            f"{list(recording.names)}); the model has {nj} joints and needs q1..q{nj}."
+        )
+    if dt is not None and not np.isclose(recording.dt, float(dt), rtol=1e-6, atol=0):
+        raise InputError(
+            f"the recording is sampled every {recording.dt:g} s but the fit used {float(dt):g} "
+            "s; resample it to the fit's period (Recording.resample), or refit."
+        )
+    tau_names = [f"tau{j + 1}" for j in range(nj)]
+    if measured and not all(n in recording.names for n in tau_names):
+        raise InputError(
+            f"measured=True needs the torque channels {tau_names}; the recording has "
+            f"{list(recording.names)}."
+        )
+    m = check_int(half_width, "half_width", minimum=1)
+    check_length(
+        recording.n_samples,
+        2 * m + 1,
+        f"the fit's filters (half_width={m}, {2 * m + 1} taps)",
+        "Use a longer record.",
+    )
+    filt = filter_derivatives(recording.select(q_names), recording.t, m, cutoff, design=derivatives)
+    tau_hat = np.asarray(
+        model.inverse_dynamics(filt.value, filt.first, filt.second, params), dtype=float
+    )
+    types = tuple(getattr(model, "joint_types", ()) or ("revolute",) * nj)
+    units = ["N" if k == "prismatic" else "N*m" for k in types]
+    data, names = tau_hat, list(tau_names)
+    if measured:
+        data = np.concatenate([tau_hat, filt.lowpass.apply(recording.select(tau_names))], axis=1)
+        names += [f"{n}_measured" for n in tau_names]
+        units = units + units
+    return Recording(
+        filt.t,
+        data,
+        names,
+        units=units,
+        metadata={
+            "prediction": "inverse model on the signals filtered as in the input-error fit",
+            "half_width": m,
+            "cutoff": float(filt.lowpass.cutoff),
+            "derivatives": derivatives,
+        },
+    )

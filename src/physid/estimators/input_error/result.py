@@ -7,9 +7,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from ...errors import InputError
 from ..results import ResultMixin
 
 
@@ -50,10 +52,8 @@ class InputErrorResult(ResultMixin):
         Value of each unidentifiable combination at the estimate (this is what is identified).
     combination_stderr : dict expression -> float
     fixed : dict name -> float
-        Parameters held fixed (by the user or by default). With ``parameter_set="base"``: the
-        standard parameters outside the base set, at 0 (``τ = W_b β = Y θ`` for θ equal to β on
-        the base columns and 0 elsewhere, so ``parameters`` and ``fixed`` together give the
-        fitted torque through the model's inverse dynamics).
+        Parameters held fixed (by the user or by default); empty with ``parameter_set="base"``
+        (nothing is held: the base parameters are the model's identifiable combinations).
     initial : dict name -> float
         Starting values (after ``start="linear"``, the values the main fit started from).
     half_width : int
@@ -106,11 +106,19 @@ class InputErrorResult(ResultMixin):
         Units of the parameters.
     parameter_set : str
         ``"model"``: the model's own parameters were fitted; ``"base"``: the base parameters of
-        a model linear in its parameters (``parameters="base"``), named by their leading
-        standard parameter (as in IDIM's results).
+        a model linear in its parameters (``parameters="base"``), named as IDIM's results name
+        them (`physid.estimators.idim.BaseInfo.names`): the kept regressor column, with an
+        ``R`` when other columns are regrouped into it (``"ZZ1R"``). A model's ``params=``
+        refuses such names, since they are not standard parameters: use `model_parameters`
+        or `predict`.
     base_expressions : dict name -> str
         With ``parameter_set="base"``: each base parameter as a combination of the standard
         ones (``"ZZ1 + ..."``); else empty.
+    columns : tuple of str
+        With ``parameter_set="base"``: the regressor column kept for each base parameter
+        (``"ZZ1"`` for ``"ZZ1R"``), in the order of `free`; else empty.
+    model : ChainModel or None
+        The model fitted (used by `predict`; not written by ``to_dict``).
     """
 
     parameters: dict[str, float]
@@ -157,9 +165,18 @@ class InputErrorResult(ResultMixin):
     units: dict[str, str] = field(default_factory=dict)
     parameter_set: str = "model"
     base_expressions: dict[str, str] = field(default_factory=dict)
+    columns: tuple[str, ...] = ()
+    model: Any = field(default=None, repr=False, compare=False)
 
     method = "input-error"
     _history_fields = ("history", "cost_history", "t", "residuals")
+    _private_fields = ("model",)
+
+    def __getstate__(self):
+        # models hold compiled kernels (ctypes), which do not pickle (as IDIMResult)
+        state = dict(self.__dict__)
+        state["model"] = None
+        return state
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -175,6 +192,81 @@ class InputErrorResult(ResultMixin):
     def stderr_reason(self) -> str | None:
         """None: input-error always reports (nominal) standard errors, see ``stderr``."""
         return None
+
+    def model_parameters(self) -> dict[str, float]:
+        """The model's own parameters that give the fitted torques, for ``params=``.
+
+        Returns
+        -------
+        dict name -> float
+            ``parameter_set="model"``: the estimates with the held parameters (``fixed``).
+            ``parameter_set="base"``: each base value on its kept column (`columns`) and 0 on
+            every other column, so that ``τ = Y θ = W_b β`` (every regrouped column's effect is
+            in its base parameter). Not a physical parameter set (masses may be 0): a model to
+            predict torques with, not one to read inertias from.
+        """
+        if self.parameter_set != "base":
+            return {**self.fixed, **self.parameters}
+        if self.model is None:
+            raise InputError(
+                "this base-parameter InputErrorResult holds no model, so the columns outside "
+                "the base set are unknown; set them to 0 and each kept column (result.columns) "
+                "to its base value."
+            )
+        theta = dict.fromkeys(self.model.parameter_names, 0.0)
+        theta.update(
+            {c: float(self.parameters[n]) for n, c in zip(self.free, self.columns, strict=True)}
+        )
+        return theta
+
+    def predict(self, recording, *, measured: bool = False):
+        """Torques the identified model predicts from a recording's motion.
+
+        The recording's q goes through the fit's own filters (`half_width`, `cutoff`,
+        `derivatives`) and the model's inverse dynamics is evaluated on ``q^f, q̇^f, q̈^f``
+        with `model_parameters`: the prediction is ``τ̂`` on the *filtered* valid samples (the
+        quantity the fit balanced against ``τ^f``), not at every input sample.
+
+        Parameters
+        ----------
+        recording : Recording
+            ``t`` [s] and ``q1..qn`` [rad | m], sampled like the fit's recording;
+            ``tau1..taun`` are needed only with ``measured=True``.
+        measured : bool
+            Also return the recording's torques through the same low-pass filter, as channels
+            ``tau1_measured..``.
+
+        Returns
+        -------
+        Recording
+            The filter's valid samples [s]; ``tau1..taun`` predicted [N·m | N] (and the measured
+            ones); ``metadata`` records the filter settings and ``"prediction"``.
+
+        Raises
+        ------
+        InputError
+            The result holds no model (a result built by hand or unpickled), or the recording
+            has another sample period than the fit.
+        """
+        from .prepare import predict_torque  # the filters live with the fit's preparation
+
+        if self.model is None:
+            raise InputError(
+                "this InputErrorResult holds no model; call physid.estimators.input_error."
+                "prepare.predict_torque(model, result.model_parameters(), recording, "
+                "half_width=result.half_width, cutoff=result.cutoff) instead, or validate a "
+                "saved result file (physid.analysis.validation.validate)."
+            )
+        return predict_torque(
+            self.model,
+            self.model_parameters(),
+            recording,
+            half_width=self.half_width,
+            cutoff=self.cutoff,
+            derivatives=self.derivatives,
+            dt=self.dt,
+            measured=measured,
+        )
 
     def summary(self) -> str:
         """Estimates with standard errors, J, evaluations and the identifiability findings."""

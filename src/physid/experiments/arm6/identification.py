@@ -67,12 +67,6 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
     model = setup.model
     truth = truth_base(model, idim)
     names = list(truth)
-    # IDIM keys base parameters by their names (mcx1R); input-error's base fit by the kept
-    # regressor column (mcx1), with the other columns held at 0
-    column_of = dict(zip(names, idim.base_regressor_info(model).independent, strict=True))
-
-    def base_value(values, n, default=None):
-        return values[n] if n in values else values.get(column_of[n], default)
 
     kp, kd = gains(model)
     results["kp"], results["kd"] = kp.tolist(), kd.tolist()
@@ -99,9 +93,9 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
             failures.append({"seed": seed, "error": f"{type(exc).__name__}: {exc}"})
             continue
         for key, r in fits.items():
-            est[key].append(np.array([base_value(r.parameters, n) for n in names]))
+            est[key].append(np.array([r.parameters[n] for n in names]))  # one naming: mcx1R
             stderr = r.stderr or {}
-            se[key].append(np.array([base_value(stderr, n, np.nan) for n in names], dtype=float))
+            se[key].append(np.array([stderr.get(n, np.nan) for n in names], dtype=float))
             if not first.get(key) and key == "input-error":
                 first[key] = r
                 results["input-error_first_seed"] = {
@@ -143,7 +137,7 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
     clean_own = {
         "idim-ols": clean,
         "idim-iv": clean,
-        "input-error": np.array([base_value(clean_ie_fit.parameters, n) for n in names]),
+        "input-error": np.array([clean_ie_fit.parameters[n] for n in names]),
     }
     true = np.array([truth[n] for n in names])
     scale = np.maximum(np.abs(true), 1e-9 * np.abs(true).max())
