@@ -213,6 +213,6 @@ def test_fit_on_a_bound_is_reported_and_fails(tmp_path, capsys):
     assert code == 1 and out["success"] is False
     assert out["at_bound"] == ["m1", "m3"]
     assert out["parameters"]["m1"] == pytest.approx(5e-5, rel=1e-3)  # 1e-6 x the initial 50
-    assert out["stderr"]["m1"] is None and out["stderr"]["m3"] is None  # NaN -> null
+    assert out["stderr"] is None and "balance only to" in out["stderr_reason"]  # withheld
     assert "ended on a bound: m1 = 5e-05" in out["message"]
     assert "warning: the fit ended on a bound" in err

@@ -344,10 +344,14 @@ def _run_input_error(args, model, recordings) -> int:
     if result.filter_choice:
         progress(f"identify: {result.filter_choice}")
     if args.json:
+        schema = result.to_dict()  # the result schema every --json shares (format, names, ...)
         print_json(
             {
+                **{k: schema[k] for k in ("format", "format_version", "method", "names")},
                 "parameters": result.parameters,
+                "derived": result.derived,
                 "stderr": result.stderr,
+                "stderr_reason": result.stderr_reason,
                 "units": result.units,
                 "parameter_set": result.parameter_set,
                 # base parameters (mcx1R): the kept column of each and what it combines

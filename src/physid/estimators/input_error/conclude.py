@@ -24,7 +24,12 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
     cost = quality_factor(e_hat)
     tau_rms = np.sqrt(np.mean(tau_f**2, axis=0))
     relative_residual = np.sqrt(np.mean(e_hat**2, axis=0)) / np.where(tau_rms > 0, tau_rms, 1.0)
-    if est.check_filter and relative_residual.max() > RESIDUAL_WARN:
+    # intervals are withheld when the equations do not balance and no measurement noise is
+    # seen to explain it (a filter cut-off below the motion, or a model or data error): the
+    # standard errors describe the scatter about a biased estimate (review of issue 15: m1
+    # 37 standard errors off on an encoder-quantised drive log)
+    withhold = None
+    if relative_residual.max() > RESIDUAL_WARN:
         worst = int(np.argmax(relative_residual))
         f = problem.filtered
         advice = problem.advice or choose_filter(f.q, f.dt, half_width=f.half_width)
@@ -37,6 +42,9 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         edge = problem.band.passband_edge
         noisy = advice.noisy
         if advice.signal_band > edge:  # too low: bias from the filter
+            # on noisy q the residual may be the noise's (which the intervals carry): withhold
+            # only where no noise is seen
+            withhold = None if noisy else "the cut-off is below the motion"
             cause = (
                 f" The cut-off Ω_g={f.cutoff:.4g} is too low for the motion (it reaches "
                 f"{advice.signal_band:.3g} rad/sample, the filter is flat to {edge:.3g}): "
@@ -58,13 +66,24 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 "lower Ω_g; or use an instrumental-variable method)."
             )
         else:
+            withhold = "no measurement noise explains the residual"
             cause = (
                 " The filter holds the motion and no noise floor is visible: check the "
-                "model (a missing friction term, wrong gains) and the data."
+                "model (a missing friction term, wrong gains) and the data (a quantised "
+                "encoder: its steps are noise that the cut-off must stop; try a lower cut-off)."
             )
         text = head + cause + " See docs/input-error.md."
-        warnings.warn(text, FilterWarning, stacklevel=3)
-        notes.append(text)
+        if est.check_filter:
+            warnings.warn(text, FilterWarning, stacklevel=3)
+            notes.append(text)
+        if withhold is not None:
+            withhold = (
+                f"the filtered equations of motion balance only to "
+                f"{relative_residual[worst]:.2g} of the torque on joint {worst + 1} and "
+                f"{withhold}: the estimates are biased by about that much, and standard errors "
+                "(which describe only the scatter) would give intervals that miss the truth."
+                + cause
+            )
 
     # -- uncertainty (see `sandwich_covariance` and `iid_covariance`)
     cov_iid = iid_covariance(solution.jacobian, e_hat)
@@ -85,12 +104,14 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
     sd = np.sqrt(np.diag(cov))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    stderr = standard_errors(cov)
+    stderr = standard_errors(cov) if withhold is None else None
 
     theta_hat = solution.theta_hat
     structural = problem.structural
     combos = tuple(c.expression for c in structural.combinations)
     combo_values, combo_errors = _expression_values(combos, names, theta_hat, cov, free_idx)
+    if withhold is not None:
+        combo_errors = {k: float("nan") for k in combo_errors}
 
     sol, after = solution.sol, solution.after
     message = sol.message
@@ -172,4 +193,5 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         t=problem.t,
         residuals=e_hat,
         units=dict(getattr(problem.model, "units", {}) or {}),
+        stderr_reason=withhold,
     )

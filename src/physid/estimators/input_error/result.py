@@ -23,8 +23,11 @@ class InputErrorResult(ResultMixin):
     ----------
     parameters : dict name -> float
         Estimates (SI units), fixed parameters included at their held values.
-    stderr : dict name -> float
-        Standard errors (``uncertainty="hac"``: the sandwich with the filtered residual's
+    stderr : dict name -> float, or None
+        None, with `stderr_reason`, when the filtered equations of motion do not balance and
+        no measurement noise on q is seen to explain it (the cut-off below the motion; a model
+        or data error): the estimate is then biased beyond its scatter. Otherwise standard
+        errors (``uncertainty="hac"``: the sandwich with the filtered residual's
         autocorrelation, `sandwich_covariance`; ``"iid"``: ``s² (JᵀJ)⁻¹``). ``NaN`` for fixed
         parameters and for parameters that ended on a bound, ``inf`` along numerically
         unidentifiable directions. They describe the scatter, not the errors-in-variables bias
@@ -114,6 +117,8 @@ class InputErrorResult(ResultMixin):
     base_expressions : dict name -> str
         With ``parameter_set="base"``: each base parameter as a combination of the standard
         ones (``"ZZ1 + ..."``); else empty.
+    stderr_reason : str or None
+        Why `stderr` is None (and what to change); None when it is given.
     columns : tuple of str
         With ``parameter_set="base"``: the regressor column kept for each base parameter
         (``"ZZ1"`` for ``"ZZ1R"``), in the order of `free`; else empty.
@@ -166,6 +171,7 @@ class InputErrorResult(ResultMixin):
     parameter_set: str = "model"
     base_expressions: dict[str, str] = field(default_factory=dict)
     columns: tuple[str, ...] = ()
+    stderr_reason: str | None = None
     model: Any = field(default=None, repr=False, compare=False)
 
     method = "input-error"
@@ -187,11 +193,6 @@ class InputErrorResult(ResultMixin):
     def derived(self) -> dict[str, float]:
         """Derived quantities: the identified combinations (expression -> value)."""
         return dict(self.combinations)
-
-    @property
-    def stderr_reason(self) -> str | None:
-        """None: input-error always reports (nominal) standard errors, see ``stderr``."""
-        return None
 
     def model_parameters(self) -> dict[str, float]:
         """The model's own parameters that give the fitted torques, for ``params=``.

@@ -56,8 +56,9 @@ def compute(paper_model, rec_paper, r_pp, quick, progress) -> SectionData:
                 start="linear",
             )
             errs.append(errors(r.parameters, r.combinations[COMBO]))
+            stderr = r.stderr or dict.fromkeys(SEPARATE, float("nan"))  # None: withheld
             stderrs.append(
-                {n: 100 * r.stderr[n] / TRUTH[n] for n in SEPARATE}
+                {n: 100 * stderr[n] / TRUTH[n] for n in SEPARATE}
                 | {COMBO: 100 * r.combination_stderr[COMBO] / TRUE_COMBO}
             )
         for key in (*SEPARATE, COMBO):
