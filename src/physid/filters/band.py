@@ -27,6 +27,7 @@ __all__ = [
     "filter_band_check",
     "passband_edge",
     "noise_floor",
+    "quantisation_step",
     "white_floor",
     "FilterChoice",
     "choose_filter",
@@ -196,13 +197,102 @@ def _smooth(power: np.ndarray, width: int) -> np.ndarray:
     return np.apply_along_axis(lambda c: np.convolve(c, kernel, mode="valid"), 0, padded)
 
 
+def quantisation_step(q) -> np.ndarray:
+    """Step Δ of the grid each column of q takes its values on (an encoder's resolution).
+
+    A column is quantised when every sample is ``q[0] + k·Δ`` for integers k, Δ the smallest gap
+    between its distinct values (within 1 % of Δ, and Δ above 1e-9 of the column's range, so the
+    rounding of floating-point numbers does not count as a grid).
+
+    Parameters
+    ----------
+    q : array_like, shape (n_samples, n_channels)
+
+    Returns
+    -------
+    ndarray, shape (n_channels,)
+        Δ per channel (the unit of q); 0 where the column lies on no grid (or is constant).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.linspace(0, 10, 10001)
+    >>> q = np.column_stack([np.round(np.sin(t) / 1e-6) * 1e-6, np.sin(t)])
+    >>> [float(f"{d:.3g}") for d in quantisation_step(q)]
+    [1e-06, 0.0]
+    """
+    arr = np.asarray(q, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    out = np.zeros(arr.shape[1])
+    for j in range(arr.shape[1]):
+        col = arr[:, j]
+        levels = np.unique(col[np.isfinite(col)])
+        if levels.size < 3:
+            continue
+        gaps = np.diff(levels)
+        gaps = gaps[gaps > 1e-9 * (levels[-1] - levels[0])]
+        if gaps.size == 0:
+            continue
+        step = float(gaps.min())
+        k = (levels - levels[0]) / step
+        if np.max(np.abs(k - np.round(k))) < 1e-2:
+            out[j] = step
+    return out
+
+
+def _tapered_spectrum(q) -> tuple[np.ndarray, np.ndarray]:
+    """Like `_rate_spectrum` through a Hann window, scaled so white noise keeps its mean.
+
+    The window removes the leakage of the jump between the record's first and last Δq (a motion
+    that does not end as it started), which otherwise fills the top of the spectrum like
+    ``1/Ω²`` and hides a low noise floor (a quantised encoder's).
+    """
+    dq = np.diff(np.asarray(q, dtype=float), axis=0)
+    if dq.ndim == 1:
+        dq = dq[:, None]
+    window = np.hanning(dq.shape[0])[:, None]
+    power = np.abs(np.fft.rfft((dq - dq.mean(axis=0)) * window, axis=0)) ** 2
+    power *= dq.shape[0] / max(float(np.sum(window**2)), 1e-300)
+    freq = 2.0 * np.pi * np.fft.rfftfreq(dq.shape[0])
+    return power, freq
+
+
+def _floor(power: np.ndarray, freq: np.ndarray) -> np.ndarray:
+    """σ̂ from a periodogram of Δq scaled so its mean is the variance density (`noise_floor`)."""
+    high = freq > 0.6 * np.pi
+    shape = 2.0 * (1.0 - np.cos(freq[high]))
+    return np.sqrt(np.median(power[high] / shape[:, None], axis=0) / np.log(2.0))
+
+
+def _spectrum_and_floor(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The scaled periodogram of Δq, its frequencies, σ̂ and the quantisation step per column.
+
+    On a quantised record (`quantisation_step`) the periodogram is tapered (`_tapered_spectrum`)
+    and σ̂ is at least ``Δ/√12``, the standard deviation of rounding to a grid of step Δ (the
+    rounding error is uniform on ``[-Δ/2, Δ/2]`` and white when q moves by more than Δ between
+    samples). Else both are as they always were.
+    """
+    step = quantisation_step(arr)
+    if np.any(step > 0):
+        power, freq = _tapered_spectrum(arr)
+    else:
+        power, freq = _rate_spectrum(arr)
+    power = power / max(power.shape[0] * 2 - 2, 1)  # |rfft|² / n: the mean is the variance density
+    sigma = np.maximum(_floor(power, freq), step / np.sqrt(12.0))
+    return power, freq, sigma, step
+
+
 def noise_floor(q) -> np.ndarray:
     """Standard deviation of white noise on each column of q, from the top of its spectrum.
 
     White noise of variance σ² on q gives Δq a periodogram of mean ``2σ²(1 - cos Ω)``; a smooth
     motion has almost no energy above Ω = 0.6π. The median over that band of
     ``P(Ω) / (2(1 - cos Ω))`` divided by ln 2 (the median of an exponential variable of mean 1)
-    estimates σ² robustly against the few bins the motion still reaches.
+    estimates σ² robustly against the few bins the motion still reaches. When q lies on a grid
+    of step Δ (an encoder; `quantisation_step`) the periodogram is taken through a Hann window
+    (the record's ends would otherwise leak into the top of the spectrum and hide the floor) and
+    σ̂ is at least ``Δ/√12``, the rounding error's standard deviation.
 
     Parameters
     ----------
@@ -221,11 +311,10 @@ def noise_floor(q) -> np.ndarray:
     >>> bool(abs(noise_floor(q)[0] / 1e-4 - 1) < 0.05)
     True
     """
-    power, freq = _rate_spectrum(q)
-    power = power / max(power.shape[0] * 2 - 2, 1)  # |rfft|² / n: the mean is the variance density
-    high = freq > 0.6 * np.pi
-    shape = 2.0 * (1.0 - np.cos(freq[high]))
-    return np.sqrt(np.median(power[high] / shape[:, None], axis=0) / np.log(2.0))
+    arr = np.asarray(q, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    return _spectrum_and_floor(arr)[2]
 
 
 def white_floor(x) -> np.ndarray:
@@ -311,9 +400,7 @@ def choose_filter(
     if arr.ndim == 1:
         arr = arr[:, None]
     n = arr.shape[0]
-    sigma = noise_floor(arr)
-    power, freq = _rate_spectrum(arr)
-    power = power / max(2 * power.shape[0] - 2, 1)
+    power, freq, sigma, quantum = _spectrum_and_floor(arr)
     noise = 2.0 * (1.0 - np.cos(freq))[:, None] * sigma**2
     smooth = _smooth(power, max(1, power.shape[0] // 200))
     # 2. the noise band: per joint, the first frequency where the motion sinks below the noise
@@ -326,18 +413,31 @@ def choose_filter(
     #    wider band costs nothing, so it is drawn generously (CLEAN_FRACTION, 25 % margin):
     #    the nonlinear terms (velocity products) reach beyond the 1e-4 band of Δq.
     noisy = bool(noise_band < 0.5 * np.pi)
-    if threshold is None:
-        threshold = ENERGY_FRACTION_WARN if noisy else CLEAN_FRACTION
-    margin = 1.0 if noisy else 1.25
     signal = np.clip(smooth - noise, 0.0, None) * (freq <= noise_band)[:, None]
     total = signal.sum(axis=0)
     cumulative = np.cumsum(signal, axis=0) / np.where(total > 0, total, 1.0)
-    bands = [
-        float(freq[min(np.searchsorted(cumulative[:, j], 1.0 - threshold), freq.size - 1)])
-        for j in range(arr.shape[1])
-        if total[j] > 0
-    ]
-    signal_band = min(margin * max(bands, default=float(freq[1])), noise_band)
+
+    def band(fraction: float, margin: float) -> float:
+        edges = [
+            float(freq[min(np.searchsorted(cumulative[:, j], 1.0 - fraction), freq.size - 1)])
+            for j in range(arr.shape[1])
+            if total[j] > 0
+        ]
+        return min(margin * max(edges, default=float(freq[1])), noise_band)
+
+    if threshold is not None:
+        signal_band = band(threshold, 1.0 if noisy else 1.25)
+    elif not noisy:
+        threshold, signal_band = CLEAN_FRACTION, band(CLEAN_FRACTION, 1.25)
+    else:
+        threshold, signal_band = ENERGY_FRACTION_WARN, band(ENERGY_FRACTION_WARN, 1.0)
+        # A quantised q's noise is bounded and known (Δ/√12), so its noise band is reliable:
+        # where the generous clean band still lies well below it (half), the motion there is
+        # far above the noise and passing it costs little, while cutting it biases the
+        # nonlinear terms (a sharp Coulomb friction reaches far beyond the 1e-4 band of Δq).
+        wide = band(CLEAN_FRACTION, 1.25)
+        if np.any(quantum > 0) and wide <= 0.5 * noise_band:
+            threshold, signal_band = CLEAN_FRACTION, wide
     # 4. M
     if half_width is None:
         limit = max_half_width if max_half_width is not None else max(10, min(1000, n // 20))
@@ -359,8 +459,13 @@ def choose_filter(
         f"the motion's rate holds all but {threshold:g} of its energy below "
         f"{signal_band:.3g} rad/sample"
         + (
-            f" and sinks into a noise floor of σ ≈ {np.max(sigma):.2g} above "
-            f"{noise_band:.3g} rad/sample"
+            f" and sinks into a noise floor of σ ≈ {np.max(sigma):.2g}"
+            + (
+                f" (q is quantised in steps of {np.max(quantum):.3g}: σ ≥ Δ/√12)"
+                if np.any(quantum > 0)
+                else ""
+            )
+            + f" above {noise_band:.3g} rad/sample"
             if noisy
             else ""
         )
