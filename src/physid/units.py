@@ -211,7 +211,7 @@ def _symbol(sym: str, whole: str) -> tuple[float, tuple]:
     raise InputError(
         f"unknown unit {whole!r} (the factor {sym!r} is not in physid's table); known units: "
         f"{', '.join(KNOWN_UNITS)} with the prefixes n, u, m, c, k, M, G (e.g. mm, kN, mN·m, ms). "
-        "Convert the channel to SI yourself, or map it with a gain, e.g. q1=0.001*pos."
+        "Convert the values to SI, or scale them by their gain to SI."
     )
 
 

@@ -326,13 +326,14 @@ def report_warnings(caught, flags=None) -> None:
             print(f"physid: warning: {message}{times}", file=sys.stderr)
 
 
-def add_recording_options(parser) -> None:
+def add_recording_options(parser, *, what="the recording", detrend=True) -> None:
     """The options of every verb that reads a recording (use with `read_recording`).
 
-    ``--map``, ``--decimal``, ``--delimiter``, ``--resample`` and ``--detrend``; see
-    docs/your-data.md.
+    ``--map``, ``--decimal``, ``--delimiter``, ``--resample`` and (unless ``detrend=False``)
+    ``--detrend``; see docs/your-data.md. ``what`` names the file in the group's title
+    (``"the --reference file"``).
     """
-    group = parser.add_argument_group("reading the recording (docs/your-data.md)")
+    group = parser.add_argument_group(f"reading {what} (docs/your-data.md)")
     group.add_argument(
         "--map",
         dest="channel_map",
@@ -355,6 +356,8 @@ def add_recording_options(parser) -> None:
         help="CSV separator: ',', ';' or tab (default: recognised from the header)",
     )
     add_resample_option(group)
+    if not detrend:
+        return
     group.add_argument(
         "--detrend",
         nargs="?",
@@ -381,7 +384,7 @@ _CLI_WORDS = (
     (re.compile(r"channels\['([^']*)'\] = '([^']*)'"), r"--map \1=\2"),
     (re.compile(r"channels\['([^']*)'\]"), r"--map \1"),
     (re.compile(r"channels=\{\.\.\.\}"), "--map"),
-    (re.compile(r"channels="), "--map "),
+    (re.compile(r"channels= ?"), "--map "),
     (re.compile(r"decimal=','"), "--decimal ,"),
     (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
     (re.compile(r"delimiter=';'"), "--delimiter ';'"),
@@ -396,7 +399,7 @@ def cli_words(message: str) -> str:
     return message
 
 
-def read_recording(args, path=None, *, model=None):
+def read_recording(args, path=None, *, model=None, table_channels=None):
     """Read the verb's recording with the options of `add_recording_options`.
 
     Parameters
@@ -411,6 +414,10 @@ def read_recording(args, path=None, *, model=None):
         a force where the model wants u = F/m is an error, never a silent wrong answer. Its
         model file's ``[recording]`` table is the channel map, which ``--map`` entries
         override.
+    table_channels : callable, optional
+        ``table_channels(name) -> bool``: which entries of the ``[recording]`` table apply (a
+        ``--reference`` file takes ``t`` and ``r1..rn`` only, not the log's ``q1``/``tau1``);
+        default all.
 
     Returns
     -------
@@ -428,17 +435,35 @@ def read_recording(args, path=None, *, model=None):
 
     path = getattr(args, "file", None) if path is None else path
     try:
-        channels = _model_channel_map(args, model)
-        given = parse_channel_map(getattr(args, "channel_map", None))
-        if given:
-            channels = {**(channels or {}), **given}  # --map entries override the model file's
+        table = _model_channel_map(args, model)
+        if table_channels is not None:
+            table = {k: v for k, v in table.items() if table_channels(k)}
+        name = getattr(args, "model", None)
+        where = (
+            f"the [recording] table of {name}"
+            if isinstance(name, str) and name.lower().endswith(".toml")
+            else "the model file's [recording] table"
+        )
+        # --map entries are strict and override the table's; a table entry whose sources the
+        # file lacks is skipped where the file has the channel (physid's own recordings)
         rec = load_recording(
             path,
-            channels or None,
+            parse_channel_map(getattr(args, "channel_map", None)) or None,
             resample=bool(getattr(args, "resample", False)),
             decimal=getattr(args, "decimal", ".") or ".",
             delimiter=getattr(args, "delimiter", None),
+            channel_defaults=table or None,
+            channel_defaults_source=where,
         )
+        unused = rec.metadata.get("channel_defaults_unused") or {}
+        if unused:
+            entries = ", ".join(f"{k} = {v!r}" for k, v in unused.items())
+            progress(
+                f"physid: note: {where} maps {entries}, but {path} has no such source and "
+                f"already has the channel{'s' if len(unused) > 1 else ''} "
+                f"{', '.join(unused)}: reading {'them' if len(unused) > 1 else 'it'} as "
+                "the file has them (pass --map to choose otherwise)."
+            )
         if model is not None:
             check_recording_units(model, rec)
         detrend = getattr(args, "detrend", None)
@@ -514,17 +539,28 @@ def check_recording_units(model, rec) -> None:
 
     Chain models: a prismatic joint's ``q``/``tau`` must be a length [m] / force [N], a
     revolute joint's an angle [rad] / torque [N·m]. Channels without a unit are not checked.
+    The message names the recording's file (``metadata["source"]``) and the unit its header
+    gave (``q1 [deg]``, read as rad).
     """
+    from ..errors import InputError
+
+    source = (getattr(rec, "metadata", None) or {}).get("source")
+    prefix = f"{source}: " if source else ""
     check = getattr(model, "check_units", None)
     if callable(check):
-        check(rec)
+        try:
+            check(rec)
+        except InputError as exc:
+            if not prefix or str(exc).startswith(prefix):
+                raise
+            raise type(exc)(prefix + str(exc)) from None
         return
     joint_types = getattr(model, "joint_types", None)
     if not joint_types:
         return
-    from ..errors import InputError
     from ..units import parse_unit
 
+    original = dict((getattr(rec, "metadata", None) or {}).get("original_units") or {})
     for j, kind in enumerate(joint_types, start=1):
         prismatic = str(kind).lower().startswith("p")
         for stem, want in (("q", ("m", "rad")), ("tau", ("N", "N·m"))):
@@ -534,9 +570,11 @@ def check_recording_units(model, rec) -> None:
             expected = want[0] if prismatic else want[1]
             if parse_unit(rec.unit(name)).dimension != parse_unit(expected).dimension:
                 joint = "prismatic" if prismatic else "revolute"
+                given = original.get(name)
+                unit = f"{given} (read as {rec.unit(name)})" if given else rec.unit(name)
                 raise InputError(
-                    f"channel {name!r} is in {rec.unit(name)}, but joint {j} of the model is "
+                    f"{prefix}channel {name!r} is in {unit}, but joint {j} of the model is "
                     f"{joint}, so {name} must be in {expected}; check the joint type in the "
                     "model or the channel's unit (map it: --map "
-                    f"{name}=GAIN*SOURCE [{expected}])."
+                    f"'{name}=GAIN*SOURCE [{expected}]')."
                 )

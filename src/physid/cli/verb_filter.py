@@ -48,10 +48,12 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--cutoff",
-        type=float,
+        type=_cutoff,
         default=0.2,
-        metavar="W",
-        help="cut-off Ω_g in rad/sample, 0 < W <= π (f_c = W / (2π dt) Hz)",
+        metavar="W|auto",
+        help="cut-off Ω_g in rad/sample, 0 < W <= π (f_c = W / (2π dt) Hz); 'auto': the lowest "
+        "cut-off whose flat band holds the motion of the filtered channels, above their noise "
+        "(physid.filters.choose_filter, for the given --half-width)",
     )
     parser.add_argument(
         "--channels",
@@ -67,6 +69,18 @@ def register(subparsers) -> None:
     add_recording_options(parser)
     parser.add_argument("--out", metavar="G", required=True, help="output file (.csv or .npz)")
     parser.set_defaults(func=run)
+
+
+def _cutoff(text: str):
+    """``--cutoff``: a number, or ``auto`` (chosen from the data)."""
+    if str(text).strip().lower() == "auto":
+        return "auto"
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expects a cut-off in rad/sample such as 0.2, or auto; got {text!r}"
+        ) from None
 
 
 def run(args) -> int:
@@ -87,7 +101,10 @@ def run(args) -> int:
         names = list(rec.names)
     data = rec.select(names)
     _check_output_length(rec.n_samples, args.half_width, args.paper, args.file)
-    filt = design_filter(args.kind, args.half_width, args.cutoff, rec.dt)
+    cutoff = args.cutoff
+    if cutoff == "auto":
+        cutoff = _auto_cutoff(data, rec.dt, args.half_width, names)
+    filt = design_filter(args.kind, args.half_width, cutoff, rec.dt)
     try:
         out = filt.apply(data, paper=args.paper)
     except PhysidError as exc:  # e.g. a record shorter than 2M+1 samples: name the file
@@ -105,6 +122,7 @@ def run(args) -> int:
             "dt_s": filt.dt,
             "delay_samples": filt.delay,
             "paper": bool(args.paper),
+            "cutoff_auto": args.cutoff == "auto",
             "input": str(args.file),
         },
     }
@@ -118,6 +136,17 @@ def run(args) -> int:
     )
     print(path)
     return 0
+
+
+def _auto_cutoff(data, dt: float, half_width, names) -> float:
+    """Ω_g chosen by `physid.filters.choose_filter` for M = ``half_width``; says why on stderr."""
+    from ..filters import choose_filter
+
+    if not isinstance(half_width, int) or half_width < 1:
+        return 0.2  # design_filter words the bad --half-width
+    choice = choose_filter(data.data, dt, half_width=half_width)
+    progress(f"physid filter: --cutoff auto, from {', '.join(names)}: {choice.reason}")
+    return float(choice.cutoff)
 
 
 def _check_output_length(n: int, half_width, paper: bool, file) -> None:

@@ -17,7 +17,13 @@ import math
 import time
 
 from ..errors import InputError
-from ._common import check_recording_path, float_list, progress, read_recording
+from ._common import (
+    add_recording_options,
+    check_recording_path,
+    float_list,
+    progress,
+    read_recording,
+)
 
 ORDER = 20
 
@@ -351,6 +357,7 @@ def _register_model(systems) -> None:
     )
     chain.add_argument("--noise-std", metavar="RAD", default=None, help="white noise std on q")
     chain.add_argument("--seed", metavar="N", default=None, help="noise seed (needs --noise-std)")
+    add_recording_options(chain, what="the --reference file", detrend=False)
     chain.set_defaults(func=run_model)
 
 
@@ -360,6 +367,26 @@ def _is_number_list(text: str) -> bool:
         return all(float(x) == float(x) for x in text.split(",")) and bool(text.strip())
     except ValueError:
         return False
+
+
+def _no_reading_options(args) -> None:
+    """Refuse ``--map``/``--decimal``/... without a ``--reference`` file they could apply to."""
+    given = [
+        flag
+        for flag, value in (
+            ("--map", getattr(args, "channel_map", None)),
+            ("--decimal", getattr(args, "decimal", ".") != "."),
+            ("--delimiter", getattr(args, "delimiter", None)),
+            ("--resample", getattr(args, "resample", False)),
+        )
+        if value
+    ]
+    if given:
+        raise InputError(
+            f"{', '.join(given)} appl{'y' if len(given) > 1 else 'ies'} to a --reference file; "
+            f"got no file (--reference {args.reference!r}). Give --reference F.csv, or leave "
+            f"{'them' if len(given) > 1 else 'it'} out."
+        )
 
 
 def _gains(text, option, n, default):
@@ -398,6 +425,8 @@ def run_model(args) -> int:
     duration = _number(args.duration if given_duration else "5", "--duration [s]", positive=True)
     dt = _number(args.dt, "--dt [s]", positive=True)
     reference_file = args.reference is not None and not _is_number_list(args.reference)
+    if not reference_file:
+        _no_reading_options(args)
     if not reference_file and duration / dt > 5e7:
         raise InputError(f"--duration/--dt asks for {duration / dt:.3g} samples; at most 5e7.")
     noise = _number(args.noise_std, "--noise-std", positive=True, allow_zero=True)
@@ -423,7 +452,10 @@ def run_model(args) -> int:
             mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
             reference = reference + mid
     elif reference_file:
-        rec = read_recording(args, args.reference)  # errors in CLI words
+        # errors in CLI words; of the model file's [recording] table only t and r1..rn apply
+        rec = read_recording(
+            args, args.reference, table_channels=lambda c: c == "t" or c.startswith("r")
+        )
         names = [f"r{j + 1}" for j in range(n)]
         missing = [c for c in names if c not in rec.names]
         if missing:

@@ -106,6 +106,8 @@ def load_recording(
     uniform_rtol: float | None = DEFAULT_UNIFORM_RTOL,
     decimal: str = ".",
     delimiter: str | None = None,
+    channel_defaults: Mapping[str, str] | None = None,
+    channel_defaults_source: str | None = None,
 ) -> Recording:
     """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5 (chosen by the file suffix).
 
@@ -134,6 +136,15 @@ def load_recording(
         or tab.
     delimiter : {",", ";", "\\t"} or None
         Separator of a CSV file; None recognises it from the header and first data row.
+    channel_defaults : mapping of str to str, optional
+        A channel map from elsewhere, e.g. a model file's ``[recording]`` table; ``channels``
+        entries override it. Its entries apply as ``channels``' do, except one whose source
+        names the file lacks while the file already has the target channel (physid's own
+        recordings, which call it ``q1`` already): that entry is dropped and the file's channel
+        is used, listed in ``metadata["channel_defaults_unused"]`` (target → entry).
+    channel_defaults_source : str, optional
+        What ``channel_defaults`` is, for messages (e.g. ``"the [recording] table of
+        axis.toml"``); default ``"channel_defaults="``.
 
     Returns
     -------
@@ -167,6 +178,7 @@ def load_recording(
     """
     resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
     channels = parse_channel_map(channels)
+    defaults = parse_channel_map(channel_defaults) or {}
     decimal, delimiter = _check_csv_options(decimal, delimiter)
     path = Path(path)
     fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
@@ -181,7 +193,10 @@ def load_recording(
             )
         source = {"npz": _read_npz, "mat": _read_mat, "hdf5": _read_hdf5}[fmt](path)
     source.metadata = {**source.metadata, "source": str(path), "format": fmt}
-    return _assemble(path, source, channels, resample=resample, uniform_rtol=uniform_rtol)
+    return _assemble(
+        path, source, channels, resample=resample, uniform_rtol=uniform_rtol,
+        defaults=defaults, defaults_source=channel_defaults_source or "channel_defaults=",
+    )  # fmt: skip
 
 
 def parse_channel_map(channels) -> dict[str, str] | None:
@@ -461,11 +476,58 @@ def _as_channel(var: _Var, n: int):
 
 
 # =============================================================================== assembly
-def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Recording:
+def _missing_names(body: str, available) -> list[str]:
+    """The names an expression (or a bare variable) uses that are not in ``available``."""
+    body, _ = _split_map_unit(body)
+    if body in available:
+        return []
+    from ..expressions import expression_names
+
+    try:
+        names, _ = expression_names(body)
+    except PhysidError:
+        return []  # a dotted struct path or a syntax error: the normal path explains it
+    return [name for name in names if name not in available and name != "pi"]
+
+
+def _default_entry(path, target, text, available, has_target, source, shown):
+    """Whether a channel-defaults entry applies (True) or is dropped (False); or raise."""
+    missing = _missing_names(text, available)
+    if not missing:
+        return True
+    if has_target:
+        return False
+    raise DataFileError(
+        f"{path}: {source} maps {target} = {text!r}, but the file has no variable "
+        f"{', '.join(repr(m) for m in missing)} and no channel {target!r}; its variables are "
+        f"{shown}. Correct that entry, or map the channel from the file's variables with "
+        f"channels={{{target!r}: 'NAME'}}."
+    )
+
+
+def _assemble(
+    path, source: _Source, channels, *, resample, uniform_rtol, defaults=None, defaults_source=""
+) -> Recording:
     """Time, channels, units and the channel map → a checked `Recording` (errors name the file)."""
     variables: dict[str, _Var] = source.variables
     metadata = dict(source.metadata)
     mapping = dict(channels or {})
+    defaults = {k: v for k, v in (defaults or {}).items() if k not in mapping}
+    unused_defaults: dict[str, str] = {}
+    applied: dict[str, str] = {}  # the defaults entries used
+    listed = [v for v in variables if v not in _RESERVED]
+    shown_vars = listed[:30] + (["..."] if len(listed) > 30 else [])
+    if "t" in defaults:
+        try:
+            _find_time(path, variables)
+            has_time = True
+        except DataFileError:
+            has_time = False
+        text = defaults.pop("t")
+        if _default_entry(path, "t", text, variables, has_time, defaults_source, shown_vars):
+            mapping["t"] = applied["t"] = text
+        else:
+            unused_defaults["t"] = text
     # ---- time
     t_text = mapping.pop("t", None)
     if t_text is None:
@@ -486,6 +548,20 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
             t_unit = t_unit_given or ""
     t = _time_to_seconds(path, t_raw, t_unit)
     n = t.size
+    if defaults:  # the model file's entries: used where the file has their sources
+        available = set(variables)
+        for var in variables.values():
+            expanded = _as_channel(var, n)
+            if isinstance(expanded, dict):
+                available.update(expanded)
+        for target, text in defaults.items():
+            has = target in available and target != t_name
+            if _default_entry(path, target, text, available, has, defaults_source, shown_vars):
+                mapping[target] = applied[target] = text
+            else:
+                unused_defaults[target] = text
+    if unused_defaults:
+        metadata["channel_defaults_unused"] = unused_defaults
     # ---- which variables the map uses
     used: set[str] = set() if t_name is None else {t_name}
     exprs: dict[str, tuple[str, str | None]] = {}
@@ -536,10 +612,10 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
     unconverted: dict[str, str] = {}
     row_label = source.row_label
 
-    def add(target, values, unit_text, *, strict):
+    def add(target, values, unit_text, *, strict, column=None):
         values = np.asarray(values, dtype=float)
         _check_magnitude(path, target, values, row_label)
-        si_values, si_unit = _convert(path, target, values, unit_text, strict=strict)
+        si_values, si_unit = _convert(path, target, values, unit_text, strict=strict, column=column)
         if si_unit is None:
             unconverted[target] = unit_text
             si_unit = unit_text
@@ -560,7 +636,7 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
         for name, (values, unit) in columns.items():
             if values is None:
                 continue
-            add(name, values, unit, strict=bool(_READ_CHANNEL.match(name)))
+            add(name, values, unit, strict=bool(_READ_CHANNEL.match(name)), column=name)
     else:
         for target, (body, unit) in exprs.items():
             if body in variables and variables[body].value is None:
@@ -568,6 +644,12 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
                 raise DataFileError(
                     f"{path}: channels[{target!r}] = {body!r} holds {var.detail}, not real "
                     "numbers; map a numeric variable."
+                )
+            if body == t_name:
+                raise DataFileError(
+                    f"{path}: channels[{target!r}] = {body!r} is the file's time column, which "
+                    f"is the recording's time t, not a channel; map {target} from another "
+                    f"variable (the time is found by name or mapped as channels={{'t': {body!r}}})."
                 )
             if body in variables or body in columns:
                 if body in refused:
@@ -587,7 +669,10 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
                         f"{path}: channels[{target!r}] = {body!r} is a 2-D variable with {k} "
                         f"columns; map one column, e.g. channels={{{target!r}: '{body}1'}}."
                     )
-                add(target, values, _map_unit(path, target, body, unit, file_unit), strict=True)
+                add(
+                    target, values, _map_unit(path, target, body, unit, file_unit),
+                    strict=True, column=body if unit is None else None,
+                )  # fmt: skip
                 continue
             for name in _expression_names(body, variables):
                 if name in refused:
@@ -603,11 +688,11 @@ def _assemble(path, source: _Source, channels, *, resample, uniform_rtol) -> Rec
                     ignored.append(name)
                 continue
             try:
-                add(name, values, unit, strict=bool(_READ_CHANNEL.match(name)))
+                add(name, values, unit, strict=bool(_READ_CHANNEL.match(name)), column=name)
             except DataFileError:
                 ignored.append(name)  # an unused channel that does not load: left out
         ignored.extend(sorted(set(refused) - used))
-        metadata["channel_map"] = dict(channels)
+        metadata["channel_map"] = {**applied, **dict(channels or {})}
     if ignored:
         metadata["ignored_variables"] = sorted(set(ignored))
     if original_units:
@@ -713,15 +798,42 @@ def _time_to_seconds(path, t: np.ndarray, unit: str) -> np.ndarray:
     return t * u.scale if u.scale != 1.0 else t
 
 
-def _convert(path, name, values, unit_text, *, strict):
+#: the generic fix `physid.units.parse_unit` ends an unknown unit's message with
+_UNITS_FIX = " Convert the values to SI, or scale them by their gain to SI."
+
+
+def _unknown_unit_fix(name: str, unit_text: str, column: str | None) -> str:
+    """How to read a channel whose unit physid does not know: a map with the gain to SI."""
+    if column is None:  # a unit given in the map: it says what the mapped value is
+        return "give the mapped value's unit in SI, e.g. [rad], [m] or [N]"
+    kinds = expected_dimensions(name)
+    if kinds and kinds[0][1] == "rad":
+        example = f"2*pi/4096*{column} [rad]"
+        why = (
+            f" (an encoder of 4096 counts per turn; a linear axis: GAIN*{column} [m], GAIN in "
+            f"m per {unit_text})"
+        )
+    else:
+        si = kinds[0][1] if kinds else "SI_UNIT"
+        example = f"GAIN*{column} [{si}]"
+        why = f" (GAIN in {si} per {unit_text}; in the expression {column} is the raw number)"
+    return (
+        f"map it with its gain to SI, channels={{{name!r}: {example!r}}}{why}, or convert "
+        "the column to SI before loading"
+    )
+
+
+def _convert(path, name, values, unit_text, *, strict, column=None):
     """Values in SI and the SI unit; (values, None) for an unknown unit when not ``strict``."""
     try:
         u = parse_unit(unit_text)
     except InputError as exc:
         if not strict:
             return values, None
+        reason = str(exc).removesuffix(_UNITS_FIX)
         raise DataFileError(
-            f"{path}: channel {name!r} has unit {unit_text!r}, which physid cannot convert: {exc}"
+            f"{path}: channel {name!r} has unit {unit_text!r}, which physid cannot convert: "
+            f"{reason} To read it, {_unknown_unit_fix(name, unit_text, column)}."
         ) from None
     if u.scale == 1.0:
         return values, u.si
