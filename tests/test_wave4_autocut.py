@@ -125,3 +125,13 @@ def test_too_high_cutoff_on_a_quantised_record_is_told_to_come_down(axis, axis_l
     assert "check the model" not in text
     assert "higher than the motion needs" in text and "lower it" in text
     assert abs(fit.parameters["m1"] / 12.0 - 1) > 5e-3  # what that filter costs: m1 -1.06 %
+
+
+def test_reason_keeps_the_motion_sentence_when_the_half_width_is_given():
+    # a precedence slip dropped everything before "; M = ... (given" when half_width was given
+    from physid.filters.band import choose_filter
+
+    t = np.arange(0.0, 10.0, 1e-3)
+    choice = choose_filter(np.sin(2 * np.pi * 2.0 * t)[:, None], 1e-3, half_width=100)
+    assert "the motion's rate holds all but 1e-06 of its energy below 0.025" in choice.reason
+    assert "M = 100 (given)" in choice.reason

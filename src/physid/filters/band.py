@@ -469,9 +469,11 @@ def choose_filter(
             if noisy
             else ""
         )
-        + f"; M = {m} (the longest the record allows"
-        if half_width is None
-        else f"; M = {m} (given"
+        + (
+            f"; M = {m} (the longest the record allows"
+            if half_width is None
+            else f"; M = {m} (given"
+        )
     )
     reason = (
         f"filter M = {m}, Ω_g = {cutoff:.4g} rad/sample (flat to {edge:.3g}): {why}), Ω_g the "
