@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 
 from ...filters.band import choose_filter, noise_floor
-from .core import RESIDUAL_WARN, FilterWarning, quality_factor
+from .core import NOISE_SHARE, RESIDUAL_WARN, FilterWarning, quality_factor
 from .prepare import _Problem
 from .result import InputErrorResult
 from .solve import _Solution
@@ -44,7 +44,8 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         if advice.signal_band > edge:  # too low: bias from the filter
             # on noisy q the residual may be the noise's (which the intervals carry): withhold
             # only where no noise is seen
-            withhold = None if noisy else "the cut-off is below the motion"
+            explained = problem.noise_fraction is None or problem.noise_fraction >= NOISE_SHARE
+            withhold = None if noisy and explained else "the cut-off is below the motion"
             cause = (
                 f" The cut-off Ω_g={f.cutoff:.4g} is too low for the motion (it reaches "
                 f"{advice.signal_band:.3g} rad/sample, the filter is flat to {edge:.3g}): "
@@ -58,12 +59,24 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 f"(σ ≈ {np.max(advice.noise_std):.2g} on q) into q̈^f, which biases the "
                 "inertias towards zero: lower it, or use cutoff='auto'."
             )
-        elif noisy:
+        elif noisy and (problem.noise_fraction is None or problem.noise_fraction >= NOISE_SHARE):
             cause = (
                 f" The filter already holds just the motion; the residual is measurement "
                 f"noise (σ ≈ {np.max(advice.noise_std):.2g} on q), whose errors-in-variables "
                 "bias no filter choice removes (a longer record allows a larger M and a "
                 "lower Ω_g; or use an instrumental-variable method)."
+            )
+        elif noisy:  # the noise replicates say the noise is only a small part of the residual
+            withhold = (
+                f"the noise on q explains only {100 * problem.noise_fraction:.2g} % of the "
+                "residual's energy"
+            )
+            cause = (
+                f" The noise on q (σ ≈ {np.max(advice.noise_std):.2g}) explains only "
+                f"{100 * problem.noise_fraction:.2g} % of the residual's energy (measured with "
+                "the noise replicates): the rest is a model or data error (friction the model "
+                "lacks, stiction, wrong gains, a torque offset, a filter that smears a "
+                "discontinuity)."
             )
         else:
             withhold = "no measurement noise explains the residual"

@@ -41,7 +41,7 @@ from .._stiction import STICK_THRESHOLD, coulomb_joints, stuck_samples
 from ..idim import base_regressor_info
 from .core import _gram_least_squares, quality_factor
 from .prepare import _Filtered, _Problem, check_band, filter_recording
-from .solve import _Solution, resolve_noise
+from .solve import _Solution, noise_fraction, resolve_noise
 
 #: Samples per block of the full regressor while W_b is built.
 BLOCK = 4096
@@ -97,12 +97,12 @@ def base_regressor(model, columns, qf, qdf, qddf) -> np.ndarray:
 
 
 def _normal_equations(model, columns, qf, qdf, qddf, tau_f, keep=None):
-    """``(W_bᵀW_b, W_bᵀτ^f)`` block by block, never holding W_b of the whole record.
+    """``(W_bᵀW_b, W_bᵀτ^f, τ^fᵀτ^f)`` block by block, never holding W_b of the whole record.
 
     ``keep`` (n, n_joints) of 0/1, optional: the equations kept (`_keep_mask`).
     """
     p = len(columns)
-    gram, rhs = np.zeros((p, p)), np.zeros(p)
+    gram, rhs, tt = np.zeros((p, p)), np.zeros(p), 0.0
     for s in range(0, qf.shape[0], BLOCK):
         sl = slice(s, s + BLOCK)
         w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl])
@@ -113,7 +113,8 @@ def _normal_equations(model, columns, qf, qdf, qddf, tau_f, keep=None):
         w = w.reshape(-1, p)
         gram += w.T @ w
         rhs += w.T @ t.ravel()
-    return gram, rhs
+        tt += float(t.ravel() @ t.ravel())
+    return gram, rhs, tt
 
 
 def _keep_mask(model, f: _Filtered):
@@ -271,13 +272,14 @@ def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, keep
     sigma_q = noise_floor(f.q)
     sigma_tau = white_floor(f.tau) if f.tau is not None else None
     rng = np.random.default_rng(est.random_state)
-    grams, rhss = [], []
+    grams, rhss, tts = [], [], []
     for _ in range(int(est.noise_replicates)):
         q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
         tau_k = None if sigma_tau is None else f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k), keep=keep)
+        g_k, r_k, tt_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k), keep=keep)
         grams.append(g_k)
         rhss.append(r_k)
+        tts.append(tt_k)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)
     rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
     beta, r_c = _gram_least_squares(gram_c, rhs_c)
@@ -291,4 +293,9 @@ def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, keep
         h_inv = (vt.T / sv**2) @ vt
         cov = h_inv @ omega @ h_inv
     shift = {n: float(b - a) for n, a, b in zip(problem.names, plain, beta, strict=True)}
+    problem.noise_fraction = noise_fraction(
+        beta,
+        (gram, rhs, float(tau_f.ravel() @ tau_f.ravel())),
+        zip(grams, rhss, tts, strict=True),
+    )
     return beta, cov, shift

@@ -212,6 +212,9 @@ class _Problem:
     upper: np.ndarray
     notes: list[str]
     before: NumericIdentifiability | None = None
+    # noise="compensate": the share of the residual energy the noise on q explains
+    # (`.solve.noise_fraction`); None when no replicates were drawn
+    noise_fraction: float | None = None
 
     @property
     def n_valid(self) -> int:

@@ -185,6 +185,36 @@ def bound_check(est, problem: _Problem, sol) -> tuple[tuple[str, ...], str]:
     return at_bound, bound_text
 
 
+def noise_fraction(beta, data, replicates) -> float:
+    """The share of the data's residual energy that its noise on q explains, from replicates.
+
+    A replicate ``x + ε`` carries the noise twice where the data ``x`` carries it once, so its
+    residual energy at β exceeds the data's by the noise-induced part N; with a model or filter
+    error of energy E the data's energy is E + N, and the share ``N / (E + N)`` (about 1, or a
+    little above from the noise's second-order terms, when the noise explains the residual).
+
+    Parameters
+    ----------
+    beta : ndarray (p,)
+        The regressor parameters at the estimate.
+    data : (G, h, t)
+        The data's normal equations ``YᵀY``, ``Yᵀτ^f`` and ``τ^fᵀτ^f``.
+    replicates : iterable of (G_k, h_k, t_k)
+        The same for each re-noised replicate.
+
+    Returns
+    -------
+    float
+    """
+
+    def energy(g, h, t):
+        return float(beta @ g @ beta - 2.0 * beta @ h + t)
+
+    e0 = energy(*data)
+    e_rep = float(np.mean([energy(*r) for r in replicates]))
+    return (e_rep - e0) / e0 if e0 > 0 else 1.0
+
+
 def solve_compensated(est, problem: _Problem) -> _Solution:
     """Least squares with the errors-in-variables bias of the noise on q compensated.
 
@@ -219,18 +249,19 @@ def solve_compensated(est, problem: _Problem) -> _Solution:
     def normal_equations(qf, qdf, qddf, tau_f):
         y = np.asarray(model.regressor(qf, qdf, qddf), dtype=float)
         y = y.reshape(-1, y.shape[-1])
-        return y.T @ y, y.T @ tau_f.ravel()
+        return y.T @ y, y.T @ tau_f.ravel(), float(tau_f.ravel() @ tau_f.ravel())
 
-    gram, rhs = normal_equations(f.qf, f.qdf, f.qddf, f.tau_f)
-    grams, rhss = [], []
+    gram, rhs, tt = normal_equations(f.qf, f.qdf, f.qddf, f.tau_f)
+    grams, rhss, tts = [], [], []
     for _ in range(int(est.noise_replicates)):
         q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
         tau_k = None
         if sigma_tau is not None:
             tau_k = f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k = normal_equations(*f.refilter(q_k, tau_k))
+        g_k, r_k, tt_k = normal_equations(*f.refilter(q_k, tau_k))
         grams.append(g_k)
         rhss.append(r_k)
+        tts.append(tt_k)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)  # A_c = 2 A(x) - mean A(x + ε)
     rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
     history: list[np.ndarray] = []
@@ -282,6 +313,9 @@ def solve_compensated(est, problem: _Problem) -> _Solution:
     d = d_beta(theta_hat)
     beta_hat_theta = beta_of(theta_hat)
     scores = np.array([d.T @ (g @ beta_hat_theta - r) for g, r in zip(grams, rhss, strict=True)])
+    problem.noise_fraction = noise_fraction(
+        beta_hat_theta, (gram, rhs, tt), zip(grams, rhss, tts, strict=True)
+    )
     omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(len(free_idx), -1)
     sv, vt = svd_tall(r_c @ d)  # H = Dᵀ A_c D = (R_c D)ᵀ (R_c D)
     p = len(free_idx)
