@@ -98,6 +98,19 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 + cause
             )
 
+    share = problem.noise_fraction
+    if withhold is None and share is not None and share < NOISE_SHARE:
+        # a small residual can still be mostly model error, and the noise then tiny: the
+        # replicates compare the two whatever the residual's size
+        withhold = (
+            f"the noise on q explains only {100 * share:.2g} % of the residual's energy (measured "
+            "with the noise replicates), the rest is a model or data error (friction the model "
+            "lacks, stiction, a filter that smears a discontinuity, wrong gains): the estimates "
+            "are biased beyond their scatter, and standard errors would give intervals that "
+            "miss the truth. A cut-off closer to the motion, or IDIM (which filters and "
+            "decimates differently), may fit better."
+        )
+
     # -- uncertainty (see `sandwich_covariance` and `iid_covariance`)
     cov_iid = iid_covariance(solution.jacobian, e_hat)
     lags = hac_lags(problem.filtered.half_width)
