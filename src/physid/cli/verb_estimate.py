@@ -1,10 +1,15 @@
 """``physid estimate F --model msd|MODEL.toml --method algebraic|rls``: linear ODE coefficients.
 
 The algebraic method is the sliding-window estimator of `physid.estimators.algebraic`; rls is the
-recursive least squares of `physid.estimators.recursive`. ``--json`` prints ``parameters`` (the fitted coefficients), ``derived``
-(for the MSD: natural_frequency, damping_ratio), ``stderr`` (None with ``stderr_reason`` where
-not defined), ``units``, ``success``, ``message``, ``valid_fraction`` and ``fit_percent``;
-``--save RESULT.json`` writes the result file that ``physid validate`` reads.
+recursive least squares of `physid.estimators.recursive`. ``--json`` prints ``parameters`` (the
+fitted coefficients), ``derived`` (for the MSD: natural_frequency, damping_ratio; the physical
+parameters of a model in physical terms: mass, damping, stiffness for msd-force, m, c, k for
+``a = ["k/m", "c/m"]``, ``b = ["1/m"]``), ``stderr`` (None with ``stderr_reason`` where not
+defined), ``derived_stderr`` (delta method; None whenever ``stderr`` is), ``units``, ``success``,
+``message`` (which says which physical parameters are not identifiable, and which combinations
+are), ``valid_fraction``, ``fit_percent`` and ``physical`` (identifiable, unidentifiable,
+combinations, message; null for models without expressions); ``--save RESULT.json`` writes the
+result file that ``physid validate`` reads.
 """
 
 from __future__ import annotations
@@ -208,12 +213,14 @@ def run(args) -> int:
                 "parameters": result.parameters,
                 "derived": result.derived,
                 "stderr": result.stderr,
+                "derived_stderr": result.derived_stderr,
                 "stderr_reason": reason,
                 "units": result.units,
                 "success": result.success,
                 "message": result.message,
                 "valid_fraction": result.valid_fraction,
                 "fit_percent": result.fit_percent,
+                "physical": result.physical,
             }
         )
     else:

@@ -63,8 +63,12 @@ def describe(model, *, base: bool = True) -> dict:
     from ..models import ChainModel
 
     out = {"name": model.name, "kind": type(model).__name__}
-    units = getattr(model, "units", {})
+    units = dict(getattr(model, "units", {}))
     params = model.parameters
+    if not isinstance(model, ChainModel):
+        from ..estimators._linear import coefficient_units
+
+        units.update(coefficient_units(model, model.coefficient_names))
     out["parameters"] = [
         {"name": k, "value": v, "unit": units.get(k, ""), "identify": k in model.unknown}
         for k, v in params.items()
@@ -109,7 +113,56 @@ def describe(model, *, base: bool = True) -> dict:
         out["order"] = int(model.order)
         out["a"] = list(model.a_names)
         out["b"] = list(model.b_names)
+        if model.expressions:
+            out["physical"] = _physical(model, out["parameters"])
     return out
+
+
+def _physical(model, entries) -> dict:
+    """What the estimators give of a model in physical terms (``a = ["k/m", "c/m"]``).
+
+    Marks each entry of ``entries`` (the parameter list, in place): a coefficient gets its
+    ``expression``; a physical parameter to identify ``identify`` True and ``identifiable``
+    (whether the estimated coefficients determine it). Returns the ``physical`` section of
+    ``model info --json``: ``identifiable``, ``unidentifiable``, ``combinations`` (the expressions
+    that are estimated) and ``message``.
+    """
+    ident = model.physical_identifiability()
+    estimated = [c for c in model.coefficient_names if c in model.unknown]
+    combos = [f"{c} = {model.expressions[c]}" for c in estimated if c in model.expressions]
+    for entry in entries:
+        name = entry["name"]
+        if name in model.expressions:
+            entry["expression"] = model.expressions[name]
+        elif name in model.physical_names:
+            entry["identify"] = name in ident.identifiable or name in ident.unidentifiable
+            entry["identifiable"] = name in ident.identifiable
+    if ident.identifiable:
+        message = (
+            f"{', '.join(ident.identifiable)} estimated from {', '.join(combos)} "
+            "(standard errors by the delta method)"
+        )
+        from ..estimators._linear import _MSD_FORCE_EXPRESSIONS, _MSD_FORCE_NAMES
+
+        if model.is_msd and model.expressions == _MSD_FORCE_EXPRESSIONS:
+            message += "; physid estimate reports them as " + ", ".join(
+                _MSD_FORCE_NAMES[p] for p in ident.identifiable if p in _MSD_FORCE_NAMES
+            )
+    elif ident.unidentifiable:
+        message = (
+            f"{', '.join(ident.unidentifiable)} are not identifiable: only the combinations "
+            f"{', '.join(combos)} are estimated (the input carries no scale); measure the "
+            'input in physical units (a force: b = ["1/m"]) or fix some of them '
+            "(identify = false)"
+        )
+    else:
+        message = ident.message
+    return {
+        "identifiable": list(ident.identifiable),
+        "unidentifiable": list(ident.unidentifiable),
+        "combinations": {c: model.expressions[c] for c in estimated if c in model.expressions},
+        "message": message,
+    }
 
 
 def run_info(args) -> int:
@@ -140,7 +193,13 @@ def run_info(args) -> int:
     lines.append(f"parameters ({len(info['parameters'])}):")
     for p in info["parameters"]:
         mark = "" if p["identify"] else "  (fixed)"
+        if "expression" in p:
+            mark = f"  = {p['expression']}" + ("  (estimated)" if p["identify"] else mark)
+        elif p.get("identifiable") is not None and p["identify"]:
+            mark = "  (estimated)" if p["identifiable"] else "  (not identifiable alone)"
         lines.append(f"  {p['name']} = {p['value']:.6g} {p['unit']}{mark}")
+    if info.get("physical"):
+        lines.append(f"physical parameters: {info['physical']['message']}")
     bp = info.get("base_parameters")
     if bp:
         lines.append(f"base parameters ({bp['n_base']} of {bp['n_columns']} columns):")

@@ -45,9 +45,135 @@ def coefficient_units(model: LinearODEModel, names) -> dict[str, str]:
                 unit = _power("", n - list(model.a_names).index(name))
             elif name in model.b_names:
                 k = n - list(model.b_names).index(name)
-                unit = f"{model.output_name}/({model.input_name}*s^{k})"
+                unit = _gain_unit(model, k) or f"{model.output_name}/({model.input_name}*s^{k})"
         out[name] = unit
     return out
+
+
+def _gain_unit(model: LinearODEModel, k: int) -> str:
+    """``[y]/([u]·s^k)`` in SI from the model's ``output_unit`` and ``input_unit`` ("" if unknown)."""
+    from ..errors import InputError
+    from ..units import _canonical, parse_unit
+
+    if not model.output_unit or not model.input_unit:
+        return ""
+    try:
+        y, u = parse_unit(model.output_unit).dimension, parse_unit(model.input_unit).dimension
+    except InputError:
+        return ""
+    dim = tuple(a - b + (k if i == 2 else 0) for i, (a, b) in enumerate(zip(y, u, strict=True)))
+    return _canonical(dim) or "1"
+
+
+#: Names of the force-input MSD's physical parameters in ``derived`` (the documented ones).
+_MSD_FORCE_NAMES = {"m": "mass", "c": "damping", "k": "stiffness"}
+_MSD_FORCE_EXPRESSIONS = {"theta2": "k/m", "theta1": "c/m", "b0": "1/m"}
+
+
+def derived_with_stderr(
+    model: LinearODEModel,
+    values: Mapping[str, float],
+    fitted,
+    covariance=None,
+    *,
+    with_stderr: bool = True,
+):
+    """Derived quantities, their delta-method standard errors and the physical parameters.
+
+    The derived quantities are `derived_quantities` (for the MSD: natural frequency, damping
+    ratio) and, for a model whose coefficients are expressions of physical parameters, those
+    parameters where the coefficients determine them (`LinearODEModel.physical_from_coefficients`;
+    for the built-in ``msd-force`` named ``mass``, ``damping``, ``stiffness``). Their standard
+    errors follow from the final coefficient covariance by the delta method, ``Σ_d = J Σ_c Jᵀ``
+    with ``J`` the Jacobian of the map coefficients → derived at the estimate (analytic for
+    ω0 = √θ2 and ζ = θ1/(2√θ2); for the physical parameters ``J = (∂c/∂p)⁺``, derived
+    symbolically); known coefficients count as exact.
+
+    Parameters
+    ----------
+    model : LinearODEModel
+    values : mapping
+        Every coefficient's value (fitted and known), SI.
+    fitted : sequence of str
+        The fitted names, the order of ``covariance``'s rows (an output offset among them is
+        ignored: no derived quantity depends on it).
+    covariance : array_like (len(fitted), len(fitted)), optional
+        The final coefficients' covariance (SI); None when the estimator withholds it.
+    with_stderr : bool
+        False: no standard errors (``derived_stderr`` None) even with a covariance.
+
+    Returns
+    -------
+    derived : dict
+        name -> value.
+    derived_stderr : dict or None
+        name -> standard error of each derived quantity; None without a covariance.
+    units : dict
+        name -> unit of each derived quantity (a physical parameter's declared unit).
+    physical : dict or None
+        `PhysicalParameters.to_dict` of the physical parameters (values, stderr, identifiable,
+        unidentifiable, combinations, message); None for a model without coefficient
+        expressions.
+    """
+    fitted = list(fitted)
+    derived = derived_quantities(model, values, fitted)
+    units = {k: DERIVED_UNITS[k] for k in derived}
+    names = list(model.coefficient_names)
+    cov = None
+    if covariance is not None and with_stderr:
+        c = np.asarray(covariance, dtype=float)
+        cov = np.zeros((len(names), len(names)))  # known coefficients: exact
+        idx = [(i, names.index(f)) for i, f in enumerate(fitted) if f in names]
+        for i, a in idx:
+            for j, b in idx:
+                cov[a, b] = c[i, j]
+        if not np.all(np.isfinite(cov)):
+            cov = None
+    stderr: dict[str, float] = {}
+    if cov is not None and "natural_frequency" in derived:
+        t1, t2 = names.index("theta1"), names.index("theta2")
+        th1, th2 = float(values["theta1"]), float(values["theta2"])
+        w = np.sqrt(th2)
+        jac = np.zeros((2, len(names)))
+        jac[0, t2] = 0.5 / w  # ω0 = √θ2
+        jac[1, t1] = 0.5 / w  # ζ = θ1 / (2√θ2)
+        jac[1, t2] = -0.25 * th1 / th2**1.5
+        var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+        stderr["natural_frequency"], stderr["damping_ratio"] = np.sqrt(np.clip(var, 0, None))
+    physical = None
+    if model.expressions:
+        for name in ("mass", "damping", "stiffness"):  # the 1/b0 rule is the expressions' job
+            derived.pop(name, None)
+            units.pop(name, None)
+        aliases = (
+            _MSD_FORCE_NAMES if model.is_msd and model.expressions == _MSD_FORCE_EXPRESSIONS else {}
+        )
+        coefs = {c: float(values[c]) for c in names if c in values}
+        full = cov
+        if cov is not None and len(coefs) != len(names):
+            keep = [names.index(c) for c in coefs]
+            full = cov[np.ix_(keep, keep)]
+        out = model.physical_from_coefficients(coefs, covariance=full)
+        physical = out.to_dict()
+        for p, v in out.values.items():
+            name = aliases.get(p, p)
+            if name in fitted or name in names or name in derived:
+                continue  # a name the result already uses
+            derived[name] = float(v)
+            units[name] = DERIVED_UNITS.get(name) or model.units.get(p, "")
+            if out.stderr is not None:
+                stderr[name] = float(out.stderr[p])
+    if cov is None:
+        return derived, None, units, physical
+    return derived, {k: float(stderr.get(k, np.nan)) for k in derived}, units, physical
+
+
+def physical_statement(physical) -> str:
+    """The identifiability sentence of ``physical`` (a `derived_with_stderr` output) for a
+    result's message: non-empty only when physical parameters to identify are not determined."""
+    if not physical or not physical.get("unidentifiable"):
+        return ""
+    return str(physical.get("message", ""))
 
 
 def derived_quantities(model: LinearODEModel, values: Mapping[str, float], fitted) -> dict:

@@ -52,13 +52,13 @@ from .._validate import check_positive, check_signal_pair
 from ..errors import EstimationError, InputError, SamplingError
 from ..models.linear_ode import as_linear_ode_model, natural_frequency_damping
 from ._linear import (
-    DERIVED_UNITS,
     LinearODEResultMixin,
     check_distinct_channels,
     check_distinct_signals,
     check_known_finite,
     coefficient_units,
-    derived_quantities,
+    derived_with_stderr,
+    physical_statement,
 )
 from .base import EstimatorMixin
 from .results import ParameterDict, ResultMixin
@@ -910,11 +910,24 @@ class AlgebraicResult(LinearODEResultMixin, ResultMixin):
         Settings used (``window`` is the rounded ``L · dt``).
     derived : dict
         For the MSD ``natural_frequency`` [rad/s] and ``damping_ratio`` (and ``mass``,
-        ``damping``, ``stiffness`` when ``b0 = 1/m`` is known or fitted).
+        ``damping``, ``stiffness`` when ``b0 = 1/m`` is known or fitted); for a model whose
+        coefficients are expressions of physical parameters (``a = ["k/m", "c/m"]``), those
+        parameters where the coefficients determine them (see ``physical``).
     stderr : dict or None
         Standard errors of the fitted coefficients (see `AlgebraicEstimator`); None with
         ``stderr_reason`` when they cannot be given honestly.
     stderr_reason : str or None
+    derived_stderr : dict or None
+        Standard errors of ``derived`` by the delta method from ``final_covariance``; None
+        whenever ``stderr`` is None.
+    final_covariance : ndarray (len(names), len(names)) or None
+        Covariance of the final estimate (SI, ordered like ``names``; its diagonal is
+        ``stderr``²); None whenever ``stderr`` is None.
+    physical : dict or None
+        For a model in physical terms, `PhysicalParameters.to_dict` of the final estimate:
+        ``values``, ``stderr``, ``identifiable``, ``unidentifiable``, ``combinations`` and
+        ``message`` (which, when physical parameters are not identifiable, also ends
+        ``message``); None for other models.
     units : dict
         name -> unit of ``parameters`` and ``derived``.
     settings : dict
@@ -943,6 +956,9 @@ class AlgebraicResult(LinearODEResultMixin, ResultMixin):
     derived: dict[str, float] = field(default_factory=dict)
     stderr: dict[str, float] | None = None
     stderr_reason: str | None = None
+    derived_stderr: dict[str, float] | None = None
+    final_covariance: np.ndarray | None = None
+    physical: dict | None = None
     units: dict[str, str] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
     model_name: str = ""
@@ -1023,6 +1039,7 @@ def _make_result(
         use = full & tail & np.isfinite(level) & np.isfinite(theta).all(axis=1)
     stderr: dict[str, float] | None = None
     stderr_reason: str | None = "no valid window"
+    cov_final: np.ndarray | None = None
     condition = float("nan")
     # every full window with a finite estimate: the windows of the bias-compensated reference
     every = full & tail & np.isfinite(level) & np.isfinite(theta).all(axis=1)
@@ -1056,7 +1073,9 @@ def _make_result(
                 alpha, G = _bias_compensated(plan, A, rhs, G, h, alpha)
             final = _offset_to_value(plan, alpha * _unscale(plan))
             condition = _equilibrated_condition(G)
-            stderr, stderr_reason = _pooled_stderr(plan, A, rhs, alpha, np.flatnonzero(use), G)
+            stderr, stderr_reason, cov_final = _pooled_stderr(
+                plan, A, rhs, alpha, np.flatnonzero(use), G
+            )
             if stderr is not None and ("o", 0) in plan.columns:
                 # se(o) ≈ se(δ)/|a_0| (the relative error of a_0 is far smaller)
                 name = plan.names[plan.columns.index(("o", 0))]
@@ -1066,6 +1085,9 @@ def _make_result(
                     else plan.known_a[0]
                 )
                 stderr[name] = float(stderr[name] / a0) if a0 > 0 else float("nan")
+                k = plan.columns.index(("o", 0))  # the same scaling of its row and column
+                cov_final[k, :] /= a0 if a0 > 0 else np.nan
+                cov_final[:, k] /= a0 if a0 > 0 else np.nan
             if stderr is not None and final_rule == "lstsq":
                 stderr, stderr_reason = _withhold_if_biased(
                     plan, equations, t, every, final, stderr
@@ -1098,7 +1120,7 @@ def _make_result(
         )
     known = dict(plan.known)
     model = as_linear_ode_model(model if model is not None else "msd")
-    derived = derived_quantities(model, {**known, **params}, names)
+    derived, _, derived_units, physical = derived_with_stderr(model, {**known, **params}, names)
     if success and not all(np.isfinite(v) for v in derived.values()):
         success = False
         message = (
@@ -1118,7 +1140,14 @@ def _make_result(
             )
     if not success:
         stderr, stderr_reason = None, stderr_reason or "no trustworthy estimate"
-    units = {**coefficient_units(model, names), **{k: DERIVED_UNITS[k] for k in derived}}
+    if stderr is None:
+        cov_final = None  # withheld with the standard errors (stderr_reason)
+    derived, derived_stderr, derived_units, physical = derived_with_stderr(
+        model, {**known, **params}, names, cov_final
+    )
+    if success and physical_statement(physical):
+        message = f"{message} {physical_statement(physical)}".strip()
+    units = {**coefficient_units(model, names), **derived_units}
     return AlgebraicResult(
         t=t,
         estimates=theta,
@@ -1137,6 +1166,9 @@ def _make_result(
         derived=derived,
         stderr=stderr,
         stderr_reason=None if stderr is not None else stderr_reason,
+        derived_stderr=derived_stderr,
+        final_covariance=cov_final,
+        physical=physical,
         units=units,
         settings={**(settings or AlgebraicSettings()).as_dict(), "dt": plan.dt},
         model_name=model.name,
@@ -1351,8 +1383,8 @@ def _pooled_stderr(plan: _Plan, A, rhs, alpha, used, G=None):
     biases θ2 at low SNR), are not included: see docs/algebraic.md for the measured coverage.
 
     ``A`` (n_eq, p, n_used), ``rhs`` (n_eq, n_used), ``alpha`` (p,) dimensionless, ``used`` the
-    sample index of each used window's end. Returns (stderr dict in SI units, None) or
-    (None, reason).
+    sample index of each used window's end. Returns (stderr dict in SI units, None, covariance
+    (p, p) in SI units) or (None, reason, None).
     """
     n_eq = A.shape[0]
     _, _, kappa = _noise_kernels(plan, alpha)  # effective kernel of each equation
@@ -1360,7 +1392,7 @@ def _pooled_stderr(plan: _Plan, A, rhs, alpha, used, G=None):
     dof = resid.size - plan.p
     k2 = (kappa**2).sum(axis=1)  # ‖κ_e‖²
     if dof <= 0 or not np.all(k2 > 0):
-        return None, "too few window equations for a residual variance"
+        return None, "too few window equations for a residual variance", None
     sigma2 = float((resid**2).sum() / (A.shape[2] * k2.sum()) * resid.size / dof)
     span = int(used[-1] - used[0]) + 1
     dense = np.zeros((n_eq, plan.p, span))
@@ -1381,8 +1413,10 @@ def _pooled_stderr(plan: _Plan, A, rhs, alpha, used, G=None):
     var = np.clip(np.diag(0.5 * (cov + cov.T)), 0.0, None)
     se = np.sqrt(var) * np.abs(_unscale(plan))
     if not np.all(np.isfinite(se)):
-        return None, "the pooled window system is singular"
-    return {nm: float(v) for nm, v in zip(plan.names, se, strict=True)}, None
+        return None, "the pooled window system is singular", None
+    scale = _unscale(plan)
+    cov_si = 0.5 * (cov + cov.T) * np.outer(scale, scale)
+    return {nm: float(v) for nm, v in zip(plan.names, se, strict=True)}, None, cov_si
 
 
 # ----------------------------------------------------------------------------------------------

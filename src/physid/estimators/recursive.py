@@ -83,13 +83,13 @@ from ..models.linear_ode import (
     natural_frequency_damping,
 )
 from ._linear import (
-    DERIVED_UNITS,
     LinearODEResultMixin,
     check_distinct_channels,
     check_distinct_signals,
     check_known_finite,
     coefficient_units,
-    derived_quantities,
+    derived_with_stderr,
+    physical_statement,
 )
 from .base import EstimatorMixin
 from .results import ParameterDict, ResultMixin
@@ -919,7 +919,17 @@ class RecursiveResult(LinearODEResultMixin, ResultMixin):
     names : tuple of str — the unknown of each column.
     parameters : dict — final estimates of the fitted coefficients.
     derived : dict — for the MSD ``natural_frequency`` [rad/s] and ``damping_ratio`` (and m, c,
-        k with a force input).
+        k with a force input: ``mass``, ``damping``, ``stiffness``); for a model whose
+        coefficients are expressions of physical parameters (``a = ["k/m", "c/m"]``), those
+        parameters where the coefficients determine them (see ``physical``).
+    derived_stderr : dict or None — standard errors of ``derived`` by the delta method from
+        ``final_covariance``; None whenever ``stderr`` is None.
+    final_covariance : ndarray (p, p) or None — covariance of the final θ̂ (SI, ordered like
+        ``names``, diagonal ``stderr``²; not ``covariance``, which is P at every sample); None
+        whenever ``stderr`` is None.
+    physical : dict or None — for a model in physical terms, `PhysicalParameters.to_dict` of the
+        final estimate (values, stderr, identifiable, unidentifiable, combinations, message; the
+        message also ends ``message`` when physical parameters are not identifiable).
     stderr : dict or None — standard errors of the final θ̂: white noise on the measured output
         propagated exactly through the state-variable filter (`_output_noise_covariance`;
         Newey–West HAC for the differential pre-filter); ``metadata["stderr_method"]`` names it
@@ -950,6 +960,9 @@ class RecursiveResult(LinearODEResultMixin, ResultMixin):
     metadata: dict[str, Any] = field(default_factory=dict)
     derived: dict[str, float] = field(default_factory=dict)
     stderr_reason: str | None = None
+    derived_stderr: dict[str, float] | None = None
+    final_covariance: np.ndarray | None = None
+    physical: dict | None = None
     units: dict[str, str] = field(default_factory=dict)
     known: dict[str, float] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
@@ -1221,6 +1234,9 @@ class RecursiveLeastSquares(EstimatorMixin):
             k = [i for i in range(len(reg.names)) if theta_si[i] != theta_final[i]][0]
             a0 = theta_final[k] / theta_si[k] if theta_si[k] != 0 else np.nan
             stderr[reg.names[k]] = float(stderr[reg.names[k]] / abs(a0))
+            cov_final = np.array(cov_final, dtype=float, copy=True)
+            cov_final[k, :] /= abs(a0)  # the same scaling of its row and column
+            cov_final[:, k] /= abs(a0)
         theta_final = theta_si
         fitted = {nm: float(theta_final[i]) for i, nm in enumerate(reg.names)}
         values = dict(spec.parameters)
@@ -1240,7 +1256,7 @@ class RecursiveLeastSquares(EstimatorMixin):
             omega0, zeta = natural_frequency_damping(th1, th2)
         known_values = {k: float(v) for k, v in values.items() if k not in reg.names}
         known_values = {k: v for k, v in known_values.items() if k in spec.coefficient_names}
-        derived = derived_quantities(spec, {**known_values, **fitted}, reg.names)
+        derived, _, _, _ = derived_with_stderr(spec, {**known_values, **fitted}, reg.names)
         valid_fraction = float(np.mean(np.all(np.isfinite(estimates), axis=1)))
         finite = all(np.isfinite(v) for v in [*fitted.values(), *derived.values()])
         lost = int(np.count_nonzero(~ok_rows[M:]))
@@ -1278,7 +1294,13 @@ class RecursiveLeastSquares(EstimatorMixin):
             success, message = True, ""
         if not success:
             stderr, stderr_reason = None, "no trustworthy estimate"
-        units = {**coefficient_units(spec, reg.names), **{k: DERIVED_UNITS[k] for k in derived}}
+        cov_final = None if stderr is None else np.array(cov_final, dtype=float)
+        derived, derived_stderr, derived_units, physical = derived_with_stderr(
+            spec, {**known_values, **fitted}, reg.names, cov_final
+        )
+        if success and physical_statement(physical):
+            message = f"{message} {physical_statement(physical)}".strip()
+        units = {**coefficient_units(spec, reg.names), **derived_units}
         self.result_ = RecursiveResult(
             t=np.array(recording.t),
             estimates=estimates,
@@ -1309,6 +1331,9 @@ class RecursiveLeastSquares(EstimatorMixin):
             },
             derived=derived,
             stderr_reason=stderr_reason,
+            derived_stderr=derived_stderr,
+            final_covariance=cov_final,
+            physical=physical,
             units=units,
             known=known_values,
             settings={**_jsonable_settings(self.get_params()), "dt": float(dt)},

@@ -13,6 +13,9 @@ result has
 ``stderr``
     name -> standard error of each fitted parameter, or ``None`` when the method cannot give an
     honest one; then ``stderr_reason`` says why.
+``derived_stderr`` (where a result has it: the linear-ODE estimators)
+    name -> standard error of each derived quantity (delta method), ``None`` whenever
+    ``stderr`` is; `summary` and `to_pandas` show it.
 ``history``
     The estimates per step (a sample for the sliding-window and recursive methods, a residual
     evaluation for input-error), shape (n_steps, n_columns).
@@ -232,9 +235,12 @@ class ResultMixin:
             se_txt = f"  ± {se:.3g}" if se is not None and np.isfinite(se) else ""
             unit = f"  [{units[name]}]" if units.get(name) else ""
             lines.append(f"  {name:<{width}} = {value:.8g}{se_txt}{unit}")
+        derived_se = getattr(self, "derived_stderr", None) or {}
         for name, value in derived.items():
             unit = f"  [{units[name]}]" if units.get(name) else ""
-            lines.append(f"  {name:<{width}} = {value:.8g}  (derived){unit}")
+            se = derived_se.get(name)
+            se_txt = f"  ± {se:.3g}" if se is not None and np.isfinite(se) else ""
+            lines.append(f"  {name:<{width}} = {value:.8g}{se_txt}  (derived){unit}")
         if schema["stderr"] is None and schema["stderr_reason"]:
             lines.append(f"  no standard errors: {schema['stderr_reason']}")
         if schema["message"]:
@@ -264,10 +270,11 @@ class ResultMixin:
             ) from None
         schema = self._schema()
         stderr = schema["stderr"] or {}
+        derived_se = getattr(self, "derived_stderr", None) or {}  # delta method, where given
         rows = []
         for kind, values in (("fitted", schema["parameters"]), ("derived", schema["derived"])):
             for name, value in values.items():
-                se = stderr.get(name) if kind == "fitted" else None
+                se = stderr.get(name) if kind == "fitted" else derived_se.get(name)
                 rows.append(
                     {
                         "name": name,

@@ -31,6 +31,7 @@ __all__ = [
     "LinearODEModel",
     "PhysicalParameters",
     "as_linear_ode_model",
+    "expression_unit",
     "linear_ode_state_space",
     "normalised_coefficients",
     "msd_model",
@@ -150,6 +151,9 @@ class LinearODEModel:
             if not np.isfinite(v):
                 raise InputError(f"parameter {k!r} must be finite; got {v}.")
         self.units = {k: (units or {}).get(k, "") for k in self.parameter_names}
+        for coef, text in expressions.items():  # "k/m" with k [N/m], m [kg]: 1/s^2
+            if not self.units.get(coef):
+                self.units[coef] = expression_unit(text, self.units)
         self.unknown = tuple(unknown) if unknown is not None else self.coefficient_names
         bad = [u for u in self.unknown if u not in self.parameter_names]
         if bad:
@@ -325,6 +329,28 @@ class LinearODEModel:
         {}
         """
         return _physical_from_coefficients(self, coefficients, covariance)
+
+    def physical_identifiability(self) -> PhysicalParameters:
+        """Which physical parameters the model's coefficients determine (before any data).
+
+        `physical_from_coefficients` at the nominal coefficient values: ``identifiable`` names
+        the physical parameters to identify that the estimated coefficients determine,
+        ``unidentifiable`` those they do not, ``combinations`` the coefficient expressions that
+        are estimated instead, and ``message`` says it in one line.
+
+        Returns
+        -------
+        PhysicalParameters
+            ``values`` are the nominal values (SI) of the identifiable parameters.
+
+        Examples
+        --------
+        >>> msd_model(input="force").physical_identifiability().identifiable
+        ('m', 'c', 'k')
+        """
+        return self.physical_from_coefficients(
+            {c: self._nominal[c] for c in self.coefficient_names if c in self.unknown}
+        )
 
     @property
     def is_msd(self) -> bool:
@@ -763,6 +789,79 @@ class PhysicalParameters:
         }
 
 
+def expression_unit(text: str, units) -> str:
+    """SI unit of an expression of parameters with declared units (``""`` when it has none).
+
+    Dimensional analysis by scaling: each base unit (m, kg, s, A, rad) is rescaled in turn and the
+    expression's value must scale by an integer power of it, the same for two factors; sums of
+    unlike terms, functions of dimensional arguments (``exp(k)``) and parameters without a unit
+    give ``""``.
+
+    Parameters
+    ----------
+    text : str
+        The expression (``"k/m"``).
+    units : mapping of str to str
+        Parameter name -> unit (``{"k": "N/m", "m": "kg"}``); ``"1"`` is dimensionless, ``""``
+        unknown.
+
+    Returns
+    -------
+    str
+        The SI unit (``"1/s^2"``), ``"1"`` for a dimensionless expression, ``""`` when unknown.
+
+    Examples
+    --------
+    >>> expression_unit("k/m", {"k": "N/m", "m": "kg"}), expression_unit("1/m", {"m": "kg"})
+    ('1/s^2', '1/kg')
+    """
+    from ..expressions import evaluate_expression
+    from ..units import _canonical, parse_unit
+
+    names = _names_of(text)
+    dims = {}
+    for n in names:
+        unit = str((units or {}).get(n, "") or "")
+        if not unit:
+            return ""
+        try:
+            dims[n] = np.array(parse_unit("" if unit == "1" else unit).dimension, dtype=float)
+        except InputError:
+            return ""
+    # arbitrary positive probe values (not the nominal ones: a damping of 0 would hide c)
+    probe = {n: 1.0 + 0.37 * (i + 1) for i, n in enumerate(names)}
+
+    def value(scale):
+        with np.errstate(all="ignore"):
+            try:
+                return float(
+                    evaluate_expression(
+                        text, {n: v * float(np.prod(scale ** dims[n])) for n, v in probe.items()}
+                    )
+                )
+            except (InputError, TypeError, ValueError, ZeroDivisionError):
+                return float("nan")
+
+    base = value(np.ones(5))
+    if not np.isfinite(base) or base == 0.0:
+        return ""
+    exponents = []
+    for i in range(5):
+        powers = []
+        for factor in (2.0, 3.0):
+            scale = np.ones(5)
+            scale[i] = factor
+            ratio = value(scale) / base
+            if not np.isfinite(ratio) or ratio <= 0:
+                return ""
+            powers.append(np.log(ratio) / np.log(factor))
+        e = round(powers[0])
+        if any(abs(p - e) > 1e-6 for p in powers):
+            return ""
+        exponents.append(int(e))
+    return _canonical(tuple(exponents)) or "1"
+
+
 def _names_of(text: str) -> tuple[str, ...]:
     from ..expressions import expression_names
 
@@ -894,7 +993,8 @@ def _physical_from_coefficients(model: LinearODEModel, coefficients, covariance)
             combinations=combos,
             message=(
                 f"{', '.join(unknown)} are not identifiable from the coefficients: only "
-                f"{len(combos)} combination(s) are ({words}); the input carries no scale. "
+                f"{len(combos)} combination{'s are' if len(combos) > 1 else ' is'} identifiable, "
+                f"{', '.join(combos)} ({words}); the input carries no scale. "
                 'Measure the input in physical units (a force: b = ["1/m"]) or fix '
                 f"{len(unknown) - rank} of them (identify = false)."
             ),
@@ -932,10 +1032,18 @@ def _physical_from_coefficients(model: LinearODEModel, coefficients, covariance)
     if covariance is not None:
         cov = np.asarray(covariance, dtype=float)
         if cov.shape != (len(order), len(order)):
+            history = (
+                " (a covariance history, one matrix per sample: pass the final covariance, "
+                "result.final_covariance)"
+                if cov.ndim == 3 and cov.shape[1:] == (len(order), len(order))
+                else ""
+            )
             raise InputError(
                 f"covariance must be ({len(order)}, {len(order)}), ordered like the coefficients "
-                f"{order}; got shape {cov.shape}."
+                f"{order}; got shape {cov.shape}{history}."
             )
+        if not np.all(np.isfinite(cov)):
+            raise InputError("covariance must be finite (no NaN or inf entries).")
         idx = [order.index(c) for c in equations]
         jac = np.atleast_2d(np.asarray(inv.jac(*solution, *known), dtype=float))
         pinv = np.linalg.pinv(jac)  # dp = J⁺ dc (J has full column rank here)
