@@ -230,7 +230,8 @@ def simulate_prediction(
     n = model.order
     x0 = np.zeros(n)
     offset = getattr(model, "output_offset", None)
-    o = float(values.get(offset, 0.0)) if offset else 0.0  # measured y_m = y + o
+    # measured y_m = y + o: the estimate, or the value of a held offset
+    o = float(values[offset]) if offset in values else model.known_output_offset()
     try:
         with np.errstate(all="ignore"):
             y_hat = np.asarray(simulate_linear_ode(model, t, input=u, params=params)["x"], float)

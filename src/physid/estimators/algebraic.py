@@ -1717,7 +1717,7 @@ class AlgebraicEstimator(EstimatorMixin):
         dt = recording.dt
         self.result_ = algebraic_estimates(
             recording[in_name],
-            recording[out],
+            recording[out] - model.known_output_offset(),  # a held offset is removed
             dt,
             model,
             t_start=float(recording.t[0]),

@@ -1142,7 +1142,7 @@ class RecursiveLeastSquares(EstimatorMixin):
         dt = recording.dt
         reg = build_regression(
             spec,
-            recording[out_name],
+            recording[out_name] - spec.known_output_offset(),  # a held offset is removed
             recording[in_name],
             dt,
             unknown=self.unknown,

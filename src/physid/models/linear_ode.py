@@ -221,6 +221,14 @@ class LinearODEModel:
         """Nominal values of the physical parameters the coefficient expressions use."""
         return {k: self._nominal[k] for k in self.physical_names}
 
+    def known_output_offset(self) -> float:
+        """The output offset to subtract before a fit [output unit]: the declared offset's
+        ``value`` when it is held (``identify = false``), else 0 (none declared, or estimated).
+        """
+        if self.output_offset is None or self.offset_unknown:
+            return 0.0
+        return float(self._nominal[self.output_offset])
+
     @property
     def offset_unknown(self) -> bool:
         """True when the model has an output offset to estimate (``identify = true``)."""
