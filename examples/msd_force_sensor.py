@@ -11,7 +11,7 @@ comma and ';' as the separator, as many European loggers do:
 physid reads it with a channel map (`x` is the output, `u` the input), converts every column to
 SI, and estimates the force-input MSD  m ẍ + c ẋ + k x = F, written as
 ẍ + (c/m) ẋ + (k/m) x = (1/m) F: the three coefficients θ2 = k/m, θ1 = c/m and b0 = 1/m are
-estimated, and `physical_from_coefficients` turns them into m, c and k with standard errors
+estimated, and the result turns them into m, c and k (`fit.derived`) with standard errors
 (delta method). Without the force sensor (u = F/m) only k/m and c/m would be identifiable, and
 physid says so.
 
@@ -63,21 +63,22 @@ def main() -> None:
     fit = RecursiveLeastSquares(model).fit(rec).result_
     names = ("theta2", "theta1", "b0")
     coefs = {n: fit.parameters[n] for n in names}
-    cov = None
-    if fit.stderr and all(n in fit.stderr for n in names):
-        cov = np.diag([fit.stderr[n] ** 2 for n in names])  # the correlations are neglected here
-    phys = model.physical_from_coefficients(coefs, covariance=cov)
+    # the result carries m, c, k (as mass, damping, stiffness) with delta-method standard errors
+    # from the coefficients' full final covariance (fit.final_covariance)
+    derived = {"m": "mass", "c": "damping", "k": "stiffness"}
+    values = {n: fit.derived[d] for n, d in derived.items()}
+    stderr = fit.derived_stderr or {}
     truth = {"m": MASS, "c": DAMPING, "k": STIFFNESS}
     units = {"m": "kg", "c": "N·s/m", "k": "N/m"}
     digits = {"m": 4, "c": 3, "k": 1}
-    for name in ("m", "c", "k"):
-        se = f" ± {phys.stderr[name]:.2g}" if phys.stderr else ""
-        err = 100 * abs(phys.values[name] / truth[name] - 1)
+    for name, key in derived.items():
+        se = f" ± {stderr[key]:.2g}" if stderr.get(key) is not None else ""
+        err = 100 * abs(values[name] / truth[name] - 1)
         print(
-            f"{name} = {phys.values[name]:.{digits[name]}f}{se} {units[name]} "
+            f"{name} = {values[name]:.{digits[name]}f}{se} {units[name]} "
             f"(true {truth[name]:g}, error {err:.2f} %)"
         )
-    worst = max(abs(phys.values[n] / truth[n] - 1) for n in ("m", "k"))
+    worst = max(abs(values[n] / truth[n] - 1) for n in ("m", "k"))
     print(f"mass and stiffness within 1 % of the truth: {'yes' if worst < 0.01 else 'no'}")
     # without the force sensor (u = F/m, b = ["1"]) the coefficients give only k/m and c/m
     ratios = Path("ratios.toml")
