@@ -6,14 +6,17 @@ Three tests, the ones robotics and system-identification practice use:
     against the measured ones: relative error ``‖τ̂ − τ‖ / ‖τ‖`` per channel and overall
     (``‖τ̂ − τ‖_F / ‖τ‖_F`` over all channels), computed on the same filtered (and, for
     input-error, decimated by the filter's valid range) signals the fit used: the robotics
-    convention (Gautier; Swevers et al.). For a linear ODE the "force" is the input ``u`` and the
-    derivatives come from the state-variable filter at the RLS fit's cut-off (the algebraic
-    estimator does not filter; its cross-test uses the RLS default cut-off, and says so).
+    convention (Gautier; Swevers et al.); for IDIM with the fit's stiction rule (a Coulomb
+    joint's equations near rest dropped, ``stick_threshold``). For a linear ODE the "force" is
+    the input ``u`` and the derivatives come from the state-variable filter at the RLS fit's
+    cut-off (the algebraic estimator does not filter; its cross-test uses the RLS default
+    cut-off, and says so), the estimated output offset subtracted from ``y`` first.
 (b) **Output-error test** — the identified model simulated on the held-out input (open loop for a
     linear ODE, with the initial state fitted by least squares as MATLAB ``compare`` does; closed
-    loop with the recording's PD controller ``kp``, ``kd`` and reference ``r`` for chains), and the
-    fit ``100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` per output (MATLAB ``compare``'s NRMSE fit) and the
-    relative error ``‖y − ŷ‖ / ‖y‖``.
+    loop with the recording's PD controller ``kp``, ``kd`` and reference ``r`` for chains; an
+    IDIM result without a consistent estimate as its fitted base model, each base value on its
+    kept column and 0 on the others), and the fit ``100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` per output
+    (MATLAB ``compare``'s NRMSE fit) and the relative error ``‖y − ŷ‖ / ‖y‖``.
 (c) **Residual analysis** (MATLAB ``resid``) — the normalised autocorrelation of the residual at
     lags 1…25 and its cross-correlation with the input at lags −25…25, against the 99 % band
     ``± 2.576 / √N`` of a white residual independent of the input, and a one-line verdict. The
@@ -305,6 +308,12 @@ def load_result(path, *, model=None) -> LoadedResult:
     options = data.get("model_options")
     if options is not None and not isinstance(options, dict):
         raise DataFileError(f"{str(p)!r}: 'model_options' must be an object; got {options!r}.")
+    if isinstance(ref, (str, Path)) and model is None and Path(str(ref)).suffix:
+        if not Path(str(ref)).exists():  # the result file was moved to another machine
+            raise InputError(
+                f"the result file {str(p)!r} names the model file {str(ref)!r}, which does not "
+                f"exist here; pass the model ({arg('model', '...', cli='MODEL')})."
+            )
     if isinstance(ref, (str, Path)):
         mdl = load_model(ref, **(options or {}))  # the model that was fitted, not its defaults
     else:
@@ -422,8 +431,13 @@ def _linear_inverse(loaded, recording):
     n, m = model.order, model.input_order
     highest = max(n, m)
     order = highest + 1
+    # the measured output is y + offset (the model's output_offset, as the prediction of (b)
+    # adds it): the derivatives of the constant vanish, but a0·y would see it
+    offset = getattr(model, "output_offset", None)
+    o = float(values.get(offset, 0.0)) if offset else 0.0
+    y_m = np.asarray(recording[out_name], dtype=float) - o
     derivs = state_variable_filter(
-        np.column_stack([recording[out_name], recording[in_name]]), dt, cutoff, highest, order
+        np.column_stack([y_m, recording[in_name]]), dt, cutoff, highest, order
     )
     skip = min(svf_transient_samples(cutoff, dt, order), derivs.shape[0] // 2)
     yd, ud = derivs[skip:, 0, :], derivs[skip:, 1, :]
@@ -437,11 +451,65 @@ def _linear_inverse(loaded, recording):
     u_hat = lhs / b0 if b0 != 0 else np.full(lhs.shape, np.nan)
     u_f = ud[:, 0]
     t = np.asarray(recording.t)[skip:]
-    return in_name, t, u_f, u_hat, f"inverse model on {note}; first {skip} samples dropped"
+    note = f"inverse model on {note}; first {skip} samples dropped"
+    if offset:
+        note += f"; the estimated output offset {offset} = {o:.6g} subtracted from the output"
+    return in_name, t, u_f, u_hat, note
 
 
 def _is_idim(loaded) -> bool:
     return str(loaded.method).startswith("idim")
+
+
+def _idim_threshold(loaded) -> tuple[float, bool]:
+    """The fit's ``stick_threshold`` and whether the result records it (else the default)."""
+    from ..estimators._stiction import STICK_THRESHOLD
+
+    value = loaded.data.get("stick_threshold")
+    if value is None:
+        return STICK_THRESHOLD, False
+    return float(value), True
+
+
+def _idim_inverse(loaded, recording):
+    """(t, τ_f, τ̂, stuck) of an IDIM result: the fit's rows, its near-rest equations dropped.
+
+    The rows are built with the fit's filter settings and ``stick_threshold`` (`idim_rows`), so
+    a Coulomb joint's equations near rest are zero on both sides, as in the fit, and the
+    relative error is the fit's on the fit's own record. ``stuck`` (rows × joints, bool) is
+    None when nothing is dropped.
+    """
+    from ..estimators.idim import base_regressor_info, idim_rows
+
+    d = loaded.data
+    model = loaded.model
+    info = base_regressor_info(model)
+    names = tuple(d.get("names") or loaded.parameters)
+    missing = [n for n in names if n not in loaded.parameters]
+    if missing:
+        raise InputError(f"the result file lacks the value(s) of {missing}.")
+    beta = np.array([loaded.parameters[n] for n in names], dtype=float)
+    if names == info.independent:  # files written before wave 3 keyed the kept columns
+        names = info.names
+    if names != info.names:
+        raise InputError(
+            f"the result has {len(names)} base parameters ({list(names)[:4]}…), but the model "
+            f"{getattr(model, 'name', '')!r} has {info.n_base} ({list(info.names)[:4]}…); "
+            f"validate with the model the result was fitted with "
+            f"({arg('model', '...', cli='MODEL')})."
+        )
+    threshold, _ = _idim_threshold(loaded)
+    rows = idim_rows(
+        model,
+        recording,
+        info=info,
+        differentiation=d.get("differentiation", "physid"),
+        cutoff=d.get("cutoff", "auto"),
+        half_width=d.get("half_width"),
+        decimate=d.get("decimate", "auto"),
+        stick_threshold=threshold,
+    )
+    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
 
 
 def _chain_inverse(loaded, recording):
@@ -485,6 +553,28 @@ def _chain_inverse(loaded, recording):
     params = _input_error_parameters(loaded)
     tau_hat = np.asarray(loaded.model.inverse_dynamics(qf, qdf, qddf, params), dtype=float)
     return t, tau_f, tau_hat
+
+
+def _idim_parameters(loaded) -> dict[str, float]:
+    """Standard parameters of an IDIM result's fitted base model: each base value on its kept
+    column (``columns``), 0 on every other column (``τ = Y θ = W_b β``)."""
+    from ..estimators.idim import base_regressor_info
+
+    d = loaded.data
+    names = tuple(loaded.model.parameter_names)
+    free = list(d.get("names") or loaded.parameters)
+    columns = list(d.get("columns") or base_regressor_info(loaded.model).independent)
+    missing = [n for n in free if n not in loaded.parameters]
+    if missing or len(columns) != len(free) or not set(columns) <= set(names):
+        raise InputError(
+            "the result's base parameters do not match the model "
+            f"{getattr(loaded.model, 'name', '')!r} (values missing for {missing[:4]}, or kept "
+            "columns the model does not have); validate with the model the result was fitted "
+            f"with ({arg('model', '...', cli='MODEL')})."
+        )
+    theta = dict.fromkeys(names, 0.0)
+    theta.update({c: float(loaded.parameters[n]) for n, c in zip(free, columns, strict=True)})
+    return theta
 
 
 def _input_error_parameters(loaded) -> dict[str, float]:
@@ -577,7 +667,11 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
             residual = residual_analysis(y - y_hat, recording[in_name], max_lag=max_lag)
             residual["of"] = f"output error of {out_name}"
     else:
-        t_f, tau_f, tau_hat = _chain_inverse(loaded, recording)
+        stuck = None
+        if _is_idim(loaded):
+            t_f, tau_f, tau_hat, stuck = _idim_inverse(loaded, recording)
+        else:
+            t_f, tau_f, tau_hat = _chain_inverse(loaded, recording)
         names = [f"tau{j + 1}" for j in range(tau_f.shape[1])]
         rel = {"overall": _relative(tau_hat - tau_f, tau_f)}
         rel.update(
@@ -588,6 +682,11 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
             f"{loaded.data.get('half_width')}, cutoff {loaded.data.get('cutoff')} rad/sample), "
             "valid samples only"
         )
+        if _is_idim(loaded):
+            notes.append(_stick_note(loaded, stuck))
+        if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
+            free = ~np.any(stuck, axis=1)
+            t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
         series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
         fits, out_rel, note = _chain_output_error(loaded, recording, series)
         notes.append(note)
@@ -598,6 +697,28 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
     if residual:
         series["residual"] = residual
     return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series)
+
+
+def _stick_note(loaded, stuck) -> str:
+    """What (a) and (c) dropped near rest, with the fit's ``stick_threshold``."""
+    threshold, recorded = _idim_threshold(loaded)
+    source = (
+        "the fit's"
+        if recorded
+        else "the IDIM default (the result does not record the fit's; written by an older physid)"
+    )
+    if stuck is None or not stuck.any():
+        return (
+            f"(a) stiction rule (threshold {threshold:g}·rms of the speed, {source}): "
+            "no joint equation dropped near rest"
+        )
+    free = int(np.count_nonzero(~np.any(stuck, axis=1)))
+    return (
+        f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped near rest, as in the "
+        f"fit: Coulomb joints at |q̇| < {threshold:g}·rms (stiction threshold: {source}), "
+        "where stiction makes the friction torque unknown; (c) uses the "
+        f"{free} rows where no equation is dropped"
+    )
 
 
 def _chain_output_error(loaded, recording, series):
@@ -618,19 +739,22 @@ def _chain_output_error(loaded, recording, series):
         )
     from ..simulate.closed_loop import simulate_closed_loop
 
+    what = "closed-loop simulation"
     if _is_idim(loaded):
-        # Base parameters do not determine a simulable model; the consistent estimate's standard
-        # parameters (in ``derived``) do.
+        # The consistent estimate's standard parameters (in ``derived``) where there are; else the
+        # fitted base model: each base value on its kept column and 0 on the others gives
+        # τ = Y θ = W_b β exactly (every dependent column is regrouped into its base parameter),
+        # as `InputErrorResult.model_parameters` does.
         standard = {k: v for k, v in loaded.derived.items() if k in model.parameter_names}
-        if not standard:
-            return (
-                {},
-                {},
-                "(b) skipped: IDIM estimates base parameters, which do not define a model to "
-                "simulate; refit with the physically consistent estimate (the consistent option of "
-                "identify / IDIMEstimator), which gives standard parameters",
+        if standard:
+            params = standard
+            what += " of the consistent estimate's standard parameters"
+        else:
+            params = _idim_parameters(loaded)
+            what += (
+                " of the fitted base model (each base parameter on its kept column, the others "
+                "0: it gives the fitted torques, but it is not a physical parameter set)"
             )
-        params = standard
     else:
         params = _input_error_parameters(loaded)
     params = {k: v for k, v in params.items() if k in model.parameter_names}
@@ -649,6 +773,8 @@ def _chain_output_error(loaded, recording, series):
         )
     except Exception as exc:  # a diverging identified model: report, do not crash
         return {}, {}, f"(b) closed-loop re-simulation failed: {exc}"
+    if not all(np.all(np.isfinite(np.asarray(sim[n], dtype=float))) for n in q_names):
+        return {}, {}, f"(b) {what} diverged (the identified model cannot be simulated)"
     fits, rel, data = {}, {}, {}
     for n in q_names:
         y, y_hat = np.asarray(recording[n]), np.asarray(sim[n])
@@ -656,7 +782,7 @@ def _chain_output_error(loaded, recording, series):
         rel[n] = _relative(y - y_hat, y)
         data[n] = (y, y_hat)
     series["output"] = (t, data)
-    return fits, rel, "(b) closed-loop simulation with the recording's kp, kd and reference"
+    return fits, rel, f"(b) {what} with the recording's kp, kd and reference"
 
 
 def _as_loaded(result, model) -> LoadedResult:

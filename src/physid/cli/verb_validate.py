@@ -41,7 +41,10 @@ def register(subparsers) -> None:
         "--model",
         default=None,
         metavar="MODEL",
-        help="the model, where the result file does not name it ('msd', a model file, ...)",
+        help=(
+            "the model, where the result file does not name it or names a model file not "
+            "found here ('msd', a model file, ...)"
+        ),
     )
     add_recording_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")

@@ -761,6 +761,8 @@ class IDIMResult(ResultMixin):
     residuals : ndarray, shape (n_rows, n_joints) [N·m]
     model : ChainModel or None
         The model fitted (used by `predict`; not written by ``to_dict``).
+    stick_threshold : float or None
+        The fit's ``stick_threshold`` (`validate` drops the same near-rest rows).
     """
 
     names: tuple[str, ...]
@@ -795,6 +797,7 @@ class IDIMResult(ResultMixin):
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     model: Any = field(default=None, repr=False, compare=False)
+    stick_threshold: float | None = None
 
     _history_fields = ("history", "t", "residuals", "covariance")
     _private_fields = ("model",)
@@ -1329,6 +1332,7 @@ class IDIMEstimator(EstimatorMixin):
             derived = dict(consistent.standard)
             units.update({n: _unit_of(n, model) for n in derived})
         self.result_ = IDIMResult(
+            stick_threshold=float(self.stick_threshold),
             names=names,
             parameters=params,
             expressions=dict(zip(names, info.expressions, strict=True)),
