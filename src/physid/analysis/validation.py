@@ -434,7 +434,8 @@ def _linear_inverse(loaded, recording):
     # the measured output is y + offset (the model's output_offset, as the prediction of (b)
     # adds it): the derivatives of the constant vanish, but a0·y would see it
     offset = getattr(model, "output_offset", None)
-    o = float(values.get(offset, 0.0)) if offset else 0.0
+    held = bool(offset) and offset not in values  # identify = false: the model's value
+    o = float(values[offset]) if offset in values else model.known_output_offset()
     y_m = np.asarray(recording[out_name], dtype=float) - o
     derivs = state_variable_filter(
         np.column_stack([y_m, recording[in_name]]), dt, cutoff, highest, order
@@ -453,7 +454,8 @@ def _linear_inverse(loaded, recording):
     t = np.asarray(recording.t)[skip:]
     note = f"inverse model on {note}; first {skip} samples dropped"
     if offset:
-        note += f"; the estimated output offset {offset} = {o:.6g} subtracted from the output"
+        kind = "held" if held else "estimated"
+        note += f"; the {kind} output offset {offset} = {o:.6g} subtracted from the output"
     return in_name, t, u_f, u_hat, note
 
 

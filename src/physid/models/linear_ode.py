@@ -950,7 +950,9 @@ def _physical_from_coefficients(model: LinearODEModel, coefficients, covariance)
                 f"coefficients must be a mapping name -> value; got {type(coefficients).__name__}."
             ) from None
     order = list(coefficients)
-    bad = [n for n in order if n not in model.coefficient_names]
+    # an estimated output offset is passed through (a result's parameters hold it; it maps to
+    # no physical parameter of the ODE), keeping the covariance's order
+    bad = [n for n in order if n not in model.coefficient_names and n != model.output_offset]
     if bad:
         raise InputError(
             f"coefficients has unknown name(s) {bad}; the model's coefficients are "
