@@ -72,7 +72,7 @@ def main() -> None:
     units = {"m": "kg", "c": "N·s/m", "k": "N/m"}
     digits = {"m": 4, "c": 3, "k": 1}
     for name, key in derived.items():
-        se = f" ± {stderr[key]:.2g}" if stderr.get(key) is not None else ""
+        se = f" ± {stderr[key]:.2g}" if np.isfinite(stderr.get(key) or np.nan) else ""
         err = 100 * abs(values[name] / truth[name] - 1)
         print(
             f"{name} = {values[name]:.{digits[name]}f}{se} {units[name]} "

@@ -152,3 +152,12 @@ def test_intervals_withheld_where_the_noise_does_not_explain_the_residual(axis, 
     assert fit.stderr is None and "the noise on q explains only" in fit.stderr_reason
     share = float(fit.stderr_reason.split("explains only ")[1].split(" %")[0]) / 100
     assert share < 0.2 * NOISE_SHARE  # measured 0.016 on the example's 10 s log
+
+
+def test_the_quantisation_floor_needs_a_moving_q():
+    # review: a slow q that stays on one grid value for many samples has a correlated rounding
+    # error, not white noise of Δ/√12; the floor then does not apply (the spectrum's does)
+    t = np.arange(0.0, 10.0, 1e-3)
+    slow = np.round(1e-4 * np.sin(2 * np.pi * 0.5 * t) / 1e-6) * 1e-6  # 13 % of samples move
+    assert quantisation_step(slow[:, None])[0] == pytest.approx(1e-6)
+    assert noise_floor(slow[:, None])[0] < 0.5 * 1e-6 / np.sqrt(12.0)

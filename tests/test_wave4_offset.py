@@ -88,3 +88,19 @@ def test_physical_parameters_from_a_result_with_an_estimated_offset(tmp_path):
     assert phys.values["m"] == pytest.approx(2.5, rel=1e-3)
     assert phys.values["k"] == pytest.approx(900.0, rel=1e-3)
     assert phys.stderr["m"] == pytest.approx(res.derived_stderr["m"], rel=1e-9)
+
+
+def test_the_plain_function_and_the_stream_remove_a_held_offset_too(tmp_path):
+    from physid.estimators.algebraic import StreamingAlgebraicEstimator, algebraic_estimates
+
+    rec, _ = _record()
+    path = tmp_path / "m.toml"
+    path.write_text(MODEL.replace("OFFSET", "0.01"), encoding="utf-8")
+    model = physid.load_model(path)
+    direct = algebraic_estimates(rec["u"], rec["x"], rec.dt, model)
+    assert direct.parameters["theta2"] == pytest.approx(100.0, rel=1e-3)
+    stream = StreamingAlgebraicEstimator(model, dt=rec.dt)
+    last = [
+        stream.update(rec["u"][k : k + 1000], rec["x"][k : k + 1000]) for k in range(0, 6000, 1000)
+    ][-1]
+    assert last.estimates[-1][last.names.index("theta2")] == pytest.approx(100.0, rel=1e-3)

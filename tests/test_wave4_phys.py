@@ -275,3 +275,42 @@ def test_model_info_shows_physical_parameters(files, capsys):
     assert info["physical"]["unidentifiable"] == ["m", "c", "k"]
     assert main(["model", "info", "msd-force"]) == 0
     assert "reports them as mass, damping, stiffness" in capsys.readouterr().out
+
+
+def test_an_input_gain_without_a_declared_unit_takes_y_over_u_s_to_the_k():
+    # review: the time exponent rose with k (b0 of an m/N model read s^4/kg)
+    from physid.estimators._linear import coefficient_units
+    from physid.models.linear_ode import LinearODEModel
+
+    values = {"theta2": 1.0, "theta1": 1.0, "b0": 1.0, "b1": 1.0}
+    m = LinearODEModel(
+        "g", ("theta2", "theta1"), ("b0", "b1"), values, input_unit="N", output_unit="m"
+    )
+    units = coefficient_units(m, ["theta2", "theta1", "b0", "b1"])
+    assert units == {"theta2": "1/s^2", "theta1": "1/s", "b0": "1/kg", "b1": "s/kg"}
+
+
+def test_plain_msd_with_a_fitted_b0_gives_mass_stderr_by_the_delta_method():
+    # review: mass, damping, stiffness of the plain msd with b0 fitted had NaN errors
+    from physid.models import msd_model
+
+    model = msd_model()
+    values = {"theta2": 360.0, "theta1": 1.2, "b0": 0.4}
+    cov = np.diag([0.01, 1e-4, 1e-6])  # ordered like fitted
+    fitted = ["theta2", "theta1", "b0"]
+    derived, se, _, _ = derived_with_stderr(model, values, fitted, cov)
+    assert derived["mass"] == pytest.approx(2.5)
+    # m = 1/b0: sd = sd(b0)/b0² = 1e-3/0.16; k = θ2/b0: sd² = (0.1/0.4)² + (360·1e-3/0.16)²
+    assert se["mass"] == pytest.approx(1e-3 / 0.16, rel=1e-12)
+    assert se["stiffness"] == pytest.approx(np.hypot(0.1 / 0.4, 360 * 1e-3 / 0.16), rel=1e-12)
+
+
+def test_a_negative_input_gain_gives_no_mass():
+    from physid.models import load_model
+
+    model = load_model("msd-force")
+    for b0 in (-2.0, 0.0):
+        derived, _, _, _ = derived_with_stderr(
+            model, {"theta2": 4.0, "theta1": 0.2, "b0": b0}, ["theta2", "theta1", "b0"]
+        )
+        assert "mass" not in derived and "stiffness" not in derived

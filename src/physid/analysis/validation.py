@@ -309,6 +309,9 @@ def load_result(path, *, model=None) -> LoadedResult:
     if options is not None and not isinstance(options, dict):
         raise DataFileError(f"{str(p)!r}: 'model_options' must be an object; got {options!r}.")
     if isinstance(ref, (str, Path)) and model is None and Path(str(ref)).suffix:
+        beside = p.parent / str(ref)  # a relative path: the result file's folder first
+        if not Path(str(ref)).is_absolute() and beside.exists():
+            ref = str(beside)
         if not Path(str(ref)).exists():  # the result file was moved to another machine
             raise InputError(
                 f"the result file {str(p)!r} names the model file {str(ref)!r}, which does not "
@@ -689,6 +692,11 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
         if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
             free = ~np.any(stuck, axis=1)
             t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
+            if not free.all():
+                notes.append(
+                    "(c) runs on the kept rows joined end to end: its lags span the gaps "
+                    "where rows near rest were dropped"
+                )
         series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
         fits, out_rel, note = _chain_output_error(loaded, recording, series)
         notes.append(note)

@@ -144,7 +144,7 @@ def _auto_cutoff(data, dt: float, half_width, names) -> float:
 
     if not isinstance(half_width, int) or half_width < 1:
         return 0.2  # design_filter words the bad --half-width
-    choice = choose_filter(data.data, dt, half_width=half_width)
+    choice = choose_filter(data, dt, half_width=half_width)
     progress(f"physid filter: --cutoff auto, from {', '.join(names)}: {choice.reason}")
     return float(choice.cutoff)
 

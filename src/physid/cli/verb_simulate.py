@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import time
 
 from ..errors import InputError
@@ -454,7 +455,9 @@ def run_model(args) -> int:
     elif reference_file:
         # errors in CLI words; of the model file's [recording] table only t and r1..rn apply
         rec = read_recording(
-            args, args.reference, table_channels=lambda c: c == "t" or c.startswith("r")
+            args,
+            args.reference,
+            table_channels=lambda c: c == "t" or re.fullmatch(r"r\d+", c) is not None,
         )
         names = [f"r{j + 1}" for j in range(n)]
         missing = [c for c in names if c not in rec.names]

@@ -7,6 +7,7 @@ squares, as MATLAB's ``compare`` does with ``InitialCondition = 'estimate'``).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping
 
 import numpy as np
@@ -61,7 +62,8 @@ def _gain_unit(model: LinearODEModel, k: int) -> str:
         y, u = parse_unit(model.output_unit).dimension, parse_unit(model.input_unit).dimension
     except InputError:
         return ""
-    dim = tuple(a - b + (k if i == 2 else 0) for i, (a, b) in enumerate(zip(y, u, strict=True)))
+    # [b_j] = [y]/([u]·s^k): the time exponent falls by k (review: it rose, b0 of m/N read s^4/kg)
+    dim = tuple(a - b - (k if i == 2 else 0) for i, (a, b) in enumerate(zip(y, u, strict=True)))
     return _canonical(dim) or "1"
 
 
@@ -140,6 +142,17 @@ def derived_with_stderr(
         jac[1, t2] = -0.25 * th1 / th2**1.5
         var = np.einsum("ij,jk,ik->i", jac, cov, jac)
         stderr["natural_frequency"], stderr["damping_ratio"] = np.sqrt(np.clip(var, 0, None))
+    if cov is not None and "mass" in derived and not model.expressions:
+        # m = 1/b0, c = θ1/b0, k = θ2/b0 (derived_quantities' rule for a fitted b0)
+        t1, t2, tb = names.index("theta1"), names.index("theta2"), names.index("b0")
+        th1, th2, b0 = float(values["theta1"]), float(values["theta2"]), float(values["b0"])
+        jac = np.zeros((3, len(names)))
+        jac[0, tb] = -1.0 / b0**2
+        jac[1, t1], jac[1, tb] = 1.0 / b0, -th1 / b0**2
+        jac[2, t2], jac[2, tb] = 1.0 / b0, -th2 / b0**2
+        var = np.einsum("ij,jk,ik->i", jac, cov, jac)
+        for name, v in zip(("mass", "damping", "stiffness"), var, strict=True):
+            stderr[name] = float(np.sqrt(max(v, 0.0)))
     physical = None
     if model.expressions:
         for name in ("mass", "damping", "stiffness"):  # the 1/b0 rule is the expressions' job
@@ -153,10 +166,18 @@ def derived_with_stderr(
         if cov is not None and len(coefs) != len(names):
             keep = [names.index(c) for c in coefs]
             full = cov[np.ix_(keep, keep)]
-        out = model.physical_from_coefficients(coefs, covariance=full)
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # a degenerate estimate (b0 = 0): no values, no noise
+            out = model.physical_from_coefficients(coefs, covariance=full)
         physical = out.to_dict()
+        # the force-input MSD's mass is 1/b0: as for the built-in rule, only for b0 > 0 (a
+        # negative mass is no physical answer; the coefficients stay reported)
+        b0 = values.get("b0")
+        physical_ok = not aliases or (b0 is not None and np.isfinite(b0) and b0 > 0)
         for p, v in out.values.items():
             name = aliases.get(p, p)
+            if not physical_ok or not np.isfinite(v):
+                continue
             if name in fitted or name in names or name in derived:
                 continue  # a name the result already uses
             derived[name] = float(v)

@@ -1529,6 +1529,7 @@ def algebraic_estimates(
         raise InputError(f"final must be one of {FINAL_RULES}; got {s.final!r}.")
     u, y = check_signal_pair(u, y)
     model = as_linear_ode_model(model)
+    y = y - model.known_output_offset()  # a held offset (identify = false) is removed (a copy)
     plan = _settings_plan(model, dt, s)
     _check_signals(model, plan, u, y)
     n = u.size
@@ -1717,7 +1718,7 @@ class AlgebraicEstimator(EstimatorMixin):
         dt = recording.dt
         self.result_ = algebraic_estimates(
             recording[in_name],
-            recording[out] - model.known_output_offset(),  # a held offset is removed
+            recording[out],
             dt,
             model,
             t_start=float(recording.t[0]),
@@ -1816,7 +1817,9 @@ class StreamingAlgebraicEstimator:
         self.dt = check_positive(dt, "dt")
         allowed = [n for n in AlgebraicSettings.names() if n not in AlgebraicSettings.FINAL_ONLY]
         s = AlgebraicSettings.from_kwargs("StreamingAlgebraicEstimator", allowed, **settings)
+        model = as_linear_ode_model(model)
         self._plan = _settings_plan(model, self.dt, s)
+        self._offset = model.known_output_offset()  # a held offset is removed from each chunk
         self.t_start = float(t_start)
         self.reset()
 
@@ -1846,6 +1849,7 @@ class StreamingAlgebraicEstimator:
             The chunk's estimates.
         """
         u, y = check_signal_pair(u, y)
+        y = y - self._offset
         plan = self._plan
         u_all = np.concatenate([self._u, u])
         y_all = np.concatenate([self._y, y])

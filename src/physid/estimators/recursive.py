@@ -1235,8 +1235,8 @@ class RecursiveLeastSquares(EstimatorMixin):
             a0 = theta_final[k] / theta_si[k] if theta_si[k] != 0 else np.nan
             stderr[reg.names[k]] = float(stderr[reg.names[k]] / abs(a0))
             cov_final = np.array(cov_final, dtype=float, copy=True)
-            cov_final[k, :] /= abs(a0)  # the same scaling of its row and column
-            cov_final[:, k] /= abs(a0)
+            cov_final[k, :] /= a0  # δ = a0·o: o's row and column scale by 1/a0 (signed)
+            cov_final[:, k] /= a0
         theta_final = theta_si
         fitted = {nm: float(theta_final[i]) for i, nm in enumerate(reg.names)}
         values = dict(spec.parameters)

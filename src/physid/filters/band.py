@@ -271,7 +271,9 @@ def _spectrum_and_floor(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
     On a quantised record (`quantisation_step`) the periodogram is tapered (`_tapered_spectrum`)
     and σ̂ is at least ``Δ/√12``, the standard deviation of rounding to a grid of step Δ (the
     rounding error is uniform on ``[-Δ/2, Δ/2]`` and white when q moves by more than Δ between
-    samples). Else both are as they always were.
+    samples; the floor is applied only to columns where most samples move, since a q that
+    stays on one grid value rounds with a correlated, smaller error). Else both are as they
+    always were.
     """
     step = quantisation_step(arr)
     if np.any(step > 0):
@@ -279,7 +281,9 @@ def _spectrum_and_floor(arr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
     else:
         power, freq = _rate_spectrum(arr)
     power = power / max(power.shape[0] * 2 - 2, 1)  # |rfft|² / n: the mean is the variance density
-    sigma = np.maximum(_floor(power, freq), step / np.sqrt(12.0))
+    moving = np.mean(np.abs(np.diff(arr, axis=0)) >= 0.5 * np.where(step > 0, step, np.inf), axis=0)
+    floor = np.where(moving >= 0.5, step / np.sqrt(12.0), 0.0)
+    sigma = np.maximum(_floor(power, freq), floor)
     return power, freq, sigma, step
 
 

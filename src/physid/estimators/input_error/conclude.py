@@ -213,7 +213,8 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         at_bound=solution.at_bound,
         uncertainty=est.uncertainty,
         hac_lags=lags,
-        stderr_iid=standard_errors(cov_iid),
+        # withheld too: the iid errors are the optimistic ones
+        stderr_iid=standard_errors(cov_iid) if withhold is None else dict.fromkeys(names, np.nan),
         noise=solution.noise,
         noise_shift=dict(solution.noise_shift or {}),
         t=problem.t,

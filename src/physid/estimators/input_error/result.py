@@ -127,7 +127,7 @@ class InputErrorResult(ResultMixin):
     """
 
     parameters: dict[str, float]
-    stderr: dict[str, float]
+    stderr: dict[str, float] | None
     correlation: np.ndarray
     free: tuple[str, ...]
     cost: float

@@ -212,7 +212,8 @@ def noise_fraction(beta, data, replicates) -> float:
 
     e0 = energy(*data)
     e_rep = float(np.mean([energy(*r) for r in replicates]))
-    return (e_rep - e0) / e0 if e0 > 0 else 1.0
+    # the replicates' scatter can leave e_rep a little below e0 when the noise is negligible
+    return max(0.0, (e_rep - e0) / e0) if e0 > 0 else 1.0
 
 
 def solve_compensated(est, problem: _Problem) -> _Solution:
