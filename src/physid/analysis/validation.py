@@ -691,11 +691,18 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
             notes.append(_stick_note(loaded, stuck))
         if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
             free = ~np.any(stuck, axis=1)
-            t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
-            if not free.all():
+            if free.all():
+                pass
+            elif free.sum() > 2 * max_lag + 1:
+                t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
                 notes.append(
                     "(c) runs on the kept rows joined end to end: its lags span the gaps "
                     "where rows near rest were dropped"
+                )
+            else:  # too few rows with every joint moving (a 6-DOF arm): keep every row
+                notes.append(
+                    "(c) runs on every row, the dropped equations counting as zero residual: "
+                    f"only {int(free.sum())} rows have every joint's equation kept"
                 )
         series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
         fits, out_rel, note = _chain_output_error(loaded, recording, series)
