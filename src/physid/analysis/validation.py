@@ -566,16 +566,22 @@ def _idim_parameters(loaded) -> dict[str, float]:
     from ..estimators.idim import base_regressor_info
 
     d = loaded.data
-    names = tuple(loaded.model.parameter_names)
     free = list(d.get("names") or loaded.parameters)
     columns = list(d.get("columns") or base_regressor_info(loaded.model).independent)
+    return _base_theta(loaded, free, columns)
+
+
+def _base_theta(loaded, free, columns) -> dict[str, float]:
+    """Every standard parameter of ``loaded.model``: each base value (``free``, read from
+    ``loaded.parameters``) on its kept column (``columns``), 0 on every other column."""
+    names = tuple(loaded.model.parameter_names)
     missing = [n for n in free if n not in loaded.parameters]
     if missing or len(columns) != len(free) or not set(columns) <= set(names):
         raise InputError(
             "the result's base parameters do not match the model "
-            f"{getattr(loaded.model, 'name', '')!r} (values missing for {missing[:4]}, or kept "
-            "columns the model does not have); validate with the model the result was fitted "
-            f"with ({arg('model', '...', cli='MODEL')})."
+            f"{getattr(loaded.model, 'name', '')!r} (values missing for {missing[:4]}, or "
+            "kept columns the model does not have); validate with the model the result "
+            f"was fitted with ({arg('model', '...', cli='MODEL')})."
         )
     theta = dict.fromkeys(names, 0.0)
     theta.update({c: float(loaded.parameters[n]) for n, c in zip(free, columns, strict=True)})
@@ -595,18 +601,7 @@ def _input_error_parameters(loaded) -> dict[str, float]:
     names = tuple(loaded.model.parameter_names)
     if d.get("parameter_set") == "base" and d.get("columns"):
         free = list(d.get("free") or d.get("names") or loaded.parameters)
-        columns = list(d["columns"])
-        missing = [n for n in free if n not in loaded.parameters]
-        if missing or len(columns) != len(free) or not set(columns) <= set(names):
-            raise InputError(
-                "the result file's base parameters do not match the model "
-                f"{getattr(loaded.model, 'name', '')!r} (values missing for {missing[:4]}, or "
-                "kept columns the model does not have); validate with the model the result "
-                f"was fitted with ({arg('model', '...', cli='MODEL')})."
-            )
-        theta = dict.fromkeys(names, 0.0)
-        theta.update({c: float(loaded.parameters[n]) for n, c in zip(free, columns, strict=True)})
-        return theta
+        return _base_theta(loaded, free, list(d["columns"]))
     params = {**dict(d.get("fixed") or {}), **loaded.parameters}
     unknown = [k for k in params if k not in names]
     if d.get("parameter_set") == "base" and unknown:  # never drop a fitted value silently
