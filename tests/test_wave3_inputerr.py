@@ -235,3 +235,23 @@ def test_cli_identify_json_names_base_parameters_and_validate_uses_them(tmp_path
     assert main(["validate", str(fit), str(csv), "--json"]) == 0
     report = json.loads(capsys.readouterr().out)
     assert report["relative_error"]["overall"] < 1e-3
+
+
+def test_results_holding_a_compiled_model_pickle_without_it():
+    # ResultMixin._unpicklable_fields: a rigid-body model's compiled kernels do not pickle, so
+    # IDIM's and input-error's results travel through a process pool without their model
+    import pickle
+
+    from physid.estimators.idim import IDIMEstimator
+
+    model, rec, _ = _planar2_record(duration=2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        results = [
+            InputErrorEstimator(model, half_width=100, cutoff=0.2).fit(rec).result_,
+            IDIMEstimator(model, "ols", decimate=1).fit(rec).result_,
+        ]
+    for r in results:
+        back = pickle.loads(pickle.dumps(r))
+        assert r.model is model and back.model is None
+        assert back.parameters == r.parameters and back.names == r.names

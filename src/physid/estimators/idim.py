@@ -801,13 +801,7 @@ class IDIMResult(ResultMixin):
 
     _history_fields = ("history", "t", "residuals", "covariance")
     _private_fields = ("model",)
-
-    def __getstate__(self):
-        # models hold compiled kernels (ctypes), which do not pickle: a pickled result (e.g.
-        # from a process pool) keeps everything but the model
-        state = dict(self.__dict__)
-        state["model"] = None
-        return state
+    _unpicklable_fields = ("model",)  # compiled kernels (ctypes): pickled as None
 
     def beta_vector(self) -> np.ndarray:
         """The estimates as an array ordered like `names`."""

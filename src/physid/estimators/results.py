@@ -164,13 +164,21 @@ class ResultMixin:
     ``message``; and, where it has them, ``derived``, ``stderr``, ``stderr_reason``, ``units``
     and ``history``; fields too large for JSON are listed in ``_history_fields`` (left out of
     ``to_dict(history=False)``), and fields that are not data (a model object) in
-    ``_private_fields``. ``method`` names the estimator (``"algebraic"``, ``"rls"``, …).
+    ``_private_fields``; those that do not pickle (a rigid-body model's compiled kernels) in
+    ``_unpicklable_fields``, which a pickled result (e.g. from a process pool) holds as None.
+    ``method`` names the estimator (``"algebraic"``, ``"rls"``, …).
     """
 
     # (no ``method`` default here: a dataclass subclass with a ``method`` field would inherit it
     # as the field's default)
     _history_fields: tuple[str, ...] = ()
     _private_fields: tuple[str, ...] = ()
+    _unpicklable_fields: tuple[str, ...] = ()
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.update(dict.fromkeys(self._unpicklable_fields))
+        return state
 
     # ------------------------------------------------------------------ schema accessors
     def _schema(self) -> dict[str, Any]:

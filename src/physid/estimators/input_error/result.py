@@ -177,12 +177,7 @@ class InputErrorResult(ResultMixin):
     method = "input-error"
     _history_fields = ("history", "cost_history", "t", "residuals")
     _private_fields = ("model",)
-
-    def __getstate__(self):
-        # models hold compiled kernels (ctypes), which do not pickle (as IDIMResult)
-        state = dict(self.__dict__)
-        state["model"] = None
-        return state
+    _unpicklable_fields = ("model",)  # compiled kernels (ctypes): pickled as None
 
     @property
     def names(self) -> tuple[str, ...]:
