@@ -960,20 +960,11 @@ def predict_torque(
         decimate=decimate,
         torque=False,
     )
-    tau_hat = rows.W @ beta
-    types = tuple(getattr(model, "joint_types", ()) or ("revolute",) * nj)
-    units = ["N" if k == "prismatic" else "N*m" for k in types]
-    out_names = [f"tau{j + 1}" for j in range(nj)]
-    data = tau_hat
-    if measured:
-        out_names += [f"tau{j + 1}_measured" for j in range(nj)]
-        data = np.concatenate([tau_hat, rows.tau], axis=1)
-        units = units + units
-    return Recording(
+    return torque_recording(
+        model,
         rows.t,
-        data,
-        out_names,
-        units=units,
+        rows.W @ beta,
+        rows.tau if measured else None,
         metadata={
             "prediction": "inverse model tau = W beta on the rows filtered and decimated as in "
             "the fit",
@@ -983,6 +974,27 @@ def predict_torque(
             "decimate": rows.decimate,
         },
     )
+
+
+def torque_recording(model, t, tau_hat, tau_measured=None, *, metadata=None):
+    """A predicted-torque `Recording`: ``tau1..taun`` [N·m, N on prismatic joints], then
+    ``tau1_measured..`` when ``tau_measured`` (same shape as ``tau_hat``) is given.
+
+    The one output shape of every inverse-model prediction (IDIM's `predict_torque`,
+    input-error's `physid.estimators.input_error.prepare.predict_torque`).
+    """
+    from ..signals.recording import Recording
+
+    nj = int(model.n_joints)
+    types = tuple(getattr(model, "joint_types", ()) or ("revolute",) * nj)
+    units = ["N" if k == "prismatic" else "N*m" for k in types]
+    names = [f"tau{j + 1}" for j in range(nj)]
+    data = tau_hat
+    if tau_measured is not None:
+        names += [f"tau{j + 1}_measured" for j in range(nj)]
+        data = np.concatenate([tau_hat, tau_measured], axis=1)
+        units = units + units
+    return Recording(t, data, names, units=units, metadata=metadata or {})
 
 
 # ---------------------------------------------------------------------- units

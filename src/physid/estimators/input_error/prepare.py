@@ -27,6 +27,7 @@ from ...models.identifiability import (
     raise_if_not_excited,
     structural_identifiability,
 )
+from ..idim import torque_recording
 from .core import (
     DEFAULT_HALF_WIDTH,
     MIN_AUTO_HALF_WIDTH,
@@ -600,18 +601,11 @@ def predict_torque(
     tau_hat = np.asarray(
         model.inverse_dynamics(filt.value, filt.first, filt.second, params), dtype=float
     )
-    types = tuple(getattr(model, "joint_types", ()) or ("revolute",) * nj)
-    units = ["N" if k == "prismatic" else "N*m" for k in types]
-    data, names = tau_hat, list(tau_names)
-    if measured:
-        data = np.concatenate([tau_hat, filt.lowpass.apply(recording.select(tau_names))], axis=1)
-        names += [f"{n}_measured" for n in tau_names]
-        units = units + units
-    return Recording(
+    return torque_recording(
+        model,
         filt.t,
-        data,
-        names,
-        units=units,
+        tau_hat,
+        filt.lowpass.apply(recording.select(tau_names)) if measured else None,
         metadata={
             "prediction": "inverse model on the signals filtered as in the input-error fit",
             "half_width": m,
