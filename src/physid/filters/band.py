@@ -295,8 +295,9 @@ def noise_floor(q) -> np.ndarray:
     ``P(Ω) / (2(1 - cos Ω))`` divided by ln 2 (the median of an exponential variable of mean 1)
     estimates σ² robustly against the few bins the motion still reaches. When q lies on a grid
     of step Δ (an encoder; `quantisation_step`) the periodogram is taken through a Hann window
-    (the record's ends would otherwise leak into the top of the spectrum and hide the floor) and
-    σ̂ is at least ``Δ/√12``, the rounding error's standard deviation.
+    (the record's ends would otherwise leak into the top of the spectrum and hide the floor) and,
+    where most samples move by Δ or more, σ̂ is at least ``Δ/√12``, the rounding error's
+    standard deviation.
 
     Parameters
     ----------

@@ -29,6 +29,8 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
     # standard errors describe the scatter about a biased estimate (review of issue 15: m1
     # 37 standard errors off on an encoder-quantised drive log)
     withhold = None
+    share = problem.noise_fraction  # noise="compensate": the noise's share of the residual
+    explained = share is None or share >= NOISE_SHARE
     if relative_residual.max() > RESIDUAL_WARN:
         worst = int(np.argmax(relative_residual))
         f = problem.filtered
@@ -44,7 +46,6 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
         if advice.signal_band > edge:  # too low: bias from the filter
             # on noisy q the residual may be the noise's (which the intervals carry): withhold
             # only where no noise is seen
-            explained = problem.noise_fraction is None or problem.noise_fraction >= NOISE_SHARE
             withhold = None if noisy and explained else "the cut-off is below the motion"
             cause = (
                 f" The cut-off Ω_g={f.cutoff:.4g} is too low for the motion (it reaches "
@@ -59,7 +60,7 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 f"(σ ≈ {np.max(advice.noise_std):.2g} on q) into q̈^f, which biases the "
                 "inertias towards zero: lower it, or use cutoff='auto'."
             )
-        elif noisy and (problem.noise_fraction is None or problem.noise_fraction >= NOISE_SHARE):
+        elif noisy and explained:
             cause = (
                 f" The filter already holds just the motion; the residual is measurement "
                 f"noise (σ ≈ {np.max(advice.noise_std):.2g} on q), whose errors-in-variables "
@@ -67,13 +68,10 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 "lower Ω_g; or use an instrumental-variable method)."
             )
         elif noisy:  # the noise replicates say the noise is only a small part of the residual
-            withhold = (
-                f"the noise on q explains only {100 * problem.noise_fraction:.2g} % of the "
-                "residual's energy"
-            )
+            withhold = f"the noise on q explains only {100 * share:.2g} % of the residual's energy"
             cause = (
                 f" The noise on q (σ ≈ {np.max(advice.noise_std):.2g}) explains only "
-                f"{100 * problem.noise_fraction:.2g} % of the residual's energy (measured with "
+                f"{100 * share:.2g} % of the residual's energy (measured with "
                 "the noise replicates): the rest is a model or data error (friction the model "
                 "lacks, stiction, wrong gains, a torque offset, a filter that smears a "
                 "discontinuity)."
@@ -98,8 +96,7 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
                 + cause
             )
 
-    share = problem.noise_fraction
-    if withhold is None and share is not None and share < NOISE_SHARE:
+    if withhold is None and not explained:
         # a small residual can still be mostly model error, and the noise then tiny: the
         # replicates compare the two whatever the residual's size
         withhold = (
