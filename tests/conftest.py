@@ -43,3 +43,17 @@ def _isolated_cache(tmp_path_factory):
         os.environ.pop("PHYSID_CACHE_DIR", None)
     else:
         os.environ["PHYSID_CACHE_DIR"] = old
+
+
+@pytest.fixture(scope="session")
+def axis_example():
+    """examples/linear_axis_drive.py as a module (its ``AXIS_TOML``, the prismatic axis with
+    mass, viscous and Coulomb friction and a force offset; ``main()`` runs only as a script)."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "linear_axis_drive.py"
+    spec = importlib.util.spec_from_file_location("axis_example", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    return example

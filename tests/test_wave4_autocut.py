@@ -24,24 +24,6 @@ from physid.simulate.closed_loop import paper_manipulator_experiment
 STEP = 1e-6  # the encoder [m]
 SINES = [(0.10, 0.4, 0), (0.03, 1.3, 1), (0.01, 3.1, 2)]  # amplitude [m], f [Hz], phase
 MOTION_BAND = 2 * np.pi * 3.1 * 1e-3  # the highest reference line [rad/sample] (0.0195)
-AXIS_TOML = """\
-name = "axis"
-gravity = [0.0, 0.0, -9.81]
-[parameters]
-m1 = { value = 12.0, unit = "kg" }
-Fv1 = { value = 8.0, unit = "N*s/m" }
-Fc1 = { value = 4.0, unit = "N" }
-OF1 = { value = 1.5, unit = "N" }
-[[joints]]
-name = "carriage"
-type = "prismatic"
-transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]
-axis = [1, 0, 0]
-mass = "m1"
-viscous = "Fv1"
-coulomb = "Fc1"
-torque_offset = "OF1"
-"""
 
 
 def sines(t):
@@ -49,9 +31,10 @@ def sines(t):
 
 
 @pytest.fixture(scope="module")
-def axis(tmp_path_factory):
+def axis(tmp_path_factory, axis_example):
+    """The example's axis model (its [recording] table plays no part: records are built here)."""
     path = tmp_path_factory.mktemp("axis") / "axis.toml"
-    path.write_text(AXIS_TOML, encoding="utf-8")
+    path.write_text(axis_example.AXIS_TOML, encoding="utf-8")
     return physid.load_model(str(path))
 
 

@@ -12,23 +12,15 @@ import pytest
 from physid.errors import DataFileError
 from physid.signals import Recording, load_recording, save_recording
 
-_ROOT = Path(__file__).resolve().parents[1]
 _AXIS = Path()  # the example's prismatic axis; its [recording] maps q1 = "qm", tau1 = "gtau*vir"
 
 
 @pytest.fixture(scope="module", autouse=True)
-def _axis_model_file(tmp_path_factory):
+def _axis_model_file(tmp_path_factory, axis_example):
     """Write examples/linear_axis_drive.py's model file (AXIS_TOML) where the tests read it."""
-    import importlib.util
-
     global _AXIS
-    spec = importlib.util.spec_from_file_location(
-        "axis_example", _ROOT / "examples" / "linear_axis_drive.py"
-    )
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)  # defines AXIS_TOML; main() runs only as a script
     _AXIS = tmp_path_factory.mktemp("axis") / "axis.toml"
-    _AXIS.write_text(example.AXIS_TOML, encoding="utf-8")
+    _AXIS.write_text(axis_example.AXIS_TOML, encoding="utf-8")
 
 
 def _main(argv, capsys):
