@@ -104,3 +104,19 @@ def test_the_plain_function_and_the_stream_remove_a_held_offset_too(tmp_path):
         stream.update(rec["u"][k : k + 1000], rec["x"][k : k + 1000]) for k in range(0, 6000, 1000)
     ][-1]
     assert last.estimates[-1][last.names.index("theta2")] == pytest.approx(100.0, rel=1e-3)
+
+
+def test_the_rls_regression_and_stream_remove_a_held_offset_too(tmp_path):
+    from physid.estimators.recursive import StreamingRecursiveEstimator, build_regression
+
+    rec, _ = _record()
+    path = tmp_path / "m.toml"
+    path.write_text(MODEL.replace("OFFSET", "0.01"), encoding="utf-8")
+    model = physid.load_model(path)
+    reg = build_regression(model, rec["x"], rec["u"], rec.dt)
+    theta = np.linalg.lstsq(reg.X, reg.Y, rcond=None)[0]
+    assert theta[list(reg.names).index("theta2")] == pytest.approx(100.0, rel=1e-3)
+    stream = StreamingRecursiveEstimator(RecursiveLeastSquares(model), dt=rec.dt)
+    for k in range(0, 6000, 1000):
+        last = stream.update(rec["u"][k : k + 1000], rec["x"][k : k + 1000])
+    assert last.estimates[-1][list(last.names).index("theta2")] == pytest.approx(100.0, rel=1e-3)

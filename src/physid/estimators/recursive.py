@@ -280,6 +280,7 @@ def build_regression(
     """
     spec = as_linear_ode_model(spec_or_model)
     u, y = check_signal_pair(u, y)
+    y = y - spec.known_output_offset()  # a held offset (identify = false) is removed (a copy)
     unknown, values = _split_with_offset(spec, unknown, known)
     highest, cutoff, order, discard = _prefilter_settings(
         spec, dt, prefilter_cutoff, prefilter_order, discard
@@ -1142,7 +1143,7 @@ class RecursiveLeastSquares(EstimatorMixin):
         dt = recording.dt
         reg = build_regression(
             spec,
-            recording[out_name] - spec.known_output_offset(),  # a held offset is removed
+            recording[out_name],
             recording[in_name],
             dt,
             unknown=self.unknown,
@@ -1470,6 +1471,7 @@ class StreamingRecursiveEstimator:
     def update(self, u, y) -> StreamingRecursiveUpdate:
         """Feed the next samples ``u``, ``y`` (shape (n_new,)); return their estimates."""
         u, y = check_signal_pair(u, y)
+        y = y - self._spec.known_output_offset()  # as build_regression: a held offset removed
         n_new = u.size
         p = len(self._unknown)
         index = np.arange(self.n_samples, self.n_samples + n_new)
