@@ -57,3 +57,19 @@ def axis_example():
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     return example
+
+
+@pytest.fixture
+def offset_msd():
+    """The MSD ẍ + θ1 ẋ + θ2 x = u (θ1 = 2, θ2 = 100) with an output offset to estimate
+    (``[ode] output_offset = "offset"`` in a model file)."""
+    from physid.models.linear_ode import LinearODEModel
+
+    return LinearODEModel(
+        "msd_offset",
+        ("theta2", "theta1"),
+        ("b0",),
+        {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
+        unknown=("theta1", "theta2"),
+        output_offset="offset",
+    )

@@ -672,21 +672,8 @@ def test_known_without_unknown_estimates_the_remaining_coefficients():
     assert res.derived["damping_ratio"] == pytest.approx(0.3, rel=1e-6)
 
 
-def _offset_model():
-    """The MSD with an output offset parameter (``[ode] output_offset = "offset"``)."""
-    model = LinearODEModel(
-        "msd_offset",
-        ("theta2", "theta1"),
-        ("b0",),
-        {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
-        unknown=("theta1", "theta2"),
-        output_offset="offset",  # [ode] output_offset = "offset" in a model file
-    )
-    return model
-
-
 @pytest.mark.parametrize("final", ["lstsq", "bias-compensated"])
-def test_output_offset_is_estimated(final):
+def test_output_offset_is_estimated(final, offset_msd):
     """A 1 cm sensor offset: the annihilator turns the constant into one more linear unknown
     (`_offset_column`), so θ and the offset come out exact, where the model without an offset
     is 15 % off in θ2."""
@@ -698,7 +685,7 @@ def test_output_offset_is_estimated(final):
 
     x = signal.lsim(([1.0], [1.0, 2.0, 100.0]), u, t)[1]
     rec = Recording(t, np.c_[u, x + 0.01], ["u", "x"])
-    res = AlgebraicEstimator(_offset_model(), final=final).fit(rec).result_
+    res = AlgebraicEstimator(offset_msd, final=final).fit(rec).result_
     assert res.success and res.names == ("theta1", "theta2", "offset")
     assert res.parameters["theta1"] == pytest.approx(2.0, rel=1e-4)
     assert res.parameters["theta2"] == pytest.approx(100.0, rel=1e-6)

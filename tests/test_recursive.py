@@ -510,17 +510,8 @@ def test_streaming_start_after_unexcited_rows_equals_batch(chunk):
     np.testing.assert_allclose(got[M:], ref[M:], rtol=1e-9, atol=1e-12)
 
 
-def test_output_offset_is_estimated_batch_and_streaming():
-    from physid.models.linear_ode import LinearODEModel
-
-    model = LinearODEModel(
-        "msd_offset",
-        ("theta2", "theta1"),
-        ("b0",),
-        {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
-        unknown=("theta1", "theta2"),
-        output_offset="offset",
-    )
+def test_output_offset_is_estimated_batch_and_streaming(offset_msd):
+    model = offset_msd
     t = np.arange(3000) * 1e-3
     u = np.sin(10 * t) + 0.5 * np.sin(23 * t)
     from scipy import signal

@@ -24,25 +24,12 @@ from physid.errors import InputError
 from physid.estimators.algebraic import AlgebraicEstimator
 from physid.estimators.idim import IDIMEstimator
 from physid.estimators.results import save_result
-from physid.models.linear_ode import LinearODEModel
 from physid.simulate.closed_loop import simulate_closed_loop
 
 DATA = Path(__file__).parent / "data"
 
 
 # --------------------------------------------------------------------------- 1. output offset
-def _offset_model():
-    """The MSD with ``[ode] output_offset = "offset"`` (as tests/test_algebraic.py builds it)."""
-    return LinearODEModel(
-        "msd_offset",
-        ("theta2", "theta1"),
-        ("b0",),
-        {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0},
-        unknown=("theta1", "theta2"),
-        output_offset="offset",
-    )
-
-
 def _msd_record(freqs, offset):
     t = np.arange(3000) * 1e-3
     u = np.sin(freqs[0] * t) + 0.5 * np.sin(freqs[1] * t)
@@ -50,8 +37,8 @@ def _msd_record(freqs, offset):
     return Recording(t, np.c_[u, x + offset], ["u", "x"])
 
 
-def test_inverse_cross_test_subtracts_the_estimated_output_offset():
-    model = _offset_model()
+def test_inverse_cross_test_subtracts_the_estimated_output_offset(offset_msd):
+    model = offset_msd
     res = AlgebraicEstimator(model).fit(_msd_record((10, 23), 0.01)).result_
     assert res.parameters["offset"] == pytest.approx(0.01, rel=1e-5)
     same = validate(res, _msd_record((7, 17), 0.01), model=model)
