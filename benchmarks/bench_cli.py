@@ -1,4 +1,4 @@
-"""Start-up time of the ``physid`` command: ``--version`` and ``--help`` (issue 12 item 12).
+"""Start-up time of the ``physid`` command: ``--version`` and ``--help``.
 
 Both import nothing heavy (no numpy, scipy, sympy or matplotlib: tests/test_cli_basics.py checks
 that structurally), so they cost little more than starting Python. Rows: the median wall time of

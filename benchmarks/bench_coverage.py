@@ -1,4 +1,4 @@
-"""Coverage of the nominal 95 % intervals of the algebraic and RLS estimators (issue 15).
+"""Coverage of the nominal 95 % intervals of the algebraic and RLS estimators.
 
 For each scenario — the paper's MSD (m = 3 kg, c = 0.05 N·s/m, k = 400 N/m, ζ = 7e-4) and a
 heavily damped MSD (same ω0, ζ = 0.5), both driven at Z = 1 for 5 s at 1 kHz — and each SNR
@@ -71,7 +71,7 @@ def run(quick: bool = False, only: str | None = None) -> list[dict]:
         estimators = {k: v for k, v in estimators.items() if k.startswith(only)}
     # the defaults withhold their intervals (stderr None with the reason) where their estimate is
     # biased at the scale of its standard error: RLS by its estimated errors-in-variables bias,
-    # the algebraic lstsq by its distance to the bias-compensated estimate (wave 3)
+    # the algebraic lstsq by its distance to the bias-compensated estimate
     scenarios = dict(list(SCENARIOS.items())[:1]) if quick else SCENARIOS
     rows = []
     for label, (method, options) in estimators.items():

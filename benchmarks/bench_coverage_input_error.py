@@ -5,11 +5,11 @@ Rows
 1. Coverage on the paper's arm (paper kinetic energy, measured torques) with white encoder
    noise σ_q = 1e-4 rad, over seeded trials (400 in the full run, 3 with ``--quick``): the
    share of trials whose interval ``estimate ± 1.96·stderr`` holds the truth, for the iid
-   standard errors (``uncertainty="iid"``, the old formula) and the HAC sandwich (the default),
+   standard errors (``uncertainty="iid"``, the classical formula) and the HAC sandwich (the default),
    with the paper's filter (M = 100, Ω_g = 0.2) and with ``cutoff="auto"``, both with
    ``noise="ignore"``, and for the default (``cutoff="auto"``, ``noise="auto"``, which
    compensates the noise when the spectrum shows it: covariance from the noise replicates). The
-   issue's target is 95 ± 3 %. ``python benchmarks/bench_coverage_input_error.py --coverage 400
+   target is 95 ± 3 %. ``python benchmarks/bench_coverage_input_error.py --coverage 400
    [--only default,auto-ignore,paper]`` runs the coverage trials alone with progress on stderr.
    Also the coverage of the *mean* estimate (the interval judged against the average over the
    trials instead of the truth): it isolates the variance part of the interval from the
@@ -53,7 +53,10 @@ def _quiet_fit(estimator, rec):
 #: The settings of the coverage rows (``--only`` picks some by key).
 SETTINGS = {
     "paper": ("paper's filter M=100, Ω_g=0.2, noise='ignore'", {"half_width": 100, "cutoff": 0.2}),
-    "auto-ignore": ("cutoff='auto', noise='ignore' (the default before wave 3)", {}),
+    "auto-ignore": (
+        "cutoff='auto', noise='ignore' (the default before automatic noise compensation)",
+        {},
+    ),
     "default": ("the default: cutoff='auto', noise='auto'", None),
 }
 
@@ -91,7 +94,7 @@ def _coverage_rows(trials: int, log=None, only=None) -> list[dict]:
         compensated = sum(n == "compensate" for n in out[key]["noise"])
         kinds = ("iid", "hac") if not compensated else ("hac",)
         for kind in kinds:
-            label = "HAC" if kind == "hac" else "iid (the old formula)"
+            label = "HAC" if kind == "hac" else "iid (the classical formula)"
             if compensated:
                 label = f"from the noise replicates (compensated in {compensated}/{trials} trials)"
             se = np.array(out[key][kind])
@@ -106,7 +109,7 @@ def _coverage_rows(trials: int, log=None, only=None) -> list[dict]:
                     + ")",
                     "value": 100 * float(covered.mean()),
                     "unit": "%",
-                    "goal": "95 ± 3 % (issue 14/15)",
+                    "goal": "95 ± 3 %",
                     "met": bool(abs(covered.mean() - 0.95) <= 0.03),
                 }
             )
@@ -275,7 +278,7 @@ def _urdf_rows(trials: int, log=None) -> list[dict]:
                 + ")",
                 "value": 100 * float(covered.mean()),
                 "unit": "%",
-                "goal": "95 ± 3 % (issue 15)",
+                "goal": "95 ± 3 %",
                 "met": bool(abs(covered.mean() - 0.95) <= 0.03),
             }
         )

@@ -1,5 +1,5 @@
 """IDIM on 6- and 7-DOF URDF arms in closed loop: accuracy vs the robotics recipe, IV bias,
-coverage, excitation design and speed (issue 14).
+coverage, excitation design and speed.
 
 Data: the built-in ``arm6`` (UR5-like URDF + friction/armature sidecar) and ``tests/data/
 arm7.urdf`` (Panda-like), PD control (gains below), references from a Fourier excitation scaled
@@ -221,8 +221,9 @@ def _bias_table(model, name, ols, iv, clean, stick, sigma_q, quick):
     info = base_regressor_info(model)
     truth = info.from_standard(model.beta())
     n_seeds = ols.shape[0]
-    scale = np.where(np.abs(truth) > 0, np.abs(truth), np.nan)  # a zero truth has no relative
-    rsd_iv = np.std(iv, axis=0, ddof=1) / scale  # bias (it used to count as well excited)
+    # a zero truth has no relative bias and is never "well excited"
+    scale = np.where(np.abs(truth) > 0, np.abs(truth), np.nan)
+    rsd_iv = np.std(iv, axis=0, ddof=1) / scale
     rsd_ols = np.std(ols, axis=0, ddof=1) / scale
     well = np.nan_to_num(rsd_iv, nan=np.inf) < 0.10
     b_ols = (ols.mean(0) - truth) / scale

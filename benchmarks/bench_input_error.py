@@ -13,7 +13,7 @@ Rows
    full run allows 4000.
 3. ``start="linear"``: evaluations and wall time when the fit starts from the linear
    base-parameter solution.
-4. Accuracy against the issue's goals: identifiable parameters within 0.1 % and J within 10 % of
+4. Accuracy against the goals: identifiable parameters within 0.1 % and J within 10 % of
    the paper's (paper model, paper data, paper filter); within 0.05 % for the exact model on exact
    data with consistent filters (M = 400, Ω_g = 0.6: 0.020 %, a 2.5x margin; M = 200 gives
    0.0486 %, too close to the limit to be a meaningful check).
@@ -156,14 +156,14 @@ def run(quick: bool) -> list[dict]:
             "case": "max error m2..m4, l2..l4, paper setting",
             "value": 100 * max(abs(ours.parameters[n] / TRUTH[n] - 1) for n in SEPARATE),
             "unit": "%",
-            "goal": "< 0.1 % (issue 5)",
+            "goal": "< 0.1 %",
             "met": all(abs(ours.parameters[n] / TRUTH[n] - 1) < 1e-3 for n in SEPARATE),
         },
         {
             "case": "error of m1*l1**2, paper setting (paper: +2.88 %)",
             "value": 100 * (ours.combinations["m1*l1**2"] / 8.0 - 1),
             "unit": "%",
-            "goal": "< 0.1 % (issue 5)",
+            "goal": "< 0.1 %",
             "met": abs(ours.combinations["m1*l1**2"] / 8.0 - 1) < 1e-3,
         },
         {
@@ -197,7 +197,7 @@ def run(quick: bool) -> list[dict]:
             "case": "max error incl. m1*l1**2, exact model, M=400, Ω_g=0.6, consistent",
             "value": _max_error(exact),
             "unit": "%",
-            "goal": "< 0.05 % (issue 5)",
+            "goal": "< 0.05 %",
             "met": _max_error(exact) < 0.05,
         }
     )
@@ -207,7 +207,7 @@ def run(quick: bool) -> list[dict]:
             "case": "max error incl. m1*l1**2, exact model, paper's filter (M=100, Ω_g=0.2)",
             "value": _max_error(paper_filter_exact),
             "unit": "%",
-            "goal": "a few percent (issue 5: the paper's filter is too low here)",
+            "goal": "a few percent (the paper's filter is too low here)",
             "met": 0.5 < _max_error(paper_filter_exact) < 10,
         }
     )

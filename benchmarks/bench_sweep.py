@@ -2,7 +2,7 @@
 
 Rows:
 
-* the full grid of issue 8: 5 SNR × 5 Z × 20 trials of 5 s records, both estimators on every record
+* the full grid: 5 SNR × 5 Z × 20 trials of 5 s records, both estimators on every record
   (1000 estimates), on the local process pool with every CPU (goal < 30 s on 2 cores);
 * the same full grid (1000 estimates) on a Dask LocalCluster with 2 single-threaded workers against
   1 worker, best of 2 runs each (goal ≥ 1.8× faster); workers are warmed up first (imports and
