@@ -24,7 +24,7 @@ __all__ = ["pinocchio_model", "to_pinocchio", "PinocchioPeer"]
 def _evaluate(text: str, values: dict) -> float:
     import sympy as sp
 
-    from .spec import parse_expression
+    from .chain_symbolic import parse_expression
 
     syms = {k: sp.Symbol(k) for k in values}
     expr = parse_expression(text, syms, "pinocchio_model")

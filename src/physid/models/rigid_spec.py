@@ -162,20 +162,7 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
     held = [p.name for p in params if not getattr(p, "identify", True)]
     evaluate = _evaluator(params, source)
     joints = data.get("joints")
-    if data.get("kinetic_energy", "exact") != "exact":
-        kinds = [j.get("type", "revolute") for j in joints if isinstance(j, dict)]
-        what = "a prismatic joint" if "prismatic" in kinds else "rigid-body keys"
-        raise ModelFileError(
-            f"{_where(source, text, 'kinetic_energy', 'kinetic_energy')}: kinetic_energy = "
-            f"{data['kinetic_energy']!r} (the paper's formula for point masses on revolute "
-            f"joints) cannot be used with {what}; remove kinetic_energy (exact is the default)."
-        )
-    g = data.get("gravity", [0.0, 0.0, -9.81])
-    if not isinstance(g, list) or len(g) != 3:
-        raise ModelFileError(
-            f"{_where(source, text, 'gravity', 'gravity')}: gravity must be [gx, gy, gz] in m/s²."
-        )
-    gravity = np.array([evaluate(v, source, "gravity") for v in g])
+    gravity = _rigid_gravity(data, joints, text, source, evaluate)
     n = len(joints)
     types, names, rots, trans, axes, std, A = [], [], [], [], [], [], []
     drive_rows = []
@@ -188,95 +175,8 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
     post_prev = np.eye(4)
     for k, jt in enumerate(joints):
         where = _where(source, text, f"joints[{k + 1}]", "type", table="joints", index=k)
-        if not isinstance(jt, dict):
-            raise ModelFileError(f"{where}: each [[joints]] entry must be a table.")
-        bad = set(jt) - _JOINT_KEYS
-        if bad:
-            raise ModelFileError(
-                f"{where}: unknown key(s) {sorted(bad)} in a rigid-body joint; allowed: "
-                f"{sorted(_JOINT_KEYS)}."
-            )
-        kind = jt.get("type", "revolute")
-        if kind in ("planar", "floating", "fixed", "spherical"):
-            raise ModelFileError(
-                f"{where}: joint type {kind!r} is not supported; use 'revolute' or 'prismatic' "
-                "(fold a fixed joint into the neighbouring link's inertia)."
-            )
-        if kind not in ("revolute", "prismatic"):
-            raise ModelFileError(f"{where}: type must be 'revolute' or 'prismatic'; got {kind!r}.")
-        forms = [f for f in ("dh", "mdh", "transform") if f in jt]
-        if len(forms) != 1:
-            raise ModelFileError(
-                f"{where}: give exactly one of dh = {{a, alpha, d, offset}}, mdh = {{alpha, a, d, "
-                f"theta}} or transform = [[4×4]] for joint {k + 1}; got "
-                f"{forms or 'none'}."
-            )
-        form = forms[0]
-        axis = np.array([0.0, 0.0, 1.0])
-        if form == "transform":
-            raw = jt["transform"]
-            if not (
-                isinstance(raw, list)
-                and len(raw) == 4
-                and all(isinstance(r, list) and len(r) == 4 for r in raw)
-            ):
-                raise ModelFileError(f"{where}: transform must be 4 rows of 4 numbers.")
-            try:
-                T = np.array([[evaluate(v, where, "transform") for v in row] for row in raw])
-            except ModelFileError as exc:
-                if f"q{k + 1}" in str(raw):
-                    raise ModelFileError(
-                        f"{where}: in a rigid-body chain the transform is the constant placement "
-                        f"of the joint frame (no q{k + 1}); the joint moves about/along axis = "
-                        "[x, y, z] (default z)."
-                    ) from None
-                raise exc
-            R = T[:3, :3]
-            if (
-                not np.allclose(T[3], [0, 0, 0, 1])
-                or not np.allclose(R @ R.T, np.eye(3), atol=1e-8)
-                or np.linalg.det(R) < 0
-            ):
-                raise ModelFileError(
-                    f"{where}: transform is not a rigid homogeneous transform (orthonormal "
-                    "rotation with det +1, bottom row [0, 0, 0, 1])."
-                )
-            if "axis" in jt:
-                ax = jt["axis"]
-                if not isinstance(ax, list) or len(ax) != 3:
-                    raise ModelFileError(f"{where}: axis must be [x, y, z]; got {ax!r}.")
-                axis = np.array([evaluate(v, where, "axis") for v in ax])
-            pre, post = T, np.eye(4)
-        else:
-            if "axis" in jt:
-                raise ModelFileError(
-                    f"{where}: axis is only for transform joints; a {form} joint moves about/along z."
-                )
-            raw = jt[form]
-            if not isinstance(raw, dict):
-                raise ModelFileError(
-                    f"{where}: {form} must be a table, e.g. {{a = 0.3, alpha = 0}}."
-                )
-            allowed = {"a", "alpha", "d", "offset", "theta"}
-            badk = set(raw) - allowed
-            if badk or ("offset" in raw and "theta" in raw):
-                raise ModelFileError(
-                    f"{where}: {form} keys are a, alpha, d and offset (or theta, the same constant "
-                    f"angle); got {sorted(raw)}."
-                )
-            a = evaluate(raw.get("a", 0.0), where, f"{form}.a")
-            alpha = evaluate(raw.get("alpha", 0.0), where, f"{form}.alpha")
-            d = evaluate(raw.get("d", 0.0), where, f"{form}.d")
-            th = evaluate(raw.get("theta", raw.get("offset", 0.0)), where, f"{form}.theta")
-            Rz, Rx = _T(_rot("z", th)), _T(_rot("x", alpha))
-            Tz, Tx = _T(p=[0, 0, d]), _T(p=[a, 0, 0])
-            if form == "dh":
-                if kind == "revolute":
-                    pre, post = np.eye(4), Rz @ Tz @ Tx @ Rx
-                else:
-                    pre, post = Rz @ Tz, Tx @ Rx
-            else:
-                pre, post = Rx @ Tx @ Rz @ Tz, np.eye(4)
+        kind = _joint_kind(jt, where)
+        pre, post, axis = _joint_frames(jt, k, kind, where, evaluate)
         norm = float(np.linalg.norm(axis))
         if norm < 1e-12:
             raise ModelFileError(
@@ -302,24 +202,7 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
             )
         std.append(p)
         drive_rows.append(joint_drive(jt, where, ev))
-        lim = jt.get("limits", {})
-        if not isinstance(lim, dict) or set(lim) - {
-            "lower",
-            "upper",
-            "velocity",
-            "effort",
-            "acceleration",
-        }:
-            raise ModelFileError(
-                f"{where}: limits must be a table with lower, upper, velocity, effort, "
-                f"acceleration; got {lim!r}."
-            )
-        for j, key in enumerate(("lower", "upper")):
-            if key in lim:
-                limits["position"][k, j] = ev(lim[key], f"limits.{key}")
-        for key in ("velocity", "effort", "acceleration"):
-            if key in lim:
-                limits[key][k] = ev(lim[key], f"limits.{key}")
+        _joint_limits(jt, k, where, ev, limits)
     present = [dn for dn in DRIVE_NAMES if any(dn in row for row in drive_rows)]
     drive = {dn: np.array([row.get(dn, 0.0) for row in drive_rows]) for dn in present}
     chain = RigidChain(
@@ -338,19 +221,171 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
         description=str(data.get("description", "")),
         identify=(),
     )
-    if held:  # identify = false: model.unknown is every other model parameter (review F6)
-        names = chain.parameter_names()
-        stray = [h for h in held if h not in names]
-        if stray:
-            raise ModelFileError(
-                f"{_where(source, text, 'parameters', stray[0])}: identify = false on {stray}, "
-                "which are not parameters of the rigid-body model (its parameters are the "
-                "standard ones of each link, m1, mcx1, …, ZZ1, and the drive terms, Ia1, Fv1, "
-                "…); only a [parameters] entry named like one of them can be held. Remove "
-                "identify = false there."
-            )
-        chain = dataclasses.replace(chain, identify=tuple(n for n in names if n not in held))
+    if held:  # identify = false: model.unknown is every other model parameter
+        chain = _hold(chain, held, text, source)
     return chain
+
+
+def _rigid_gravity(data: dict, joints, text: str, source: str, evaluate) -> np.ndarray:
+    """The gravity vector [m/s²] of a rigid-body chain, after refusing the paper's kinetic energy."""
+    from ._locate import _where
+
+    if data.get("kinetic_energy", "exact") != "exact":
+        kinds = [j.get("type", "revolute") for j in joints if isinstance(j, dict)]
+        what = "a prismatic joint" if "prismatic" in kinds else "rigid-body keys"
+        raise ModelFileError(
+            f"{_where(source, text, 'kinetic_energy', 'kinetic_energy')}: kinetic_energy = "
+            f"{data['kinetic_energy']!r} (the paper's formula for point masses on revolute "
+            f"joints) cannot be used with {what}; remove kinetic_energy (exact is the default)."
+        )
+    g = data.get("gravity", [0.0, 0.0, -9.81])
+    if not isinstance(g, list) or len(g) != 3:
+        raise ModelFileError(
+            f"{_where(source, text, 'gravity', 'gravity')}: gravity must be [gx, gy, gz] in m/s²."
+        )
+    return np.array([evaluate(v, source, "gravity") for v in g])
+
+
+def _joint_kind(jt, where: str) -> str:
+    """The joint's type (``"revolute"`` or ``"prismatic"``), its keys checked."""
+    if not isinstance(jt, dict):
+        raise ModelFileError(f"{where}: each [[joints]] entry must be a table.")
+    bad = set(jt) - _JOINT_KEYS
+    if bad:
+        raise ModelFileError(
+            f"{where}: unknown key(s) {sorted(bad)} in a rigid-body joint; allowed: "
+            f"{sorted(_JOINT_KEYS)}."
+        )
+    kind = jt.get("type", "revolute")
+    if kind in ("planar", "floating", "fixed", "spherical"):
+        raise ModelFileError(
+            f"{where}: joint type {kind!r} is not supported; use 'revolute' or 'prismatic' "
+            "(fold a fixed joint into the neighbouring link's inertia)."
+        )
+    if kind not in ("revolute", "prismatic"):
+        raise ModelFileError(f"{where}: type must be 'revolute' or 'prismatic'; got {kind!r}.")
+    return kind
+
+
+def _joint_frames(jt: dict, k: int, kind: str, where: str, evaluate) -> tuple:
+    """``(pre, post, axis)``: the joint frame is ``pre`` after the previous link's ``post``, and
+    the link's inertial frame is ``post`` after the joint; ``axis`` (unnormalised) in the joint
+    frame."""
+    forms = [f for f in ("dh", "mdh", "transform") if f in jt]
+    if len(forms) != 1:
+        raise ModelFileError(
+            f"{where}: give exactly one of dh = {{a, alpha, d, offset}}, mdh = {{alpha, a, d, "
+            f"theta}} or transform = [[4×4]] for joint {k + 1}; got "
+            f"{forms or 'none'}."
+        )
+    form = forms[0]
+    if form == "transform":
+        return _transform_frames(jt, k, where, evaluate)
+    if "axis" in jt:
+        raise ModelFileError(
+            f"{where}: axis is only for transform joints; a {form} joint moves about/along z."
+        )
+    raw = jt[form]
+    if not isinstance(raw, dict):
+        raise ModelFileError(f"{where}: {form} must be a table, e.g. {{a = 0.3, alpha = 0}}.")
+    allowed = {"a", "alpha", "d", "offset", "theta"}
+    badk = set(raw) - allowed
+    if badk or ("offset" in raw and "theta" in raw):
+        raise ModelFileError(
+            f"{where}: {form} keys are a, alpha, d and offset (or theta, the same constant "
+            f"angle); got {sorted(raw)}."
+        )
+    a = evaluate(raw.get("a", 0.0), where, f"{form}.a")
+    alpha = evaluate(raw.get("alpha", 0.0), where, f"{form}.alpha")
+    d = evaluate(raw.get("d", 0.0), where, f"{form}.d")
+    th = evaluate(raw.get("theta", raw.get("offset", 0.0)), where, f"{form}.theta")
+    Rz, Rx = _T(_rot("z", th)), _T(_rot("x", alpha))
+    Tz, Tx = _T(p=[0, 0, d]), _T(p=[a, 0, 0])
+    if form == "dh":
+        if kind == "revolute":
+            pre, post = np.eye(4), Rz @ Tz @ Tx @ Rx
+        else:
+            pre, post = Rz @ Tz, Tx @ Rx
+    else:
+        pre, post = Rx @ Tx @ Rz @ Tz, np.eye(4)
+    return pre, post, np.array([0.0, 0.0, 1.0])
+
+
+def _transform_frames(jt: dict, k: int, where: str, evaluate) -> tuple:
+    """`_joint_frames` of a joint placed by a constant ``transform`` (moving about ``axis``)."""
+    axis = np.array([0.0, 0.0, 1.0])
+    raw = jt["transform"]
+    if not (
+        isinstance(raw, list)
+        and len(raw) == 4
+        and all(isinstance(r, list) and len(r) == 4 for r in raw)
+    ):
+        raise ModelFileError(f"{where}: transform must be 4 rows of 4 numbers.")
+    try:
+        T = np.array([[evaluate(v, where, "transform") for v in row] for row in raw])
+    except ModelFileError as exc:
+        if f"q{k + 1}" in str(raw):
+            raise ModelFileError(
+                f"{where}: in a rigid-body chain the transform is the constant placement "
+                f"of the joint frame (no q{k + 1}); the joint moves about/along axis = "
+                "[x, y, z] (default z)."
+            ) from None
+        raise exc
+    R = T[:3, :3]
+    if (
+        not np.allclose(T[3], [0, 0, 0, 1])
+        or not np.allclose(R @ R.T, np.eye(3), atol=1e-8)
+        or np.linalg.det(R) < 0
+    ):
+        raise ModelFileError(
+            f"{where}: transform is not a rigid homogeneous transform (orthonormal "
+            "rotation with det +1, bottom row [0, 0, 0, 1])."
+        )
+    if "axis" in jt:
+        ax = jt["axis"]
+        if not isinstance(ax, list) or len(ax) != 3:
+            raise ModelFileError(f"{where}: axis must be [x, y, z]; got {ax!r}.")
+        axis = np.array([evaluate(v, where, "axis") for v in ax])
+    return T, np.eye(4), axis
+
+
+def _joint_limits(jt: dict, k: int, where: str, ev, limits: dict) -> None:
+    """Write joint ``k``'s ``limits`` table into ``limits`` (NaN where not given)."""
+    lim = jt.get("limits", {})
+    if not isinstance(lim, dict) or set(lim) - {
+        "lower",
+        "upper",
+        "velocity",
+        "effort",
+        "acceleration",
+    }:
+        raise ModelFileError(
+            f"{where}: limits must be a table with lower, upper, velocity, effort, "
+            f"acceleration; got {lim!r}."
+        )
+    for j, key in enumerate(("lower", "upper")):
+        if key in lim:
+            limits["position"][k, j] = ev(lim[key], f"limits.{key}")
+    for key in ("velocity", "effort", "acceleration"):
+        if key in lim:
+            limits[key][k] = ev(lim[key], f"limits.{key}")
+
+
+def _hold(chain: RigidChain, held: list, text: str, source: str) -> RigidChain:
+    """``chain`` with every model parameter identified except the ``held`` ones."""
+    from ._locate import _where
+
+    names = chain.parameter_names()
+    stray = [h for h in held if h not in names]
+    if stray:
+        raise ModelFileError(
+            f"{_where(source, text, 'parameters', stray[0])}: identify = false on {stray}, "
+            "which are not parameters of the rigid-body model (its parameters are the "
+            "standard ones of each link, m1, mcx1, …, ZZ1, and the drive terms, Ia1, Fv1, "
+            "…); only a [parameters] entry named like one of them can be held. Remove "
+            "identify = false there."
+        )
+    return dataclasses.replace(chain, identify=tuple(n for n in names if n not in held))
 
 
 _ = inertial  # re-exported conversions are documented next to the format

@@ -208,6 +208,62 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
             "(xacro files must be expanded first: `xacro robot.urdf.xacro > robot.urdf`)."
         )
     name = root.get("name") or Path(source).stem
+    links = _urdf_links(root, source, strict)
+    joints = {}
+    child_of = {}
+    children = {}
+    for el in root.findall("joint"):
+        jname, joint = _urdf_joint(el, source, links, joints, child_of)
+        joints[jname] = joint
+        child_of[joint["child"]] = jname
+        children.setdefault(joint["parent"], []).append(jname)
+    roots = [lk for lk in links if lk not in child_of]
+    if len(roots) != 1:
+        if not roots:
+            raise ModelFileError(
+                f"{source}: every link is the child of a joint, so the joints form a loop; a URDF "
+                "must be a tree with one root link."
+            )
+        raise ModelFileError(
+            f"{source}: the URDF has {len(roots)} root links {roots[:6]} (links that are no "
+            "joint's child); connect them with joints so that one root remains."
+        )
+    order, bodies_inertia = _serial_order(roots[0], links, joints, children, source)
+    n = len(order)
+    standard = np.array([bodies_inertia.get(k, np.zeros(10)) for k in range(n)])
+    drive = {}
+    damp = [joints[j]["damping"] for j in order]
+    fric = [joints[j]["friction"] for j in order]
+    if any(v is not None for v in damp):
+        drive["Fv"] = np.array([v or 0.0 for v in damp])
+    if any(v is not None for v in fric):
+        drive["Fc"] = np.array([v or 0.0 for v in fric])
+    limits = {
+        "position": np.array(
+            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
+        ),
+        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
+        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
+        "acceleration": np.full(n, math.nan),
+    }
+    return RigidChain(
+        name=name,
+        joint_names=tuple(order),
+        joint_types=tuple(joints[j]["type"] for j in order),
+        rotation=np.array([joints[j]["placement"][:3, :3] for j in order]),
+        translation=np.array([joints[j]["placement"][:3, 3] for j in order]),
+        axis=np.array([joints[j]["axis"] for j in order]),
+        standard=standard,
+        link_to_joint=np.broadcast_to(np.eye(10), (n, 10, 10)),
+        drive=drive,
+        gravity=np.array([0.0, 0.0, -9.81]),
+        limits=limits,
+        source=source,
+    )
+
+
+def _urdf_links(root, source: str, strict: bool) -> dict:
+    """Link name -> its 10 standard inertial parameters, for every ``<link>``."""
     links = {}
     for el in root.findall("link"):
         lname = el.get("name")
@@ -221,106 +277,107 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         links[lname] = _link_parameters(el, source, lname, strict)
     if not links:
         raise ModelFileError(f"{source}: the robot has no <link>; a URDF needs links and joints.")
-    joints = {}
-    child_of = {}
-    children = {}
-    for el in root.findall("joint"):
-        jname = el.get("name")
-        w = _where(source, el, f"joint {jname!r}")
-        if not jname:
-            raise ModelFileError(f"{w}: a <joint> needs a name attribute.")
-        if jname in joints:
-            raise ModelFileError(f"{w}: joint {jname!r} is defined twice.")
-        jtype = el.get("type")
-        if jtype in ("planar", "floating"):
-            raise ModelFileError(
-                f"{w}: joint type {jtype!r} is not supported (physid models serial chains of "
-                "revolute, continuous and prismatic joints on a fixed base); make it 'fixed' or "
-                "model its degrees of freedom as separate joints."
-            )
-        if jtype not in ("revolute", "continuous", "prismatic", "fixed"):
-            raise ModelFileError(
-                f"{w}: unknown joint type {jtype!r}; use revolute, continuous, prismatic or fixed."
-            )
-        if el.find("mimic") is not None:
-            raise ModelFileError(
-                f"{w}: joint {jname!r} mimics joint "
-                f"{el.find('mimic').get('joint')!r}; mimic joints are not supported (their "
-                "coordinate is not independent). Make it 'fixed', or remove <mimic> to identify "
-                "it as a joint of its own."
-            )
-        pe, ce = el.find("parent"), el.find("child")
-        parent = pe.get("link") if pe is not None else None
-        child = ce.get("link") if ce is not None else None
-        for role, lk in (("parent", parent), ("child", child)):
-            if not lk:
-                raise ModelFileError(f'{w}: the joint needs <{role} link="..."/>.')
-            if lk not in links:
-                raise ModelFileError(
-                    f'{w}: {role} link {lk!r} is not defined; add <link name="{lk}"/> or fix '
-                    f"the name (links: {sorted(links)[:8]})."
-                )
-        if parent == child:
-            raise ModelFileError(f"{w}: the joint connects link {parent!r} to itself (a loop).")
-        if child in child_of:
-            raise ModelFileError(
-                f"{w}: link {child!r} is the child of two joints ({child_of[child]!r} and "
-                f"{jname!r}): the URDF has a loop; a URDF must be a tree (each link has one "
-                "parent joint)."
-            )
-        R, p = _origin(el, w)
-        axis = np.array([1.0, 0.0, 0.0])
-        ax = el.find("axis")
-        if ax is not None and jtype != "fixed":
-            axis = np.array(_floats(ax.get("xyz", "1 0 0"), 3, w, "axis xyz"))
-        norm = float(np.linalg.norm(axis))
-        if jtype != "fixed" and norm < 1e-12:
-            raise ModelFileError(
-                f"{w}: the axis of joint {jname!r} has zero length; give a direction, e.g. "
-                '<axis xyz="0 0 1"/>.'
-            )
-        lim = el.find("limit")
-        limits = {"lower": math.nan, "upper": math.nan, "velocity": math.nan, "effort": math.nan}
-        if lim is not None:
-            for key in limits:
-                limits[key] = _float(lim, key, w, math.nan)
-        if jtype == "continuous":
-            limits["lower"], limits["upper"] = -math.inf, math.inf
-        dyn = el.find("dynamics")
-        damping = friction = None
-        if dyn is not None:
-            damping = _float(dyn, "damping", w)
-            friction = _float(dyn, "friction", w)
-        joints[jname] = {
-            "type": "revolute" if jtype == "continuous" else jtype,
-            "parent": parent,
-            "child": child,
-            "R": R,
-            "p": p,
-            "axis": axis / max(norm, 1e-300),
-            "limits": limits,
-            "damping": damping,
-            "friction": friction,
-            "where": w,
-        }
-        child_of[child] = jname
-        children.setdefault(parent, []).append(jname)
-    roots = [lk for lk in links if lk not in child_of]
-    if len(roots) != 1:
-        if not roots:
-            raise ModelFileError(
-                f"{source}: every link is the child of a joint, so the joints form a loop; a URDF "
-                "must be a tree with one root link."
-            )
+    return links
+
+
+def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> tuple:
+    """``(name, record)`` of one ``<joint>``: its type, links, placement, axis, limits, dynamics."""
+    jname = el.get("name")
+    w = _where(source, el, f"joint {jname!r}")
+    if not jname:
+        raise ModelFileError(f"{w}: a <joint> needs a name attribute.")
+    if jname in joints:
+        raise ModelFileError(f"{w}: joint {jname!r} is defined twice.")
+    jtype = el.get("type")
+    if jtype in ("planar", "floating"):
         raise ModelFileError(
-            f"{source}: the URDF has {len(roots)} root links {roots[:6]} (links that are no "
-            "joint's child); connect them with joints so that one root remains."
+            f"{w}: joint type {jtype!r} is not supported (physid models serial chains of "
+            "revolute, continuous and prismatic joints on a fixed base); make it 'fixed' or "
+            "model its degrees of freedom as separate joints."
         )
-    # walk the tree: bodies are the root (base) and each movable joint's child (+ fixed links)
-    body_of = {roots[0]: (-1, np.eye(4))}  # link -> (body index, T_body_link)
+    if jtype not in ("revolute", "continuous", "prismatic", "fixed"):
+        raise ModelFileError(
+            f"{w}: unknown joint type {jtype!r}; use revolute, continuous, prismatic or fixed."
+        )
+    if el.find("mimic") is not None:
+        raise ModelFileError(
+            f"{w}: joint {jname!r} mimics joint "
+            f"{el.find('mimic').get('joint')!r}; mimic joints are not supported (their "
+            "coordinate is not independent). Make it 'fixed', or remove <mimic> to identify "
+            "it as a joint of its own."
+        )
+    parent, child = _joint_links(el, w, jname, links, child_of)
+    R, p = _origin(el, w)
+    axis = np.array([1.0, 0.0, 0.0])
+    ax = el.find("axis")
+    if ax is not None and jtype != "fixed":
+        axis = np.array(_floats(ax.get("xyz", "1 0 0"), 3, w, "axis xyz"))
+    norm = float(np.linalg.norm(axis))
+    if jtype != "fixed" and norm < 1e-12:
+        raise ModelFileError(
+            f"{w}: the axis of joint {jname!r} has zero length; give a direction, e.g. "
+            '<axis xyz="0 0 1"/>.'
+        )
+    lim = el.find("limit")
+    limits = {"lower": math.nan, "upper": math.nan, "velocity": math.nan, "effort": math.nan}
+    if lim is not None:
+        for key in limits:
+            limits[key] = _float(lim, key, w, math.nan)
+    if jtype == "continuous":
+        limits["lower"], limits["upper"] = -math.inf, math.inf
+    dyn = el.find("dynamics")
+    damping = friction = None
+    if dyn is not None:
+        damping = _float(dyn, "damping", w)
+        friction = _float(dyn, "friction", w)
+    return jname, {
+        "type": "revolute" if jtype == "continuous" else jtype,
+        "parent": parent,
+        "child": child,
+        "R": R,
+        "p": p,
+        "axis": axis / max(norm, 1e-300),
+        "limits": limits,
+        "damping": damping,
+        "friction": friction,
+        "where": w,
+    }
+
+
+def _joint_links(el, w: str, jname: str, links: dict, child_of: dict) -> tuple:
+    """``(parent, child)`` link names of a ``<joint>``, checked to make a tree."""
+    pe, ce = el.find("parent"), el.find("child")
+    parent = pe.get("link") if pe is not None else None
+    child = ce.get("link") if ce is not None else None
+    for role, lk in (("parent", parent), ("child", child)):
+        if not lk:
+            raise ModelFileError(f'{w}: the joint needs <{role} link="..."/>.')
+        if lk not in links:
+            raise ModelFileError(
+                f'{w}: {role} link {lk!r} is not defined; add <link name="{lk}"/> or fix '
+                f"the name (links: {sorted(links)[:8]})."
+            )
+    if parent == child:
+        raise ModelFileError(f"{w}: the joint connects link {parent!r} to itself (a loop).")
+    if child in child_of:
+        raise ModelFileError(
+            f"{w}: link {child!r} is the child of two joints ({child_of[child]!r} and "
+            f"{jname!r}): the URDF has a loop; a URDF must be a tree (each link has one "
+            "parent joint)."
+        )
+    return parent, child
+
+
+def _serial_order(root: str, links: dict, joints: dict, children: dict, source: str) -> tuple:
+    """The movable joints in tree order from ``root`` (their ``placement`` and ``parent_body``
+    set), and each body's standard parameters with its fixed links folded in; refuses a branch.
+
+    Bodies are the root (the base, -1) and each movable joint's child, with the links fixed to it.
+    """
+    body_of = {root: (-1, np.eye(4))}  # link -> (body index, T_body_link)
     order = []  # movable joints in tree order
     bodies_inertia = {}
-    stack = [roots[0]]
+    stack = [root]
     seen = set()
     while stack:
         lk = stack.pop(0)
@@ -362,37 +419,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
                 f"{joints[jname]['where']}: joint {jname!r} does not continue the chain from the "
                 "previous movable joint (the tree branches); physid models serial chains."
             )
-    n = len(order)
-    standard = np.array([bodies_inertia.get(k, np.zeros(10)) for k in range(n)])
-    drive = {}
-    damp = [joints[j]["damping"] for j in order]
-    fric = [joints[j]["friction"] for j in order]
-    if any(v is not None for v in damp):
-        drive["Fv"] = np.array([v or 0.0 for v in damp])
-    if any(v is not None for v in fric):
-        drive["Fc"] = np.array([v or 0.0 for v in fric])
-    limits = {
-        "position": np.array(
-            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
-        ),
-        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
-        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
-        "acceleration": np.full(n, math.nan),
-    }
-    return RigidChain(
-        name=name,
-        joint_names=tuple(order),
-        joint_types=tuple(joints[j]["type"] for j in order),
-        rotation=np.array([joints[j]["placement"][:3, :3] for j in order]),
-        translation=np.array([joints[j]["placement"][:3, 3] for j in order]),
-        axis=np.array([joints[j]["axis"] for j in order]),
-        standard=standard,
-        link_to_joint=np.broadcast_to(np.eye(10), (n, 10, 10)),
-        drive=drive,
-        gravity=np.array([0.0, 0.0, -9.81]),
-        limits=limits,
-        source=source,
-    )
+    return order, bodies_inertia
 
 
 def _link_parameters(el, source, lname, strict) -> np.ndarray:
@@ -563,19 +590,7 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
             f"{source}: unknown key(s) {sorted(extra)} in a URDF sidecar; allowed: "
             f"{sorted(_SIDECAR_TOP)}."
         )
-    target = data.get("extends")
-    if not isinstance(target, str) or not target.strip():
-        raise ModelFileError(
-            f'{source}: extends must be the path of a URDF file, e.g. "robot.urdf".'
-        )
-    path = Path(target)
-    if not path.is_absolute():
-        path = Path(source).parent / path
-    if not path.exists():
-        raise ModelFileError(
-            f"{source}: extends = {target!r}: no such file {str(path)!r} (paths are relative to "
-            "the TOML file)."
-        )
+    path = _sidecar_target(data, source)
     strict = bool(data.get("strict", strict))
     chain = read_urdf(path, strict=strict)
     table = data.get("joints", {})
@@ -583,35 +598,7 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
         raise ModelFileError(
             f"{source}: joints must be tables [joints.<urdf joint name>] in a sidecar."
         )
-    standard = chain.standard.copy()
-    drive_values = {k: np.array(v, dtype=float) for k, v in chain.drive.items()}
-    accel = chain.limits["acceleration"].copy()
-    for jname, jt in table.items():
-        w = f"{source} ([joints.{jname}])"
-        if jname not in chain.joint_names:
-            raise ModelFileError(
-                f"{w}: the URDF has no movable joint {jname!r}; its joints: "
-                f"{list(chain.joint_names)}."
-            )
-        if not isinstance(jt, dict):
-            raise ModelFileError(f"{w}: must be a table of drive terms, e.g. armature = 0.1.")
-        bad = set(jt) - _SIDECAR_JOINT
-        if bad:
-            raise ModelFileError(
-                f"{w}: unknown key(s) {sorted(bad)}; allowed: {sorted(_SIDECAR_JOINT)}."
-            )
-        k = chain.joint_names.index(jname)
-
-        def ev(value, key, _w=w):
-            return _plain_number(value, key, _w)
-
-        p = joint_inertial(jt, w, strict, ev)
-        if p is not None:
-            standard[k] = p
-        for prefix, v in joint_drive(jt, w, ev).items():
-            drive_values.setdefault(prefix, np.zeros(chain.n_joints))[k] = v
-        if "acceleration" in jt:
-            accel[k] = ev(jt["acceleration"], "acceleration")
+    standard, drive_values, accel = _sidecar_joints(table, chain, source, strict)
     drive = {k: drive_values[k] for k in DRIVE_NAMES if k in drive_values}
     gravity = chain.gravity
     if "gravity" in data:
@@ -643,6 +630,59 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
         description=str(data.get("description", "")),
         identify=tuple(identify),
     )
+
+
+def _sidecar_target(data: dict, source: str) -> Path:
+    """The URDF a sidecar ``extends`` (relative to the sidecar), checked to exist."""
+    target = data.get("extends")
+    if not isinstance(target, str) or not target.strip():
+        raise ModelFileError(
+            f'{source}: extends must be the path of a URDF file, e.g. "robot.urdf".'
+        )
+    path = Path(target)
+    if not path.is_absolute():
+        path = Path(source).parent / path
+    if not path.exists():
+        raise ModelFileError(
+            f"{source}: extends = {target!r}: no such file {str(path)!r} (paths are relative to "
+            "the TOML file)."
+        )
+    return path
+
+
+def _sidecar_joints(table: dict, chain: RigidChain, source: str, strict: bool) -> tuple:
+    """``(standard, drive_values, accel)``: the URDF chain's values with the sidecar's
+    ``[joints.<name>]`` tables applied."""
+    standard = chain.standard.copy()
+    drive_values = {k: np.array(v, dtype=float) for k, v in chain.drive.items()}
+    accel = chain.limits["acceleration"].copy()
+    for jname, jt in table.items():
+        w = f"{source} ([joints.{jname}])"
+        if jname not in chain.joint_names:
+            raise ModelFileError(
+                f"{w}: the URDF has no movable joint {jname!r}; its joints: "
+                f"{list(chain.joint_names)}."
+            )
+        if not isinstance(jt, dict):
+            raise ModelFileError(f"{w}: must be a table of drive terms, e.g. armature = 0.1.")
+        bad = set(jt) - _SIDECAR_JOINT
+        if bad:
+            raise ModelFileError(
+                f"{w}: unknown key(s) {sorted(bad)}; allowed: {sorted(_SIDECAR_JOINT)}."
+            )
+        k = chain.joint_names.index(jname)
+
+        def ev(value, key, _w=w):
+            return _plain_number(value, key, _w)
+
+        p = joint_inertial(jt, w, strict, ev)
+        if p is not None:
+            standard[k] = p
+        for prefix, v in joint_drive(jt, w, ev).items():
+            drive_values.setdefault(prefix, np.zeros(chain.n_joints))[k] = v
+        if "acceleration" in jt:
+            accel[k] = ev(jt["acceleration"], "acceleration")
+    return standard, drive_values, accel
 
 
 def looks_like_xml(head: bytes) -> bool:
