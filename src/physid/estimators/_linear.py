@@ -62,7 +62,7 @@ def _gain_unit(model: LinearODEModel, k: int) -> str:
         y, u = parse_unit(model.output_unit).dimension, parse_unit(model.input_unit).dimension
     except InputError:
         return ""
-    # [b_j] = [y]/([u]·s^k): the time exponent falls by k (review: it rose, b0 of m/N read s^4/kg)
+    # [b_j] = [y]/([u]·s^k): the time exponent falls by k (b0 of an m/N model is 1/kg, not s^4/kg)
     dim = tuple(a - b - (k if i == 2 else 0) for i, (a, b) in enumerate(zip(y, u, strict=True)))
     return _canonical(dim) or "1"
 
