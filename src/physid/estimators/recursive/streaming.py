@@ -283,8 +283,10 @@ class StreamingRLS:
         iu = np.triu_indices(p)
         G = X[:, iu[0]] * X[:, iu[1]] / self.weight  # (n, p(p+1)/2) rows of Σ x xᵀ / R
         g = X * Y[:, None] / self.weight
-        S_rows = self._sum_S + np.cumsum(G, axis=0)
-        B_rows = self._sum_B + np.cumsum(g, axis=0)
+        # The running sums continue across chunks in one sequential order, ((S + G₁) + G₂) + …,
+        # so that chunked input gives the same bits as one call (S + cumsum(G) would not).
+        S_rows = np.cumsum(np.vstack([self._sum_S, G]), axis=0)[1:]
+        B_rows = np.cumsum(np.vstack([self._sum_B, g]), axis=0)[1:]
         count = self._n_accumulated + np.arange(1, X.shape[0] + 1)
         candidates = np.flatnonzero(count >= self.init_samples)
         if candidates.size:
