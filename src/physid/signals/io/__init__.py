@@ -47,20 +47,18 @@ from pathlib import Path
 
 from ...errors import DataFileError, InputError
 from ..recording import Recording
-from ..writers import _header_cell, _split_header_cell, write_recording  # noqa: F401
+from ..writers import _header_cell as _header_cell
+from ..writers import _split_header_cell as _split_header_cell
+from ..writers import write_recording
 from .assemble import _assemble
 from .csv_reader import _read_csv
 from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
 from .options import _check_csv_options, _check_load_options, parse_channel_map
-from .variables import (  # noqa: F401  (_READ_CHANNEL, _RESERVED: read by tests from here)
-    _READ_CHANNEL,
-    _RESERVED,
-    DEFAULT_UNIFORM_RTOL,
-    MAX_ABS_VALUE,
-    SUPPORTED_SUFFIXES,
-)
+from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
+from .variables import _RESERVED as _RESERVED
+from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES
 
 __all__ = [
     "load_recording",
