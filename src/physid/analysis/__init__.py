@@ -1,8 +1,9 @@
 """Analysis: identifiability, variance-based input design, convergence metrics, Monte-Carlo sweeps.
 
-`montecarlo` is the sweep engine (grid × seeds on a serial, process-pool or Dask backend; Dask
-needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when asked for) and
-`sweep_table` its result table and files;
+`montecarlo` is the sweep engine's public module (grid × seeds on a serial, process-pool or Dask
+backend; Dask needs the ``dask`` extra, ``pip install "physid[dask]"``, imported only when asked
+for; the code is in `sweep_trials`, `sweep_backends` and `sweep_run`) and `sweep_table` its result
+table and files;
 `studies` builds its trials from a model, a scenario and an estimator (`model_sweep`: any
 linear-ODE model); `msd_study` is the paper's MSD study on it (`msd_sweep`).
 """
@@ -24,9 +25,11 @@ from .metrics import (
     settle_time,
     shortest_window,
 )
-from .montecarlo import SweepResult, run_sweep, trial_specs
 from .msd_study import msd_sweep
 from .studies import EstimationTrial, SineScenario, model_sweep
+from .sweep_run import run_sweep
+from .sweep_table import SweepResult
+from .sweep_trials import trial_specs
 
 __all__ = [
     "ExcitationDesign",

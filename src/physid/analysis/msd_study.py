@@ -17,7 +17,6 @@ from typing import Any
 
 from .._validate import check_positive
 from ..models.linear_ode import MSD_NATURAL_FREQUENCY
-from .montecarlo import SweepResult, parse_scheduler
 from .studies import (
     TIME_COLUMNS,
     EstimationTrial,
@@ -27,6 +26,8 @@ from .studies import (
     make_estimator,
     run_estimator_sweep,
 )
+from .sweep_backends import parse_scheduler
+from .sweep_table import SweepResult
 
 __all__ = [
     "PaperMSDScenario",

@@ -27,8 +27,9 @@ from typing import Any
 
 from .._validate import check_positive
 from ..errors import InputError, arg
-from . import metrics
-from .montecarlo import SweepResult, run_sweep
+from .metrics import DEFAULT_TOLERANCE, convergence_times, estimate_trace
+from .sweep_run import run_sweep
+from .sweep_table import SweepResult
 
 __all__ = [
     "SineScenario",
@@ -410,7 +411,7 @@ class EstimationTrial:
     outputs: tuple[str, ...] | None = None
     truths: tuple[str, ...] | None = None
     aliases: Mapping[str, str] = field(default_factory=dict)
-    tolerance: float = metrics.DEFAULT_TOLERANCE
+    tolerance: float = DEFAULT_TOLERANCE
     estimator: Callable | None = None
     truth: Callable | None = None
 
@@ -450,9 +451,9 @@ class EstimationTrial:
             else math.nan
         )
         try:
-            t, trace, valid = metrics.estimate_trace(result, track)
+            t, trace, valid = estimate_trace(result, track)
             tol = float(settings.get("tolerance", self.tolerance))
-            conv = metrics.convergence_times(t, trace, true_value, tol, valid=valid)
+            conv = convergence_times(t, trace, true_value, tol, valid=valid)
         except InputError:  # no per-time history of it: no convergence times
             conv = {"first_hit": math.nan, "settle": math.nan}
         out["t_first_hit"] = conv["first_hit"]

@@ -21,7 +21,7 @@ import numpy as np
 from .._paths import atomic_write
 from ..errors import InputError
 from ..estimators.results import ResultMixin, jsonable
-from . import metrics
+from .metrics import censored_median, trial_statistics
 
 __all__ = ["SweepResult", "write_sweep", "read_table", "first_failure"]
 
@@ -179,7 +179,7 @@ def _accuracy(ok_rows: Sequence[dict], outputs: Sequence[str]) -> dict[str, dict
         if not all(v is None or _is_number(v) for v in finals):
             continue
         estimates = np.array([math.nan if v is None else v for v in finals], dtype=float)
-        out[name] = {"truth": float(truth), **metrics.trial_statistics(estimates, truth)}
+        out[name] = {"truth": float(truth), **trial_statistics(estimates, truth)}
     return out
 
 
@@ -197,7 +197,7 @@ def _column_stats(arr: np.ndarray, censored: bool) -> dict[str, Any]:
     else:
         stats.update(mean=math.nan, median=math.nan, std=math.nan, min=math.nan, max=math.nan)
     if censored:
-        stats["median_censored"] = metrics.censored_median(arr) if arr.size else math.nan
+        stats["median_censored"] = censored_median(arr) if arr.size else math.nan
         stats["converged_fraction"] = float(np.isfinite(arr).mean()) if arr.size else math.nan
     return stats
 

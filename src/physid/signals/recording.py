@@ -539,7 +539,7 @@ class Recording:
         units = dict(units or {})
 
         def split(label: str) -> tuple[str, str]:
-            from .io import _split_header_cell
+            from .writers import _split_header_cell
 
             name, unit = _split_header_cell(label)
             return name, units.get(name, units.get(label, unit))
@@ -629,9 +629,9 @@ class Recording:
 
     def save(self, path, **kwargs) -> None:
         """Write to CSV or NPZ (chosen by the suffix); see `physid.signals.io.save_recording`."""
-        from .io import save_recording
+        from .writers import write_recording
 
-        save_recording(self, path, **kwargs)
+        write_recording(self, path, **kwargs)
 
     def plot(self, names: Sequence[str] | None = None, ax=None):
         """Plot channels against time; returns the matplotlib Figure (see `physid.report`)."""

@@ -1,0 +1,170 @@
+"""Test (a) of `physid.analysis.validation`: the inverse-model cross-test, the forces/torques the
+model predicts from the held-out motion on the signals filtered as in the fit (linear ODE, IDIM,
+input-error)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import InputError, arg
+from .parameters import _idim_threshold, _input_error_parameters, _is_idim
+
+
+def _linear_inverse(loaded, recording):
+    """Inverse-model test of a linear ODE: û from the filtered output (and input derivatives)."""
+    from ...estimators.recursive import (
+        default_prefilter_cutoff,
+        state_variable_filter,
+        svf_transient_samples,
+    )
+
+    model = loaded.model
+    values = loaded.coefficients
+    in_name, out_name = model.recording_channels(recording.names)
+    dt = recording.dt
+    cutoff = (loaded.data.get("prefilter_cutoff") if loaded.method == "rls" else None) or None
+    note = (
+        f"the state-variable filter of the fit ({cutoff:g} Hz)"
+        if cutoff
+        else "the state-variable filter at the RLS default cut-off (the algebraic estimator "
+        "does not filter)"
+    )
+    if not cutoff:
+        from ...estimators.recursive import _model_frequency
+
+        cutoff = default_prefilter_cutoff(dt, _model_frequency(model))
+    n, m = model.order, model.input_order
+    highest = max(n, m)
+    order = highest + 1
+    # the measured output is y + offset (the model's output_offset, as the prediction of (b)
+    # adds it): the derivatives of the constant vanish, but a0·y would see it
+    offset = getattr(model, "output_offset", None)
+    held = bool(offset) and offset not in values  # identify = false: the model's value
+    o = float(values[offset]) if offset in values else model.known_output_offset()
+    y_m = np.asarray(recording[out_name], dtype=float) - o
+    derivs = state_variable_filter(
+        np.column_stack([y_m, recording[in_name]]), dt, cutoff, highest, order
+    )
+    skip = min(svf_transient_samples(cutoff, dt, order), derivs.shape[0] // 2)
+    yd, ud = derivs[skip:, 0, :], derivs[skip:, 1, :]
+    # Σ a_i y^(i) (a_n = 1) = Σ b_j u^(j)  ⇒  û_f = (Σ a_i y_f^(i) − Σ_{j≥1} b_j u_f^(j)) / b_0
+    lhs = yd[:, n].copy()
+    for i, name in enumerate(model.a_names):
+        lhs += values[name] * yd[:, i]
+    for j, name in enumerate(model.b_names[1:], start=1):
+        lhs -= values[name] * ud[:, j]
+    b0 = values[model.b_names[0]]
+    u_hat = lhs / b0 if b0 != 0 else np.full(lhs.shape, np.nan)
+    u_f = ud[:, 0]
+    t = np.asarray(recording.t)[skip:]
+    note = f"inverse model on {note}; first {skip} samples dropped"
+    if offset:
+        kind = "held" if held else "estimated"
+        note += f"; the {kind} output offset {offset} = {o:.6g} subtracted from the output"
+    return in_name, t, u_f, u_hat, note
+
+
+def _idim_inverse(loaded, recording):
+    """(t, τ_f, τ̂, stuck) of an IDIM result: the fit's rows, its near-rest equations dropped.
+
+    The rows are built with the fit's filter settings and ``stick_threshold`` (`idim_rows`), so
+    a Coulomb joint's equations near rest are zero on both sides, as in the fit, and the
+    relative error is the fit's on the fit's own record. ``stuck`` (rows × joints, bool) is
+    None when nothing is dropped.
+    """
+    from ...estimators.idim import base_regressor_info, idim_rows
+
+    d = loaded.data
+    model = loaded.model
+    info = base_regressor_info(model)
+    names = tuple(d.get("names") or loaded.parameters)
+    missing = [n for n in names if n not in loaded.parameters]
+    if missing:
+        raise InputError(f"the result file lacks the value(s) of {missing}.")
+    beta = np.array([loaded.parameters[n] for n in names], dtype=float)
+    if names == info.independent:  # files from before base names keyed the kept columns
+        names = info.names
+    if names != info.names:
+        raise InputError(
+            f"the result has {len(names)} base parameters ({list(names)[:4]}…), but the model "
+            f"{getattr(model, 'name', '')!r} has {info.n_base} ({list(info.names)[:4]}…); "
+            f"validate with the model the result was fitted with "
+            f"({arg('model', '...', cli='MODEL')})."
+        )
+    threshold, _ = _idim_threshold(loaded)
+    rows = idim_rows(
+        model,
+        recording,
+        info=info,
+        differentiation=d.get("differentiation", "physid"),
+        cutoff=d.get("cutoff", "auto"),
+        half_width=d.get("half_width"),
+        decimate=d.get("decimate", "auto"),
+        stick_threshold=threshold,
+    )
+    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
+
+
+def _chain_inverse(loaded, recording):
+    """(t, τ_f, τ̂) of a chain result on the held-out recording, filtered as in the fit."""
+    from ...estimators.input_error import InputErrorEstimator
+
+    d = loaded.data
+    if _is_idim(loaded):
+        # IDIM estimates base parameters: τ̂ = W_base β̂ on rows filtered and decimated with the
+        # fit's own settings (the robotics convention for the cross-test), by the same function
+        # as IDIMResult.predict
+        from ...estimators.idim import predict_torque
+
+        names = list(d.get("names") or loaded.parameters)
+        missing = [n for n in names if n not in loaded.parameters]
+        if missing:
+            raise InputError(f"the result file lacks the value(s) of {missing}.")
+        pred = predict_torque(
+            loaded.model,
+            names,
+            [loaded.parameters[n] for n in names],
+            recording,
+            differentiation=d.get("differentiation", "physid"),
+            cutoff=d.get("cutoff", "auto"),
+            half_width=d.get("half_width"),
+            decimate=d.get("decimate", "auto"),
+            measured=True,
+        )
+        nj = int(loaded.model.n_joints)
+        tau_hat = pred.select([f"tau{j + 1}" for j in range(nj)])
+        tau_f = pred.select([f"tau{j + 1}_measured" for j in range(nj)])
+        return np.asarray(pred.t), tau_f, tau_hat
+    settings = {
+        k: d[k] for k in ("half_width", "cutoff", "torque", "derivatives") if d.get(k) is not None
+    }
+    if settings.get("torque") == "pd":  # the gains the fit was given, else the record's metadata
+        gains = d.get("gains") or {}
+        settings.update({k: gains[k] for k in ("kp", "kd") if gains.get(k) is not None})
+    est = InputErrorEstimator(loaded.model, **settings)
+    t, qf, qdf, qddf, tau_f = est.filtered_signals(recording)[:5]
+    params = _input_error_parameters(loaded)
+    tau_hat = np.asarray(loaded.model.inverse_dynamics(qf, qdf, qddf, params), dtype=float)
+    return t, tau_f, tau_hat
+
+
+def _stick_note(loaded, stuck) -> str:
+    """What (a) and (c) dropped near rest, with the fit's ``stick_threshold``."""
+    threshold, recorded = _idim_threshold(loaded)
+    source = (
+        "the fit's"
+        if recorded
+        else "the IDIM default (the result does not record the fit's; written by an older physid)"
+    )
+    if stuck is None or not stuck.any():
+        return (
+            f"(a) stiction rule (threshold {threshold:g}·rms of the speed, {source}): "
+            "no joint equation dropped near rest"
+        )
+    free = int(np.count_nonzero(~np.any(stuck, axis=1)))
+    return (
+        f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped near rest, as in the "
+        f"fit: Coulomb joints at |q̇| < {threshold:g}·rms (stiction threshold: {source}), "
+        "where stiction makes the friction torque unknown; (c) uses the "
+        f"{free} rows where no equation is dropped"
+    )

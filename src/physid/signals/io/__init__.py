@@ -1,0 +1,236 @@
+"""Read and write recordings: CSV, NPZ, MATLAB ``.mat`` (v5 and v7.3) and HDF5.
+
+File layouts
+------------
+CSV
+    A header row of channel names; a unit may follow a name in brackets, ``q1 [rad]``. The
+    separator is ``,``, ``;`` or tab (recognised from the header and the first data row, or given
+    with ``delimiter=``); ``decimal=","`` reads decimal commas. Lines starting with ``#`` are
+    comments; ``# metadata: {json}`` carries the recording's metadata (its numbers can be used in
+    channel maps, like the scalars of a ``.mat`` file).
+NPZ, MAT, HDF5
+    Either ``data`` (n_samples, n_channels) with ``names`` (and optionally ``units``), or one
+    variable per channel: 1-D of length n_samples, or 2-D (n_samples, k) which becomes channels
+    ``name1..namek``. MATLAB structs and HDF5 groups are reached with dots (``data.pos``). A
+    dataset attribute ``unit`` (or ``units``) gives the channel's unit (HDF5, MATLAB v7.3).
+    Scalars (a drive gain, a sampling rate) are not channels but may be used in channel maps.
+
+Time
+    The column or variable named ``t``, else one named ``time`` in any case (``Time``,
+    ``time [ms]``), else the one mapped with ``channels={"t": ...}``.
+
+Units (one rule for every format)
+    A unit in a header, an attribute or a channel map is converted to SI with the table of
+    `physid.units` at load; the recording keeps the SI unit. A unit the table does not
+    know is refused on the channels physid reads (``t``, ``q1``, ``qd1``, ``tau1``, ``r1``,
+    ``u``, ``x``, ``y`` and every mapped channel); a unit of the wrong kind for such a channel
+    (``[V]`` on ``tau1``) is refused with the map that fixes it. Other channels keep their values
+    and unit as they are (listed in ``metadata["unconverted_units"]``).
+
+Channel maps
+    ``channels={"t": "time", "q1": "qm", "tau1": "gtau*vir"}``: each recording channel from a
+    variable name or arithmetic over variables and scalars of the file (parsed by
+    `physid.expressions`, never evaluated as Python; the variables are in SI units). A trailing
+    ``[unit]`` gives the unit of an expression's value (``"35.15*vir [N]"``). Unmapped channels
+    of the file are kept unless a mapped channel takes their name or a map uses them.
+
+Every problem with a file raises `DataFileError` naming the file, the channel or row, and the
+fix; bad keyword values raise `InputError`, an expression physid refuses `ExpressionError`, and
+a missing h5py `MissingDependencyError`. Messages name Python keywords (``resample=True``); the
+command line shows its own flags instead (``--resample``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from ...errors import DataFileError, InputError
+from ..recording import Recording
+from ..writers import _header_cell as _header_cell
+from ..writers import _split_header_cell as _split_header_cell
+from ..writers import write_recording
+from .assemble import _assemble
+from .csv_reader import _read_csv
+from .hdf5_reader import _read_hdf5
+from .mat_reader import _read_mat
+from .npz_reader import _read_npz
+from .options import _check_csv_options, _check_load_options, parse_channel_map
+from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
+from .variables import _RESERVED as _RESERVED
+from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES
+
+__all__ = [
+    "load_recording",
+    "save_recording",
+    "parse_channel_map",
+    "DEFAULT_UNIFORM_RTOL",
+    "SUPPORTED_SUFFIXES",
+    "MAX_ABS_VALUE",
+]
+
+_open = open  # opens a file for the readability check (tests replace it to simulate chmod 000)
+
+
+def load_recording(
+    path,
+    channels: Mapping[str, str] | None = None,
+    *,
+    resample: bool = False,
+    uniform_rtol: float | None = DEFAULT_UNIFORM_RTOL,
+    decimal: str = ".",
+    delimiter: str | None = None,
+    channel_defaults: Mapping[str, str] | None = None,
+    channel_defaults_source: str | None = None,
+) -> Recording:
+    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5 (chosen by the file suffix).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``.
+    channels : mapping of str to str, optional
+        Channel map: recording channel name → a variable of the file (``"qm"``, a struct field
+        ``"data.pos"``) or arithmetic over variables and scalars (``"gtau*vir"``), optionally
+        followed by the value's unit in brackets (``"35.15*vir [N]"``). ``"t"`` maps the time.
+        The variables are in SI units when the expression is evaluated. CLI: ``--map
+        t=time,q1=qm,tau1=gtau*vir``. A string ``"t=time,q1=qm"`` is accepted too.
+    resample : bool
+        If the sampling is not uniform within ``uniform_rtol``, interpolate linearly onto a uniform
+        grid with the mean period (`Recording.resample`) instead of raising (CLI: ``--resample``).
+        Must be a real bool (a string such as ``'no'`` is refused, not read as truthy).
+    uniform_rtol : float ≥ 0 or None
+        Largest accepted deviation of a sample interval from the mean period, relative to it
+        (finite; NaN or inf are refused).
+        Within it the time vector is snapped onto the exact grid ``t0 + k·Δ`` (so that
+        ``rec.dt`` works downstream; the worst deviation is kept in ``metadata``). ``None``
+        keeps the time vector as it is, uniform or not.
+    decimal : {".", ","}
+        Decimal mark of a CSV file (CLI: ``--decimal ,``). With ``","`` the separator is ``;``
+        or tab.
+    delimiter : {",", ";", "\\t"} or None
+        Separator of a CSV file; None recognises it from the header and first data row.
+    channel_defaults : mapping of str to str, optional
+        A channel map from elsewhere, e.g. a model file's ``[recording]`` table; ``channels``
+        entries override it. Its entries apply as ``channels``' do, except one whose source
+        names the file lacks while the file already has the target channel (physid's own
+        recordings, which call it ``q1`` already): that entry is dropped and the file's channel
+        is used, listed in ``metadata["channel_defaults_unused"]`` (target → entry).
+    channel_defaults_source : str, optional
+        What ``channel_defaults`` is, for messages (e.g. ``"the [recording] table of
+        axis.toml"``); default ``"channel_defaults="``.
+
+    Returns
+    -------
+    Recording
+        Channels in SI units, with ``metadata["source"]`` (the path) and ``metadata["format"]``;
+        ``metadata["channel_map"]`` when a map was given, ``metadata["original_units"]`` for
+        converted channels.
+
+    Raises
+    ------
+    InputError
+        A keyword with a bad value.
+    DataFileError
+        Unknown suffix, missing or unreadable file, empty file, no time, non-numeric cells,
+        NaN/inf or values beyond ±`MAX_ABS_VALUE`, duplicate channel names, time not strictly
+        increasing, non-uniform sampling, a complex/text/cell channel, a unit that cannot be
+        converted or does not fit the channel, a mapped name or struct path that is not there.
+    ExpressionError
+        A channel-map expression that uses an unknown name or a forbidden construct.
+    MissingDependencyError
+        An HDF5 or MATLAB v7.3 file and h5py is not installed (``pip install "physid[io]"``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "r.csv"
+    >>> _ = p.write_text("time [ms],pos [mm],F [N]\\n0,1,0\\n500,2,1\\n1000,4,0\\n")
+    >>> rec = load_recording(p, {"x": "pos", "u": "F"})
+    >>> rec.names, rec.units, rec.dt, rec["x"].tolist()
+    (('x', 'u'), ('m', 'N'), 0.5, [0.001, 0.002, 0.004])
+    """
+    resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
+    channels = parse_channel_map(channels)
+    defaults = parse_channel_map(channel_defaults) or {}
+    decimal, delimiter = _check_csv_options(decimal, delimiter)
+    path = Path(path)
+    fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
+    _check_readable(path)
+    if fmt == "csv":
+        source = _read_csv(path, decimal=decimal, delimiter=delimiter)
+    else:
+        if (decimal, delimiter) != (".", None):
+            raise InputError(
+                f"decimal= and delimiter= apply to CSV files only; {path} is {fmt.upper()}. "
+                "Drop them."
+            )
+        source = {"npz": _read_npz, "mat": _read_mat, "hdf5": _read_hdf5}[fmt](path)
+    source.metadata = {**source.metadata, "source": str(path), "format": fmt}
+    return _assemble(
+        path, source, channels, resample=resample, uniform_rtol=uniform_rtol,
+        defaults=defaults, defaults_source=channel_defaults_source or "channel_defaults=",
+    )  # fmt: skip
+
+
+def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
+    """Write a recording to CSV (units in the header) or NPZ, chosen by the suffix.
+
+    Parameters
+    ----------
+    rec : Recording
+    path : str or os.PathLike
+        ``.csv`` or ``.npz``.
+    overwrite : bool
+        If False, refuse to replace an existing file.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    DataFileError
+        Not a Recording, a bad suffix, an existing file with ``overwrite=False``, a missing
+        folder, a unit that holds ``[`` or ``]`` (it could not be read back from a header).
+
+    Notes
+    -----
+    CSV header cells are quoted where needed (names with commas, quotes or newlines), a name
+    that looks like ``name [unit]`` is written with an empty unit ``[]`` after it, and values
+    are written with Python's shortest round-trip representation, so
+    ``load_recording(save_recording(rec, p))`` returns the same names, units and numbers bit
+    for bit whenever the units are SI (non-SI units are converted to SI when read back).
+    """
+    if not isinstance(rec, Recording):
+        raise DataFileError(f"save_recording expects a Recording; got {type(rec).__name__}.")
+    return write_recording(rec, path, overwrite=overwrite)
+
+
+def _check_readable(path: Path) -> None:
+    if not path.is_file():
+        raise DataFileError(
+            f"{path}: no such file{' (it is a directory)' if path.is_dir() else ''}; "
+            "check the path."
+        )
+    try:
+        with _open(path, "rb") as fh:
+            fh.read(1)
+    except PermissionError:
+        raise DataFileError(
+            f"{path}: permission denied: the file cannot be read by this user; make it "
+            f"readable (chmod u+r {path}) or copy it somewhere you can read."
+        ) from None
+    except OSError as exc:
+        raise DataFileError(f"{path}: cannot be read ({exc.strerror or exc}).") from None
+
+
+def _format_of(path: Path, table: Mapping[str, str], action: str) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in table:
+        raise DataFileError(
+            f"{path}: cannot {action} files with suffix {suffix or '(none)'!r}; supported: "
+            f"{sorted(table)}. Rename the file or convert it."
+        )
+    return table[suffix]
