@@ -63,6 +63,9 @@ def simulate_exact(a, b, t, sines, x0=None):
     lam, V = np.linalg.eig(F)
     c = np.linalg.solve(V, z0.astype(complex))
     Z = ((np.exp(np.outer(t, lam)) * c) @ V.T).real
+    # at t = 0 the state is z0 by definition; the eigenvector round trip leaves ~1e-18 there,
+    # which would make a system at rest look excited
+    Z[t == 0.0] = z0
     C = np.zeros(nz)
     C[: b.size] = b
     u = np.zeros_like(t) + sum(amp * np.sin(w * t + ph) for amp, w, ph in sines)
@@ -422,7 +425,9 @@ def test_batch_equals_literal_per_window_loop(rule, settings):
     np.testing.assert_array_equal(guarded.estimates, res.estimates)
     ok = guarded.valid
     assert ok.sum() > 0.8 * both.sum()
-    assert np.max(np.abs(res.estimates[ok] / ref[ok] - 1)) < 1e-9
+    # 2e-9: the two least-squares paths sum in different orders; with numpy 2.4 / OpenBLAS the
+    # 4-equation, mu = 4 case differs by 1.07e-9 (2e-12 to 1.2e-11 in the others)
+    assert np.max(np.abs(res.estimates[ok] / ref[ok] - 1)) < 2e-9
 
 
 def test_batch_equals_literal_loop_third_order_with_known():
