@@ -31,19 +31,57 @@ realisable body (`log_cholesky_to_standard` and its inverse); the previous solve
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
 
 from ..errors import InputError, arg
 
-__all__ = ["consistent_estimate", "log_cholesky_to_standard", "standard_to_log_cholesky"]
+__all__ = [
+    "ConsistentEstimate",
+    "consistent_estimate",
+    "log_cholesky_to_standard",
+    "standard_to_log_cholesky",
+]
 
 _LINK = ("m", "mcx", "mcy", "mcz", "XX", "XY", "XZ", "YY", "YZ", "ZZ")
 _NONNEGATIVE = ("Ia", "Fv", "Fc", "Fvp", "Fvn", "Fcp", "Fcn")
 _TRIL = np.tril_indices(4)
-#: Newton steps the barrier method may take in all (about 100 are needed; review F8).
+#: Newton steps the barrier method may take in all (about 100 are needed).
 MAX_NEWTON_STEPS = 500
+
+
+@dataclass(frozen=True)
+class ConsistentEstimate:
+    """A physically consistent estimate (see `IDIMEstimator` with ``consistent=True``).
+
+    Attributes
+    ----------
+    standard : dict name -> float
+        Standard parameters (10 per link, then drive terms) of a physically realisable arm.
+    base : dict name -> float
+        Its base parameters.
+    cost_ratio : float
+        ``‖W β_c − τ‖² / ‖W β̂ − τ‖²`` on the fitted (weighted) rows: the price of consistency
+        (≥ 1 for OLS/WLS; an IV estimate is not the least-squares solution, so it can be < 1).
+    at_boundary : tuple of str
+        Links whose pseudo-inertia is (numerically) singular, and friction terms at zero.
+    min_eigenvalues : dict link -> float
+        Smallest eigenvalue of each link's pseudo-inertia [kg·m²].
+    message : str
+    converged : bool
+        Whether the solver reached its duality-gap target (else `message` says why, and the
+        IDIM result reports ``success=False``).
+    """
+
+    standard: dict[str, float]
+    base: dict[str, float]
+    cost_ratio: float
+    at_boundary: tuple[str, ...]
+    min_eigenvalues: dict[str, float]
+    message: str
+    converged: bool = True
 
 
 def log_cholesky_to_standard(x) -> np.ndarray:
@@ -242,7 +280,7 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
         A rigid-body model whose regressor columns are the 10 standard parameters of each link
         (``m{j}``, ``mcx{j}``, …, ``ZZ{j}``) and drive terms (``Ia{j}``, ``Fv{j}``, …).
     info : BaseInfo
-        From `physid.estimators.idim.base_regressor_info`.
+        From `physid.estimators.idim.base_parameters.base_regressor_info`.
     W : ndarray, shape (n_rows, n_joints, p)
     y : ndarray, shape (n_rows, n_joints) [N·m]
     beta_hat : ndarray, shape (p,)
@@ -260,7 +298,6 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
         The model does not have the standard rigid-body parametrisation.
     """
     from ..models.inertial import pseudo_inertia
-    from .idim import ConsistentEstimate
 
     names = info.column_names
     links, drive = _layout(names)
@@ -292,7 +329,7 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
     )
     base_c = K @ beta_c
     # the torque cost from the rows themselves: the identity through R holds only for the LS
-    # solution, not for an IV estimate (review F8: 4.835 reported against 4.700)
+    # solution, not for an IV estimate
     cost = float(np.sum((b - a @ base_c) ** 2))
 
     at_boundary, min_eig = [], {}

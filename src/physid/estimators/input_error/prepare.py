@@ -27,7 +27,7 @@ from ...models.identifiability import (
     raise_if_not_excited,
     structural_identifiability,
 )
-from ..idim import torque_recording
+from ..idim.predict import torque_recording
 from .core import (
     DEFAULT_HALF_WIDTH,
     MIN_AUTO_HALF_WIDTH,
