@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import DataFileError, InputError, arg
-from ..estimators.results import RESULT_FORMAT, jsonable
+from ..estimators.results import RESULT_FORMAT, jsonable, upgrade_result_dict
 
 __all__ = [
     "LoadedResult",
@@ -300,6 +300,7 @@ def load_result(path, *, model=None) -> LoadedResult:
         )
     if data.get("format", RESULT_FORMAT) != RESULT_FORMAT:
         raise DataFileError(f"{str(p)!r} has format {data.get('format')!r}, not {RESULT_FORMAT!r}.")
+    data = upgrade_result_dict(data)  # keys renamed since the file was written
     ref = model if model is not None else data.get("model") or data.get("model_name")
     if not ref:
         raise InputError(
