@@ -153,6 +153,56 @@ def _standard_map() -> np.ndarray:
     return pseudo_inertia_to_standard(np.eye(16).reshape(16, 4, 4)).T
 
 
+def _barrier(beta, link_cols, positive, E, derivatives=True):
+    """−Σ log det J_l − Σ log β_i (inf outside), its gradient and Hessian (or None, None)."""
+    from ..models.inertial import pseudo_inertia
+
+    n_links = link_cols.shape[0]
+    J = pseudo_inertia(beta[link_cols])  # (n_links, 4, 4)
+    try:
+        Lc = np.linalg.cholesky(J)
+    except np.linalg.LinAlgError:
+        return np.inf, None, None
+    xp = beta[positive]
+    if np.any(xp <= 0):
+        return np.inf, None, None
+    phi = -2.0 * float(np.sum(np.log(np.diagonal(Lc, axis1=1, axis2=2)))) - float(
+        np.sum(np.log(xp))
+    )
+    if not derivatives:
+        return phi, None, None
+    Jinv = np.linalg.inv(J)
+    B = Jinv[:, None] @ E[None]  # J⁻¹ E_i, (n_links, 10, 4, 4)
+    g = np.zeros(beta.size)
+    H = np.zeros((beta.size, beta.size))
+    g_links = -np.trace(B, axis1=2, axis2=3)
+    # tr(J⁻¹E_i J⁻¹E_j) = vec(B_i) · vec(B_jᵀ)
+    H_links = B.reshape(n_links, 10, 16) @ np.swapaxes(B, 2, 3).reshape(n_links, 10, 16).transpose(
+        0, 2, 1
+    )
+    for li in range(n_links):
+        cols = link_cols[li]
+        g[cols] += g_links[li]
+        H[np.ix_(cols, cols)] += H_links[li]
+    g[positive] -= 1.0 / xp
+    H[positive, positive] += 1.0 / xp**2
+    return phi, g, H
+
+
+def _feasible_start(nominal, scale, link_cols, positive) -> np.ndarray:
+    """A strictly feasible start: the nominal parameters, each link lifted inside the cone."""
+    from ..models.inertial import pseudo_inertia
+
+    beta = nominal.copy()
+    for cols in link_cols:
+        J = pseudo_inertia(beta[cols])
+        w, v = np.linalg.eigh(J)
+        w = np.maximum(w, 1e-6 * max(float(np.abs(w).max()), 1e-12))
+        beta[cols] = _standard_map() @ ((v * w) @ v.T).ravel()
+    beta[positive] = np.maximum(beta[positive], 1e-3 * scale[positive])
+    return beta
+
+
 def _barrier_solve(A, b, nominal, scale, link_cols, positive, e_ols, *, max_steps=500):
     """min ‖A β − b‖² + ‖10⁻³ (β − β_nom)/s‖² s.t. every J_l(β) ≻ 0 and β_i > 0 (i in positive).
 
@@ -185,45 +235,9 @@ def _barrier_solve(A, b, nominal, scale, link_cols, positive, e_ols, *, max_step
         return float(r @ r + q @ q)
 
     def barrier(beta, derivatives=True):
-        """−Σ log det J_l − Σ log β_i (inf outside), its gradient and Hessian."""
-        J = pseudo_inertia(beta[link_cols])  # (n_links, 4, 4)
-        try:
-            Lc = np.linalg.cholesky(J)
-        except np.linalg.LinAlgError:
-            return np.inf, None, None
-        xp = beta[positive]
-        if np.any(xp <= 0):
-            return np.inf, None, None
-        phi = -2.0 * float(np.sum(np.log(np.diagonal(Lc, axis1=1, axis2=2)))) - float(
-            np.sum(np.log(xp))
-        )
-        if not derivatives:
-            return phi, None, None
-        Jinv = np.linalg.inv(J)
-        B = Jinv[:, None] @ E[None]  # J⁻¹ E_i, (n_links, 10, 4, 4)
-        g = np.zeros(beta.size)
-        H = np.zeros((beta.size, beta.size))
-        g_links = -np.trace(B, axis1=2, axis2=3)
-        # tr(J⁻¹E_i J⁻¹E_j) = vec(B_i) · vec(B_jᵀ)
-        H_links = B.reshape(n_links, 10, 16) @ np.swapaxes(B, 2, 3).reshape(
-            n_links, 10, 16
-        ).transpose(0, 2, 1)
-        for li in range(n_links):
-            cols = link_cols[li]
-            g[cols] += g_links[li]
-            H[np.ix_(cols, cols)] += H_links[li]
-        g[positive] -= 1.0 / xp
-        H[positive, positive] += 1.0 / xp**2
-        return phi, g, H
+        return _barrier(beta, link_cols, positive, E, derivatives)
 
-    # strictly feasible start: the nominal parameters, each link lifted inside the cone
-    beta = nominal.copy()
-    for cols in link_cols:
-        J = pseudo_inertia(beta[cols])
-        w, v = np.linalg.eigh(J)
-        w = np.maximum(w, 1e-6 * max(float(np.abs(w).max()), 1e-12))
-        beta[cols] = _standard_map() @ ((v * w) @ v.T).ravel()
-    beta[positive] = np.maximum(beta[positive], 1e-3 * scale[positive])
+    beta = _feasible_start(nominal, scale, link_cols, positive)
     nu = 4 * n_links + positive.size
     target = 1e-10 * max(e_ols, f(beta), 1e-300)
     t = nu / max(f(beta), 1e-300)

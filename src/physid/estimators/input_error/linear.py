@@ -29,20 +29,23 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError, arg
-from ...filters.band import noise_floor, white_floor
 from ...models.identifiability import (
-    NUMERIC_RTOL,
     StructuralIdentifiability,
     numeric_identifiability,
     raise_if_not_excited,
-    svd_tall,
 )
 from .._stiction import STICK_THRESHOLD, coulomb_joints, drop_equations, stuck_samples
 from ..idim.base_parameters import base_regressor, base_regressor_info
 from ..idim.solve import scaled_lstsq
 from .core import _gram_least_squares, quality_factor
 from .prepare import _Filtered, _Problem, check_band, filter_recording
-from .solve import _Solution, noise_fraction, resolve_noise
+from .solve import (
+    _Solution,
+    noise_fraction,
+    replicate_covariance,
+    replicate_normal_equations,
+    resolve_noise,
+)
 
 #: Samples per block of the full regressor while W_b is built.
 BLOCK = 4096
@@ -241,31 +244,17 @@ def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, stuc
     """
     model, f = problem.model, problem.filtered
     columns = problem.base.independent_index  # type: ignore[attr-defined]
-    p = len(problem.names)
     gram, rhs = w2.T @ w2, w2.T @ tau_f.ravel()
-    sigma_q = noise_floor(f.q)
-    sigma_tau = white_floor(f.tau) if f.tau is not None else None
-    rng = np.random.default_rng(est.random_state)
-    grams, rhss, tts = [], [], []
-    for _ in range(int(est.noise_replicates)):
-        q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
-        tau_k = None if sigma_tau is None else f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k, tt_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k), stuck=stuck)
-        grams.append(g_k)
-        rhss.append(r_k)
-        tts.append(tt_k)
+
+    def normal_equations(qf, qdf, qddf, tau_f):
+        return _normal_equations(model, columns, qf, qdf, qddf, tau_f, stuck=stuck)
+
+    grams, rhss, tts = replicate_normal_equations(est, f, normal_equations)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)
     rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
     beta, r_c = _gram_least_squares(gram_c, rhs_c)
     plain, _ = _gram_least_squares(gram, rhs)
-    scores = np.array([g @ beta - r for g, r in zip(grams, rhss, strict=True)])
-    omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(p, p)
-    sv, vt = svd_tall(r_c)  # H = A_c = R_cᵀ R_c
-    if sv.size < p or not np.all(sv > NUMERIC_RTOL * sv[0]):
-        cov = np.full((p, p), np.inf)
-    else:
-        h_inv = (vt.T / sv**2) @ vt
-        cov = h_inv @ omega @ h_inv
+    cov = replicate_covariance(beta, grams, rhss, r_c)  # H = A_c = R_cᵀ R_c
     shift = {n: float(b - a) for n, a, b in zip(problem.names, plain, beta, strict=True)}
     problem.noise_fraction = noise_fraction(
         beta,
