@@ -422,7 +422,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
                 "base_parameters": [
                     {
                         "name": n,
-                        "expression": result.expressions[n],
+                        "expression": result.base_expressions[n],
                         "value": result.parameters[n],
                         "stderr": None if result.stderr is None else result.stderr[n],
                         "unit": result.units.get(n, ""),

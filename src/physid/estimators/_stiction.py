@@ -1,4 +1,4 @@
-"""Stiction: which equations of a Coulomb joint to drop near rest (IDIM and input-error).
+"""Row selection: which equations of a Coulomb joint to drop near rest (IDIM and input-error).
 
 While a joint with Coulomb friction is stuck, the friction torque holding it lies anywhere in
 [−Fc, Fc] but the regressor writes Fc·sign(0) = 0, and the filters smear every stick/slip switch
@@ -39,3 +39,15 @@ def stuck_samples(qd, coulomb, threshold: float, reach: int) -> np.ndarray:
     lo = np.clip(np.arange(n) - reach, 0, n)
     hi = np.clip(np.arange(n) + reach + 1, 0, n)
     return (c[hi] - c[lo]) > 0
+
+
+def drop_equations(W, tau, stuck) -> tuple[np.ndarray, np.ndarray]:
+    """Zero, in place, the equations marked ``stuck``: no information, no weight.
+
+    ``W`` (n, n_joints, p) and ``tau`` (n, n_joints) are the rows of a regression
+    ``τ = W β``; ``stuck`` (n, n_joints) of bool. A zeroed equation adds nothing to the normal
+    equations, so the least-squares solution is that of the equations kept. Returns ``(W, tau)``.
+    """
+    W[stuck] = 0.0
+    tau[stuck] = 0.0
+    return W, tau

@@ -31,19 +31,57 @@ realisable body (`log_cholesky_to_standard` and its inverse); the previous solve
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import linalg
 
 from ..errors import InputError, arg
 
-__all__ = ["consistent_estimate", "log_cholesky_to_standard", "standard_to_log_cholesky"]
+__all__ = [
+    "ConsistentEstimate",
+    "consistent_estimate",
+    "log_cholesky_to_standard",
+    "standard_to_log_cholesky",
+]
 
 _LINK = ("m", "mcx", "mcy", "mcz", "XX", "XY", "XZ", "YY", "YZ", "ZZ")
 _NONNEGATIVE = ("Ia", "Fv", "Fc", "Fvp", "Fvn", "Fcp", "Fcn")
 _TRIL = np.tril_indices(4)
-#: Newton steps the barrier method may take in all (about 100 are needed; review F8).
+#: Newton steps the barrier method may take in all (about 100 are needed).
 MAX_NEWTON_STEPS = 500
+
+
+@dataclass(frozen=True)
+class ConsistentEstimate:
+    """A physically consistent estimate (see `IDIMEstimator` with ``consistent=True``).
+
+    Attributes
+    ----------
+    standard : dict name -> float
+        Standard parameters (10 per link, then drive terms) of a physically realisable arm.
+    base : dict name -> float
+        Its base parameters.
+    cost_ratio : float
+        ``‖W β_c − τ‖² / ‖W β̂ − τ‖²`` on the fitted (weighted) rows: the price of consistency
+        (≥ 1 for OLS/WLS; an IV estimate is not the least-squares solution, so it can be < 1).
+    at_boundary : tuple of str
+        Links whose pseudo-inertia is (numerically) singular, and friction terms at zero.
+    min_eigenvalues : dict link -> float
+        Smallest eigenvalue of each link's pseudo-inertia [kg·m²].
+    message : str
+    converged : bool
+        Whether the solver reached its duality-gap target (else `message` says why, and the
+        IDIM result reports ``success=False``).
+    """
+
+    standard: dict[str, float]
+    base: dict[str, float]
+    cost_ratio: float
+    at_boundary: tuple[str, ...]
+    min_eigenvalues: dict[str, float]
+    message: str
+    converged: bool = True
 
 
 def log_cholesky_to_standard(x) -> np.ndarray:
@@ -115,6 +153,56 @@ def _standard_map() -> np.ndarray:
     return pseudo_inertia_to_standard(np.eye(16).reshape(16, 4, 4)).T
 
 
+def _barrier(beta, link_cols, positive, E, derivatives=True):
+    """−Σ log det J_l − Σ log β_i (inf outside), its gradient and Hessian (or None, None)."""
+    from ..models.inertial import pseudo_inertia
+
+    n_links = link_cols.shape[0]
+    J = pseudo_inertia(beta[link_cols])  # (n_links, 4, 4)
+    try:
+        Lc = np.linalg.cholesky(J)
+    except np.linalg.LinAlgError:
+        return np.inf, None, None
+    xp = beta[positive]
+    if np.any(xp <= 0):
+        return np.inf, None, None
+    phi = -2.0 * float(np.sum(np.log(np.diagonal(Lc, axis1=1, axis2=2)))) - float(
+        np.sum(np.log(xp))
+    )
+    if not derivatives:
+        return phi, None, None
+    Jinv = np.linalg.inv(J)
+    B = Jinv[:, None] @ E[None]  # J⁻¹ E_i, (n_links, 10, 4, 4)
+    g = np.zeros(beta.size)
+    H = np.zeros((beta.size, beta.size))
+    g_links = -np.trace(B, axis1=2, axis2=3)
+    # tr(J⁻¹E_i J⁻¹E_j) = vec(B_i) · vec(B_jᵀ)
+    H_links = B.reshape(n_links, 10, 16) @ np.swapaxes(B, 2, 3).reshape(n_links, 10, 16).transpose(
+        0, 2, 1
+    )
+    for li in range(n_links):
+        cols = link_cols[li]
+        g[cols] += g_links[li]
+        H[np.ix_(cols, cols)] += H_links[li]
+    g[positive] -= 1.0 / xp
+    H[positive, positive] += 1.0 / xp**2
+    return phi, g, H
+
+
+def _feasible_start(nominal, scale, link_cols, positive) -> np.ndarray:
+    """A strictly feasible start: the nominal parameters, each link lifted inside the cone."""
+    from ..models.inertial import pseudo_inertia
+
+    beta = nominal.copy()
+    for cols in link_cols:
+        J = pseudo_inertia(beta[cols])
+        w, v = np.linalg.eigh(J)
+        w = np.maximum(w, 1e-6 * max(float(np.abs(w).max()), 1e-12))
+        beta[cols] = _standard_map() @ ((v * w) @ v.T).ravel()
+    beta[positive] = np.maximum(beta[positive], 1e-3 * scale[positive])
+    return beta
+
+
 def _barrier_solve(A, b, nominal, scale, link_cols, positive, e_ols, *, max_steps=500):
     """min ‖A β − b‖² + ‖10⁻³ (β − β_nom)/s‖² s.t. every J_l(β) ≻ 0 and β_i > 0 (i in positive).
 
@@ -147,45 +235,9 @@ def _barrier_solve(A, b, nominal, scale, link_cols, positive, e_ols, *, max_step
         return float(r @ r + q @ q)
 
     def barrier(beta, derivatives=True):
-        """−Σ log det J_l − Σ log β_i (inf outside), its gradient and Hessian."""
-        J = pseudo_inertia(beta[link_cols])  # (n_links, 4, 4)
-        try:
-            Lc = np.linalg.cholesky(J)
-        except np.linalg.LinAlgError:
-            return np.inf, None, None
-        xp = beta[positive]
-        if np.any(xp <= 0):
-            return np.inf, None, None
-        phi = -2.0 * float(np.sum(np.log(np.diagonal(Lc, axis1=1, axis2=2)))) - float(
-            np.sum(np.log(xp))
-        )
-        if not derivatives:
-            return phi, None, None
-        Jinv = np.linalg.inv(J)
-        B = Jinv[:, None] @ E[None]  # J⁻¹ E_i, (n_links, 10, 4, 4)
-        g = np.zeros(beta.size)
-        H = np.zeros((beta.size, beta.size))
-        g_links = -np.trace(B, axis1=2, axis2=3)
-        # tr(J⁻¹E_i J⁻¹E_j) = vec(B_i) · vec(B_jᵀ)
-        H_links = B.reshape(n_links, 10, 16) @ np.swapaxes(B, 2, 3).reshape(
-            n_links, 10, 16
-        ).transpose(0, 2, 1)
-        for li in range(n_links):
-            cols = link_cols[li]
-            g[cols] += g_links[li]
-            H[np.ix_(cols, cols)] += H_links[li]
-        g[positive] -= 1.0 / xp
-        H[positive, positive] += 1.0 / xp**2
-        return phi, g, H
+        return _barrier(beta, link_cols, positive, E, derivatives)
 
-    # strictly feasible start: the nominal parameters, each link lifted inside the cone
-    beta = nominal.copy()
-    for cols in link_cols:
-        J = pseudo_inertia(beta[cols])
-        w, v = np.linalg.eigh(J)
-        w = np.maximum(w, 1e-6 * max(float(np.abs(w).max()), 1e-12))
-        beta[cols] = _standard_map() @ ((v * w) @ v.T).ravel()
-    beta[positive] = np.maximum(beta[positive], 1e-3 * scale[positive])
+    beta = _feasible_start(nominal, scale, link_cols, positive)
     nu = 4 * n_links + positive.size
     target = 1e-10 * max(e_ols, f(beta), 1e-300)
     t = nu / max(f(beta), 1e-300)
@@ -242,7 +294,7 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
         A rigid-body model whose regressor columns are the 10 standard parameters of each link
         (``m{j}``, ``mcx{j}``, …, ``ZZ{j}``) and drive terms (``Ia{j}``, ``Fv{j}``, …).
     info : BaseInfo
-        From `physid.estimators.idim.base_regressor_info`.
+        From `physid.estimators.idim.base_parameters.base_regressor_info`.
     W : ndarray, shape (n_rows, n_joints, p)
     y : ndarray, shape (n_rows, n_joints) [N·m]
     beta_hat : ndarray, shape (p,)
@@ -260,7 +312,6 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
         The model does not have the standard rigid-body parametrisation.
     """
     from ..models.inertial import pseudo_inertia
-    from .idim import ConsistentEstimate
 
     names = info.column_names
     links, drive = _layout(names)
@@ -292,7 +343,7 @@ def consistent_estimate(model, info, W, y, beta_hat, weights):
     )
     base_c = K @ beta_c
     # the torque cost from the rows themselves: the identity through R holds only for the LS
-    # solution, not for an IV estimate (review F8: 4.835 reported against 4.700)
+    # solution, not for an IV estimate
     cost = float(np.sum((b - a @ base_c) ** 2))
 
     at_boundary, min_eig = [], {}

@@ -4,9 +4,11 @@
 build estimators; a new method registers itself with `register` and is then available to `make`
 and `methods` (the library). The command line and the sweeps accept fixed lists — ``physid
 estimate``: algebraic, rls; ``physid identify``: input-error, idim-*; sweeps: algebraic, rls — so
-a registered method reaches the CLI only once its verb lists it. Built in: ``"algebraic"``, ``"rls"`` (linear ODE
-models) and ``"input-error"`` (chain models); the IDIM methods (``"idim-ols"``, ``"idim-wls"``,
-``"idim-iv"``) register themselves from `physid.estimators.idim` when that module exists.
+a registered method reaches the CLI only once its verb lists it. Built in (`BUILT_IN`):
+``"algebraic"``, ``"rls"`` (linear ODE models), ``"input-error"`` and the IDIM methods
+``"idim-ols"``, ``"idim-wls"``, ``"idim-iv"`` (chain models). The built-in estimators are named
+by module and class and imported only when `make` builds one, so no estimator module imports
+this registry and the registry imports none of them.
 
 Examples
 --------
@@ -41,9 +43,17 @@ class _Entry:
 
 
 _REGISTRY: dict[str, _Entry] = {}
-#: Modules that register methods when imported (looked up lazily, absent ones skipped).
-_PLUGIN_MODULES = ("physid.estimators.idim",)
-_plugins_loaded = False
+
+#: The built-in methods: name, kind, and the estimator class as (module, class name, method
+#: argument or None); the module is imported when the method is first built.
+BUILT_IN = (
+    ("algebraic", "linear_ode", ("physid.estimators.algebraic", "AlgebraicEstimator", None)),
+    ("rls", "linear_ode", ("physid.estimators.recursive", "RecursiveLeastSquares", None)),
+    ("input-error", "chain", ("physid.estimators.input_error", "InputErrorEstimator", None)),
+    ("idim-ols", "chain", ("physid.estimators.idim", "IDIMEstimator", "ols")),
+    ("idim-wls", "chain", ("physid.estimators.idim", "IDIMEstimator", "wls")),
+    ("idim-iv", "chain", ("physid.estimators.idim", "IDIMEstimator", "iv")),
+)
 
 
 def register(name: str, factory: Callable[..., Any], *, kind: str) -> None:
@@ -77,19 +87,6 @@ def register(name: str, factory: Callable[..., Any], *, kind: str) -> None:
     _REGISTRY[name] = _Entry(name, factory, kind)
 
 
-def _load_plugins() -> None:
-    global _plugins_loaded
-    if _plugins_loaded:
-        return
-    _plugins_loaded = True
-    for module in _PLUGIN_MODULES:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:  # the module is optional; its own errors are not
-            if exc.name != module:
-                raise
-
-
 def methods(kind: str | None = None) -> tuple[str, ...]:
     """Registered method names.
 
@@ -103,7 +100,6 @@ def methods(kind: str | None = None) -> tuple[str, ...]:
     tuple of str
         Names in registration order.
     """
-    _load_plugins()
     return tuple(e.name for e in _REGISTRY.values() if kind is None or e.kind == kind)
 
 
@@ -124,7 +120,6 @@ def method_kind(method: str) -> str:
 
 
 def _entry(method: str) -> _Entry:
-    _load_plugins()
     entry = _REGISTRY.get(method)
     if entry is None:
         raise InputError(f"method must be one of {list(_REGISTRY)}; got {method!r}.")
@@ -165,24 +160,27 @@ def make(method: str, model, **settings):
         ) from None
 
 
-def _algebraic(model, **settings):
-    from .algebraic import AlgebraicEstimator
+def _lazy(module: str, cls: str, method: str | None, label: str) -> Callable[..., Any]:
+    """A factory that imports ``module`` when it is first called and builds ``cls``.
 
-    return AlgebraicEstimator(model, **settings)
+    With a ``method`` (IDIM) the class takes it as its second argument, and a model given by
+    name is loaded first.
+    """
+
+    def factory(model, **settings):
+        estimator = getattr(importlib.import_module(module), cls)
+        if method is None:
+            return estimator(model, **settings)
+        if isinstance(model, str):
+            from ..models import load_model
+
+            model = load_model(model)
+        return estimator(model, method, **settings)
+
+    factory.__name__ = label
+    return factory
 
 
-def _rls(model, **settings):
-    from .recursive import RecursiveLeastSquares
-
-    return RecursiveLeastSquares(model, **settings)
-
-
-def _input_error(model, **settings):
-    from .input_error import InputErrorEstimator
-
-    return InputErrorEstimator(model, **settings)
-
-
-register("algebraic", _algebraic, kind="linear_ode")
-register("rls", _rls, kind="linear_ode")
-register("input-error", _input_error, kind="chain")
+for _name, _kind, (_module, _cls, _method) in BUILT_IN:
+    _label = f"{_cls}[{_method}]" if _method else "_" + _name.replace("-", "_")
+    register(_name, _lazy(_module, _cls, _method, _label), kind=_kind)

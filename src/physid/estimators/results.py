@@ -51,12 +51,19 @@ __all__ = [
     "save_result",
     "RESULT_FORMAT",
     "RESULT_FORMAT_VERSION",
+    "RENAMED_KEYS",
+    "upgrade_result_dict",
 ]
 
 #: Name and version of the result file format written by ``to_dict()`` (``physid estimate
 #: --save``) and read by `physid.analysis.validation.load_result`.
 RESULT_FORMAT = "physid-result"
 RESULT_FORMAT_VERSION = 1
+
+#: Keys of the result file format that were renamed: old name -> current name. Files written
+#: before keep being read (`upgrade_result_dict`): IDIM results wrote their base parameters'
+#: expressions as ``expressions``, the key input-error's results call ``base_expressions``.
+RENAMED_KEYS = {"expressions": "base_expressions"}
 
 #: The keys every result's ``to_dict()`` carries (the contract between rooms).
 SCHEMA_KEYS = (
@@ -106,6 +113,33 @@ def jsonable(value: Any) -> Any:
         v = float(value)
         return v if math.isfinite(v) else None
     return value
+
+
+def upgrade_result_dict(data: Mapping[str, Any]) -> dict[str, Any]:
+    """A result file's dictionary with every renamed key (`RENAMED_KEYS`) under its current name.
+
+    Parameters
+    ----------
+    data : mapping
+        The JSON object of a result file (``to_dict()`` of any version).
+
+    Returns
+    -------
+    dict
+        A copy; a key found under its old name is moved to the current one (a current key,
+        when both are present, wins).
+
+    Examples
+    --------
+    >>> upgrade_result_dict({"expressions": {"ZZ1R": "ZZ1 + YY2"}})
+    {'base_expressions': {'ZZ1R': 'ZZ1 + YY2'}}
+    """
+    out = dict(data)
+    for old, new in RENAMED_KEYS.items():
+        if old in out:
+            value = out.pop(old)
+            out.setdefault(new, value)
+    return out
 
 
 class ParameterDict(dict):

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from ...errors import DataFileError, InputError, arg
-from ...estimators.results import RESULT_FORMAT
+from ...estimators.results import RESULT_FORMAT, upgrade_result_dict
 from .inverse import _chain_inverse
 
 __all__ = ["LoadedResult", "load_result"]
@@ -119,6 +119,7 @@ def load_result(path, *, model=None) -> LoadedResult:
         )
     if data.get("format", RESULT_FORMAT) != RESULT_FORMAT:
         raise DataFileError(f"{str(p)!r} has format {data.get('format')!r}, not {RESULT_FORMAT!r}.")
+    data = upgrade_result_dict(data)  # keys renamed since the file was written
     ref = model if model is not None else data.get("model") or data.get("model_name")
     if not ref:
         raise InputError(

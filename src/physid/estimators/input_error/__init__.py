@@ -102,14 +102,3 @@ _KEPT = (
     RESIDUAL_WARN,
     STDERR_METHODS,
 )
-
-
-def _plot_result(result, truth=None):
-    """`InputErrorResult.plot`: the figure comes from physid.report, imported lazily.
-
-    The one upward import of this package (pyproject.toml's import-linter ``ignore_imports``
-    names ``physid.estimators.input_error``); it stays inside this function.
-    """
-    from ...report.manipulator import plot_input_error
-
-    return plot_input_error(result, truth=truth)

@@ -10,7 +10,7 @@ from dataclasses import replace
 
 from ...errors import InputError, arg
 from ..base import EstimatorMixin
-from ..idim import _unit_of as unit_of
+from ..idim.base_parameters import unit_of
 from .conclude import conclude
 from .linear import linear_in_parameters, prepare_base, refuse_nonlinear_settings, solve_base
 from .prepare import check_settings, filter_recording, prepare

@@ -29,19 +29,23 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import InputError, arg
-from ...filters.band import noise_floor, white_floor
 from ...models.identifiability import (
-    NUMERIC_RTOL,
     StructuralIdentifiability,
     numeric_identifiability,
     raise_if_not_excited,
-    svd_tall,
 )
-from .._stiction import STICK_THRESHOLD, coulomb_joints, stuck_samples
-from ..idim import base_regressor_info
+from .._stiction import STICK_THRESHOLD, coulomb_joints, drop_equations, stuck_samples
+from ..idim.base_parameters import base_regressor, base_regressor_info
+from ..idim.solve import scaled_lstsq
 from .core import _gram_least_squares, quality_factor
 from .prepare import _Filtered, _Problem, check_band, filter_recording
-from .solve import _Solution, noise_fraction, resolve_noise
+from .solve import (
+    _Solution,
+    noise_fraction,
+    replicate_covariance,
+    replicate_normal_equations,
+    resolve_noise,
+)
 
 #: Samples per block of the full regressor while W_b is built.
 BLOCK = 4096
@@ -73,43 +77,19 @@ def linear_in_parameters(model) -> bool:
     return jac.shape == (len(model.parameter_names),) * 2 and np.allclose(jac, np.eye(jac.shape[0]))
 
 
-def base_regressor(model, columns, qf, qdf, qddf) -> np.ndarray:
-    """W_b = Y(q^f, q̇^f, q̈^f)[..., columns], shape (n, n_joints, n_base), built in blocks.
-
-    Parameters
-    ----------
-    model : RigidBodyModel
-    columns : sequence of int
-        The independent (base) columns of the regressor.
-    qf, qdf, qddf : ndarray, shape (n, n_joints) [rad, rad/s, rad/s²]
-
-    Returns
-    -------
-    ndarray, shape (n, n_joints, n_base) [N·m per unit of each base parameter]
-    """
-    columns = np.asarray(columns, dtype=int)
-    n, nj = qf.shape
-    out = np.empty((n, nj, columns.size))
-    for s in range(0, n, BLOCK):
-        sl = slice(s, s + BLOCK)
-        out[sl] = np.asarray(model.regressor(qf[sl], qdf[sl], qddf[sl]), dtype=float)[:, :, columns]
-    return out
-
-
-def _normal_equations(model, columns, qf, qdf, qddf, tau_f, keep=None):
+def _normal_equations(model, columns, qf, qdf, qddf, tau_f, stuck=None):
     """``(W_bᵀW_b, W_bᵀτ^f, τ^fᵀτ^f)`` block by block, never holding W_b of the whole record.
 
-    ``keep`` (n, n_joints) of 0/1, optional: the equations kept (`_keep_mask`).
+    ``stuck`` (n, n_joints) of bool, optional: the equations dropped (`_stuck_mask`).
     """
     p = len(columns)
     gram, rhs, tt = np.zeros((p, p)), np.zeros(p), 0.0
     for s in range(0, qf.shape[0], BLOCK):
         sl = slice(s, s + BLOCK)
-        w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl])
+        w = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl], block=BLOCK)
         t = tau_f[sl]
-        if keep is not None:
-            w = w * keep[sl][:, :, None]
-            t = t * keep[sl]
+        if stuck is not None:
+            w, t = drop_equations(w, t.copy(), stuck[sl])
         w = w.reshape(-1, p)
         gram += w.T @ w
         rhs += w.T @ t.ravel()
@@ -117,8 +97,8 @@ def _normal_equations(model, columns, qf, qdf, qddf, tau_f, keep=None):
     return gram, rhs, tt
 
 
-def _keep_mask(model, f: _Filtered):
-    """0/1 per sample and joint: a Coulomb joint's equations near rest are dropped.
+def _stuck_mask(model, f: _Filtered):
+    """Bool per sample and joint: the equations of a Coulomb joint near rest (to drop).
 
     Stiction (see `physid.estimators._stiction`): |q̇^f_j| below ``STICK_THRESHOLD`` × its rms,
     widened by one period at the filter's cut-off (its main lobe; at most M). None when the model
@@ -130,8 +110,7 @@ def _keep_mask(model, f: _Filtered):
     # the filter's main lobe (one period at the cut-off), not its whole length M: the taps
     # beyond it are small, and dropping M on each side of every stop would leave few equations
     reach = min(int(f.half_width), int(np.ceil(2.0 * np.pi / float(f.cutoff))))
-    stuck = stuck_samples(f.qdf, coulomb, STICK_THRESHOLD, reach)
-    return (~stuck).astype(float)
+    return stuck_samples(f.qdf, coulomb, STICK_THRESHOLD, reach)
 
 
 class _LinearSolve:
@@ -208,16 +187,15 @@ def solve_base(est, problem: _Problem) -> _Solution:
     columns = problem.base.independent_index  # type: ignore[attr-defined]
     names = problem.names
     p = len(names)
-    w = base_regressor(model, columns, f.qf, f.qdf, f.qddf)
-    keep = _keep_mask(model, f)
+    w = base_regressor(model, columns, f.qf, f.qdf, f.qddf, block=BLOCK)
+    stuck = _stuck_mask(model, f)
     tau_f = f.tau_f
-    if keep is not None:
-        w = w * keep[:, :, None]
-        tau_f = tau_f * keep
-        dropped = int(keep.size - keep.sum())
+    if stuck is not None:
+        w, tau_f = drop_equations(w, tau_f.copy(), stuck)
+        dropped = int(stuck.sum())
         if dropped:
             problem.notes.append(
-                f"{dropped} of {keep.size} joint equations dropped near rest (Coulomb joints at "
+                f"{dropped} of {stuck.size} joint equations dropped near rest (Coulomb joints at "
                 f"|q̇| < {STICK_THRESHOLD:g}·rms, widened by the filter's main lobe: stiction "
                 "makes the friction torque unknown there)"
             )
@@ -231,11 +209,10 @@ def solve_base(est, problem: _Problem) -> _Solution:
     shift = None
     noise = resolve_noise(est, problem)
     if noise == "compensate":
-        beta, covariance, shift = _compensated(est, problem, w2, tau_f, keep)
+        beta, covariance, shift = _compensated(est, problem, w2, tau_f, stuck)
         how = f"noise-compensated normal equations ({est.noise_replicates} replicates)"
-    else:  # min |W_b β - τ^f|²: QR of the column-scaled W_b, exact in one step
-        d = 1.0 / np.where(norms > 0, norms, 1.0)
-        beta = d * np.linalg.lstsq(w2 * d, tau_f.ravel(), rcond=None)[0]
+    else:  # min |W_b β - τ^f|²: lstsq of the column-scaled W_b, exact in one step
+        beta = scaled_lstsq(w2, tau_f.ravel())
         how = "linear least squares"
     residuals = (w @ beta) - tau_f
     message = (
@@ -260,38 +237,24 @@ def solve_base(est, problem: _Problem) -> _Solution:
     )
 
 
-def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, keep=None):
+def _compensated(est, problem: _Problem, w2: np.ndarray, tau_f: np.ndarray, stuck=None):
     """β̂ from ``A_c = 2A(x) - mean A(x + ε_k)``, and its covariance from the replicates.
 
     The same simulation-extrapolation as `.solve.solve_compensated`, with ∂β/∂θ = identity.
     """
     model, f = problem.model, problem.filtered
     columns = problem.base.independent_index  # type: ignore[attr-defined]
-    p = len(problem.names)
     gram, rhs = w2.T @ w2, w2.T @ tau_f.ravel()
-    sigma_q = noise_floor(f.q)
-    sigma_tau = white_floor(f.tau) if f.tau is not None else None
-    rng = np.random.default_rng(est.random_state)
-    grams, rhss, tts = [], [], []
-    for _ in range(int(est.noise_replicates)):
-        q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
-        tau_k = None if sigma_tau is None else f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k, tt_k = _normal_equations(model, columns, *f.refilter(q_k, tau_k), keep=keep)
-        grams.append(g_k)
-        rhss.append(r_k)
-        tts.append(tt_k)
+
+    def normal_equations(qf, qdf, qddf, tau_f):
+        return _normal_equations(model, columns, qf, qdf, qddf, tau_f, stuck=stuck)
+
+    grams, rhss, tts = replicate_normal_equations(est, f, normal_equations)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)
     rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
     beta, r_c = _gram_least_squares(gram_c, rhs_c)
     plain, _ = _gram_least_squares(gram, rhs)
-    scores = np.array([g @ beta - r for g, r in zip(grams, rhss, strict=True)])
-    omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(p, p)
-    sv, vt = svd_tall(r_c)  # H = A_c = R_cᵀ R_c
-    if sv.size < p or not np.all(sv > NUMERIC_RTOL * sv[0]):
-        cov = np.full((p, p), np.inf)
-    else:
-        h_inv = (vt.T / sv**2) @ vt
-        cov = h_inv @ omega @ h_inv
+    cov = replicate_covariance(beta, grams, rhss, r_c)  # H = A_c = R_cᵀ R_c
     shift = {n: float(b - a) for n, a, b in zip(problem.names, plain, beta, strict=True)}
     problem.noise_fraction = noise_fraction(
         beta,

@@ -27,7 +27,7 @@ from ...models.identifiability import (
     raise_if_not_excited,
     structural_identifiability,
 )
-from ..idim import torque_recording
+from ..idim.predict import torque_recording
 from .core import (
     DEFAULT_HALF_WIDTH,
     MIN_AUTO_HALF_WIDTH,
@@ -284,10 +284,8 @@ def check_settings(est) -> None:
             )
 
 
-def filter_recording(est, recording) -> _Filtered:
-    """`filtered_signals` with the chosen filter (M, Ω_g and, for "auto", the reason)."""
-    check_settings(est)
-    nj = int(est.model.n_joints)
+def _channels(est, recording, nj: int) -> tuple[list[str], list[str]]:
+    """The joint-angle channels and the torque (or reference) channels the fit needs."""
     if not hasattr(recording, "channels") or not hasattr(recording, "select"):
         raise InputError(
             "recording must be a physid Recording (physid.load_recording(path)); got "
@@ -332,6 +330,14 @@ def filter_recording(est, recording) -> _Filtered:
             f"torque={est.torque!r} needs channels {needed}; the recording lacks {missing} "
             f"(it has {list(recording.names)}). {hint}"
         )
+    return q_names, needed
+
+
+def filter_recording(est, recording) -> _Filtered:
+    """`filtered_signals` with the chosen filter (M, Ω_g and, for "auto", the reason)."""
+    check_settings(est)
+    nj = int(est.model.n_joints)
+    q_names, needed = _channels(est, recording, nj)
     m = None if est.half_width is None else check_int(est.half_width, "half_width", minimum=1)
     auto = isinstance(est.cutoff, str)
     if auto and est.cutoff != "auto":
@@ -425,13 +431,14 @@ def check_band(est, f: _Filtered, notes: list[str], *, stacklevel: int = 3):
     return band, advice
 
 
-def prepare(est, recording, initial) -> _Problem:
-    """Filtered signals, filter-band check, hold plan, bounds, start and the residual maps."""
+def _start_values(est, initial, names) -> tuple[dict[str, float], dict[str, float]]:
+    """Starting values of every parameter, and those held by the user or by the model.
+
+    ``fixed=`` values and names, ``initial=``, and the parameters the model marks known
+    (``identify = false``: not in ``model.unknown``), which are held at their values unless
+    ``fixed=`` or ``initial=`` name them (``initial=`` asks to estimate from there).
+    """
     model = est.model
-    f = filter_recording(est, recording)
-    t_valid, qf, qdf, qddf, tau_f, dt = f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt
-    names = tuple(model.parameter_names)
-    p = len(names)
     fixed_values, hold = _fixed_spec(est.fixed, names)
     given = _initial_values(initial, names)
     _check_initial_vs_fixed(given, fixed_values)
@@ -439,19 +446,20 @@ def prepare(est, recording, initial) -> _Problem:
     start_values.update(given)
     start_values.update(fixed_values)
     user_fixed = fixed_values | {n: float(start_values[n]) for n in hold}
-    # parameters the model marks known (identify = false: model.unknown) are held at their
-    # values unless fixed= or initial= name them (initial= asks to estimate from there)
     unknown = set(getattr(model, "unknown", names) or ())
     for n in names:
         if n not in unknown and n not in user_fixed and n not in given:
             user_fixed[n] = float(start_values[n])
-    notes: list[str] = []
-    if f.choice is not None:
-        notes.append(f.choice.reason)
+    return start_values, user_fixed
 
-    band, advice = check_band(est, f, notes, stacklevel=4)
 
-    # -- structural identifiability and the hold plan
+def _hold(est, model, start_values, user_fixed, notes):
+    """Structural identifiability and the hold plan: ``(structural, fixed)``.
+
+    Each unidentifiable combination that ``user_fixed`` does not touch gets one parameter held
+    (an `IdentifiabilityWarning`, also in ``notes``), or, with ``hold_unidentifiable=False``, an
+    `IdentifiabilityError`.
+    """
     structural: StructuralIdentifiability = structural_identifiability(model, start_values)
     if structural.combinations and not est.hold_unidentifiable:
         unresolved = [c for c in structural.combinations if not set(c.parameters) & set(user_fixed)]
@@ -467,8 +475,25 @@ def prepare(est, recording, initial) -> _Problem:
         warnings.simplefilter("always")
         fixed = hold_plan(structural, start_values, user_fixed, warn=True)
     for w in caught:
-        warnings.warn(w.message, w.category, stacklevel=3)
+        warnings.warn(w.message, w.category, stacklevel=4)
         notes.append(str(w.message))
+    return structural, fixed
+
+
+def prepare(est, recording, initial) -> _Problem:
+    """Filtered signals, filter-band check, hold plan, bounds, start and the residual maps."""
+    model = est.model
+    f = filter_recording(est, recording)
+    t_valid, qf, qdf, qddf, tau_f, dt = f.t, f.qf, f.qdf, f.qddf, f.tau_f, f.dt
+    names = tuple(model.parameter_names)
+    p = len(names)
+    start_values, user_fixed = _start_values(est, initial, names)
+    notes: list[str] = []
+    if f.choice is not None:
+        notes.append(f.choice.reason)
+
+    band, advice = check_band(est, f, notes, stacklevel=4)
+    structural, fixed = _hold(est, model, start_values, user_fixed, notes)
     start_values.update(fixed)
     free_idx = [i for i, n in enumerate(names) if n not in fixed]
     if not free_idx:

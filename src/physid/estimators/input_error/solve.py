@@ -5,6 +5,7 @@ Part of `physid.estimators.input_error`.
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass
@@ -216,6 +217,90 @@ def noise_fraction(beta, data, replicates) -> float:
     return max(0.0, (e_rep - e0) / e0) if e0 > 0 else 1.0
 
 
+def replicate_normal_equations(est, f, normal_equations) -> tuple[list, list, list]:
+    """The normal equations of ``est.noise_replicates`` re-noised copies of the record.
+
+    Each copy adds white noise of the level seen on q (`noise_floor`; and on the measured τ,
+    `white_floor`) and goes through the fit's own filters (``f.refilter``);
+    ``normal_equations(qf, qdf, qddf, tau_f)`` returns ``(G, h, t)``. Returns the lists of G,
+    h and t. The draws come from ``est.random_state``: the same data give the same replicates.
+    """
+    sigma_q = noise_floor(f.q)
+    sigma_tau = white_floor(f.tau) if f.tau is not None else None
+    rng = np.random.default_rng(est.random_state)
+    grams, rhss, tts = [], [], []
+    for _ in range(int(est.noise_replicates)):
+        q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
+        tau_k = None
+        if sigma_tau is not None:
+            tau_k = f.tau + rng.normal(size=f.tau.shape) * sigma_tau
+        g_k, r_k, tt_k = normal_equations(*f.refilter(q_k, tau_k))
+        grams.append(g_k)
+        rhss.append(r_k)
+        tts.append(tt_k)
+    return grams, rhss, tts
+
+
+def replicate_covariance(beta, grams, rhss, r_d, d=None) -> np.ndarray:
+    """``H⁻¹ Var ψ H⁻¹`` of a compensated estimate from its replicates' scores.
+
+    ψ_k = Dᵀ (G_k β − h_k) (D = ∂β/∂θ; None: the identity), ``Var ψ ≈ (1 + 1/B) Cov_k ψ_k``
+    over the B replicates, and ``H = (R_c D)ᵀ (R_c D)`` from ``r_d = R_c D``; an infinite
+    matrix when H is numerically singular.
+    """
+    if d is None:
+        scores = np.array([g @ beta - r for g, r in zip(grams, rhss, strict=True)])
+    else:
+        scores = np.array([d.T @ (g @ beta - r) for g, r in zip(grams, rhss, strict=True)])
+    p = r_d.shape[1]
+    omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(p, -1)
+    sv, vt = svd_tall(r_d)  # H = Dᵀ A_c D = (R_c D)ᵀ (R_c D)
+    if sv.size < p or not np.all(sv > NUMERIC_RTOL * sv[0]):
+        return np.full((p, p), np.inf)
+    h_inv = (vt.T / sv**2) @ vt
+    return h_inv @ omega @ h_inv
+
+
+def _require_linear_form(model, setting: str, alternative: str) -> None:
+    """Refuse ``setting`` for a model without the linear form ``τ = Y β(θ)``."""
+    for attr in ("regressor", "beta"):
+        if not hasattr(model, attr):
+            raise InputError(
+                f"{setting} needs a model that is linear in its base parameters (with "
+                f"{attr!r}); this model has none. Use {alternative}."
+            )
+
+
+def _regressor_normal_equations(model, qf, qdf, qddf, tau_f):
+    """``(YᵀY, Yᵀτ^f, τ^fᵀτ^f)`` of the model's full regressor Y on filtered signals."""
+    y = np.asarray(model.regressor(qf, qdf, qddf), dtype=float)
+    y = y.reshape(-1, y.shape[-1])
+    return y.T @ y, y.T @ tau_f.ravel(), float(tau_f.ravel() @ tau_f.ravel())
+
+
+def _beta_maps(problem: _Problem):
+    """``β(θ)`` and ``∂β/∂θ_free`` of the model (forward differences without ``beta_jacobian``)."""
+    model, free_idx = problem.model, problem.free_idx
+
+    def beta_of(theta):
+        return np.asarray(model.beta(problem.as_params(theta)), dtype=float)
+
+    def d_beta(theta):  # ∂β/∂θ_free
+        if hasattr(model, "beta_jacobian"):
+            jac = np.asarray(model.beta_jacobian(problem.as_params(theta)), dtype=float)
+            return jac[:, free_idx]
+        base = beta_of(theta)
+        cols = []
+        for i in free_idx:
+            step = 1e-7 * max(abs(theta[i]), 1.0)
+            t2 = theta.copy()
+            t2[i] += step
+            cols.append((beta_of(t2) - base) / step)
+        return np.column_stack(cols)
+
+    return beta_of, d_beta
+
+
 def solve_compensated(est, problem: _Problem) -> _Solution:
     """Least squares with the errors-in-variables bias of the noise on q compensated.
 
@@ -235,53 +320,16 @@ def solve_compensated(est, problem: _Problem) -> _Solution:
     HAC sandwich cannot tell the two apart).
     """
     model, f = problem.model, problem.filtered
-    for attr in ("regressor", "beta"):
-        if not hasattr(model, attr):
-            raise InputError(
-                "noise='compensate' needs a model that is linear in its base parameters "
-                f"(with {attr!r}); this model has none. Use noise='ignore'."
-            )
+    _require_linear_form(model, "noise='compensate'", "noise='ignore'")
     free_idx, scale, names = problem.free_idx, problem.scale, problem.names
     lower, upper = problem.lower[free_idx], problem.upper[free_idx]
-    sigma_q = noise_floor(f.q)
-    sigma_tau = white_floor(f.tau) if f.tau is not None else None
-    rng = np.random.default_rng(est.random_state)
-
-    def normal_equations(qf, qdf, qddf, tau_f):
-        y = np.asarray(model.regressor(qf, qdf, qddf), dtype=float)
-        y = y.reshape(-1, y.shape[-1])
-        return y.T @ y, y.T @ tau_f.ravel(), float(tau_f.ravel() @ tau_f.ravel())
-
+    normal_equations = functools.partial(_regressor_normal_equations, model)
     gram, rhs, tt = normal_equations(f.qf, f.qdf, f.qddf, f.tau_f)
-    grams, rhss, tts = [], [], []
-    for _ in range(int(est.noise_replicates)):
-        q_k = f.q + rng.normal(size=f.q.shape) * sigma_q
-        tau_k = None
-        if sigma_tau is not None:
-            tau_k = f.tau + rng.normal(size=f.tau.shape) * sigma_tau
-        g_k, r_k, tt_k = normal_equations(*f.refilter(q_k, tau_k))
-        grams.append(g_k)
-        rhss.append(r_k)
-        tts.append(tt_k)
+    grams, rhss, tts = replicate_normal_equations(est, f, normal_equations)
     gram_c = 2.0 * gram - np.mean(grams, axis=0)  # A_c = 2 A(x) - mean A(x + ε)
     rhs_c = 2.0 * rhs - np.mean(rhss, axis=0)
     history: list[np.ndarray] = []
-
-    def beta_of(theta):
-        return np.asarray(model.beta(problem.as_params(theta)), dtype=float)
-
-    def d_beta(theta):  # ∂β/∂θ_free
-        if hasattr(model, "beta_jacobian"):
-            jac = np.asarray(model.beta_jacobian(problem.as_params(theta)), dtype=float)
-            return jac[:, free_idx]
-        base = beta_of(theta)
-        cols = []
-        for i in free_idx:
-            step = 1e-7 * max(abs(theta[i]), 1.0)
-            t2 = theta.copy()
-            t2[i] += step
-            cols.append((beta_of(t2) - base) / step)
-        return np.column_stack(cols)
+    beta_of, d_beta = _beta_maps(problem)
 
     def solve(gram_, rhs_, theta_start):
         beta_hat, r = _gram_least_squares(gram_, rhs_)
@@ -313,18 +361,10 @@ def solve_compensated(est, problem: _Problem) -> _Solution:
     # -- covariance from the replicates' scores (see the docstring)
     d = d_beta(theta_hat)
     beta_hat_theta = beta_of(theta_hat)
-    scores = np.array([d.T @ (g @ beta_hat_theta - r) for g, r in zip(grams, rhss, strict=True)])
     problem.noise_fraction = noise_fraction(
         beta_hat_theta, (gram, rhs, tt), zip(grams, rhss, tts, strict=True)
     )
-    omega = (1.0 + 1.0 / len(grams)) * np.cov(scores, rowvar=False).reshape(len(free_idx), -1)
-    sv, vt = svd_tall(r_c @ d)  # H = Dᵀ A_c D = (R_c D)ᵀ (R_c D)
-    p = len(free_idx)
-    if sv.size < p or not np.all(sv > NUMERIC_RTOL * sv[0]):
-        cov = np.full((p, p), np.inf)
-    else:
-        h_inv = (vt.T / sv**2) @ vt
-        cov = h_inv @ omega @ h_inv
+    cov = replicate_covariance(beta_hat_theta, grams, rhss, r_c @ d, d)
     jac_hat = problem.jacobian(theta_hat)[:, free_idx]
     after = numeric_identifiability(
         jac_hat,
@@ -365,12 +405,7 @@ def linear_start(est, qf, qdf, qddf, tau_f, theta0, free_idx, lower, upper, scal
     as the full problem.
     """
     model = est.model
-    for attr in ("regressor", "beta"):
-        if not hasattr(model, attr):
-            raise InputError(
-                "start='linear' needs a model that is linear in its base parameters (with "
-                f"{attr!r}); this model has none. Use start='initial'."
-            )
+    _require_linear_form(model, "start='linear'", "start='initial'")
     names = tuple(model.parameter_names)
     y = np.asarray(model.regressor(qf, qdf, qddf), dtype=float)
     beta_hat, r = linear_least_squares(y.reshape(-1, y.shape[-1]), tau_f.ravel())
