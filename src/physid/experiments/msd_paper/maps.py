@@ -170,6 +170,34 @@ def _tables(cells, rows, fastest) -> tuple[Table, ...]:
     )
 
 
+def _cell_counts(alg: list, rls: list) -> dict[str, int]:
+    """How many cells each estimator has, how many are fast (≤ 2 T) and how many settle."""
+    return {
+        "alg": len(alg),
+        "rls": len(rls),
+        "alg_fast": sum(
+            _finite(c, "t_first_hit") and c["t_first_hit"]["median_censored"] <= 2 * WINDOW
+            for c in alg
+        ),
+        "alg_settled": sum(_finite(c, "t_settle") for c in alg),
+        "rls_settled": sum(_finite(c, "t_settle") for c in rls),
+    }
+
+
+def _fastest_lists(cells, snrs, times) -> list[dict[str, Any]]:
+    """The fastest Z (all ties, as lists) per estimator and SNR, by each rule."""
+    return [
+        {
+            "estimator": label,
+            "snr_db": snr,
+            "z_first_hit": _fastest_of(times, label, snr, "first_hit")[0],
+            "z_settle": _fastest_of(times, label, snr, "settle")[0],
+        }
+        for label in dict.fromkeys(variant_label(c) for c in cells)
+        for snr in snrs
+    ]
+
+
 def compute(quick: bool, progress) -> tuple[SectionData, dict]:
     """The sweep, its cells and the fastest input ratio per estimator and SNR.
 
@@ -204,16 +232,7 @@ def compute(quick: bool, progress) -> tuple[SectionData, dict]:
     fastest = _fastest_rows(cells, snrs, times)
     alg = [c for c in cells if c["method"] == "algebraic"]
     rls = [c for c in cells if c["method"] == "rls"]
-    counts = {
-        "alg": len(alg),
-        "rls": len(rls),
-        "alg_fast": sum(
-            _finite(c, "t_first_hit") and c["t_first_hit"]["median_censored"] <= 2 * WINDOW
-            for c in alg
-        ),
-        "alg_settled": sum(_finite(c, "t_settle") for c in alg),
-        "rls_settled": sum(_finite(c, "t_settle") for c in rls),
-    }
+    counts = _cell_counts(alg, rls)
     cell_80_10 = next((c for c in alg if c["snr_db"] == 80.0 and c["ratio"] == 10.0), None)
     results = {
         "grid": {"snr_db": snrs, "ratio": ratios, "trials": trials, "duration_s": duration},
@@ -236,16 +255,7 @@ def compute(quick: bool, progress) -> tuple[SectionData, dict]:
             )
             for r in fastest
         ],
-        "fastest_ratio_lists": [
-            {
-                "estimator": label,
-                "snr_db": snr,
-                "z_first_hit": _fastest_of(times, label, snr, "first_hit")[0],
-                "z_settle": _fastest_of(times, label, snr, "settle")[0],
-            }
-            for label in dict.fromkeys(variant_label(c) for c in cells)
-            for snr in snrs
-        ],
+        "fastest_ratio_lists": _fastest_lists(cells, snrs, times),
     }
     if cell_80_10 is not None:
         results["algebraic_80dB_Z10_first_hit_s"] = cell_80_10["t_first_hit"]["median_censored"]
