@@ -93,18 +93,10 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    """Design, write, print; returns 0."""
+def _limits(args, model):
+    """The position, velocity and acceleration limits given on the command line (None: none)."""
     import numpy as np
 
-    import physid
-
-    from ..analysis.excitation import design_excitation
-    from ..signals import save_recording
-
-    check_recording_path(args.out, "--out")  # before the design, not after it
-
-    model = physid.load_model(args.model)
     position = None
     if args.position:
         values = float_list(args.position, "--position")
@@ -121,6 +113,13 @@ def run(args) -> int:
             raise InputError(
                 f"{name} expects one value or one per joint ({model.n_joints}); got {len(v)}."
             )
+    return position, velocity, acceleration
+
+
+def _check_grid(args, model) -> None:
+    """Refuse a sample grid that is malformed, too coarse for the harmonics, or too large."""
+    import numpy as np
+
     if args.periods < 1:
         raise InputError(f"--periods must be a positive integer; got {args.periods}.")
     if not args.dt > 0 or args.dt > args.period / (4 * args.harmonics):
@@ -141,6 +140,43 @@ def run(args) -> int:
         what=f"design-excitation with {samples:.3g} samples × {4 * model.n_joints + 1} channels",
         fix="raise --dt, or shorten --period/--periods",
     )
+
+
+def _summary(args, design) -> dict:
+    """The design's numbers for ``--json``."""
+    return {
+        "out": str(args.out),
+        "condition_number": design.condition_number,
+        "random_median_condition_number": design.random_median,
+        "improvement": design.improvement,
+        "random_within_median_condition_number": design.random_within_median,
+        "improvement_within": design.improvement_within,
+        "random_condition_numbers": design.random_condition_numbers,
+        "random_within_condition_numbers": design.random_within_condition_numbers,
+        "unscaled_condition_number": design.unscaled,
+        "starts": list(design.starts),
+        "seconds": design.seconds,
+        "q_start": design.q_start,
+        "log_det": design.log_det,
+        "harmonics": design.harmonics,
+        "period": design.period,
+        "peak": design.peak,
+        "limits": design.limits,
+    }
+
+
+def run(args) -> int:
+    """Design, write, print; returns 0."""
+    import physid
+
+    from ..analysis.excitation import design_excitation
+    from ..signals import save_recording
+
+    check_recording_path(args.out, "--out")  # before the design, not after it
+
+    model = physid.load_model(args.model)
+    position, velocity, acceleration = _limits(args, model)
+    _check_grid(args, model)
     progress(f"design-excitation: {model.n_joints} joints, {args.harmonics} harmonics")
     design = design_excitation(
         model,
@@ -160,27 +196,7 @@ def run(args) -> int:
     rec = design.to_recording(dt=args.dt, periods=args.periods)
     save_recording(rec, args.out)
     if args.json:
-        print_json(
-            {
-                "out": str(args.out),
-                "condition_number": design.condition_number,
-                "random_median_condition_number": design.random_median,
-                "improvement": design.improvement,
-                "random_within_median_condition_number": design.random_within_median,
-                "improvement_within": design.improvement_within,
-                "random_condition_numbers": design.random_condition_numbers,
-                "random_within_condition_numbers": design.random_within_condition_numbers,
-                "unscaled_condition_number": design.unscaled,
-                "starts": list(design.starts),
-                "seconds": design.seconds,
-                "q_start": design.q_start,
-                "log_det": design.log_det,
-                "harmonics": design.harmonics,
-                "period": design.period,
-                "peak": design.peak,
-                "limits": design.limits,
-            }
-        )
+        print_json(_summary(args, design))
     else:
         progress(design.summary())
         print(args.out)

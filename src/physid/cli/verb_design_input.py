@@ -84,6 +84,61 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _summary(res, keys: list[str]) -> dict:
+    """The result as one JSON object for ``--json`` (K as log10)."""
+    return {
+        "model": "msd",
+        "parameters": res.parameters,
+        "optimal_ratio": res.optimal_ratio_by_forgetting(),
+        "optimal_log10_variance_factor": {
+            k: math.log10(v) for k, v in zip(keys, res.optimal_variance_factor, strict=True)
+        },
+        "at_boundary": dict(zip(keys, res.at_boundary, strict=True)),
+        "forgetting": list(res.forgetting),
+        "curve": {
+            "ratio": res.ratio,
+            "log10_variance_factor": {
+                k: [math.log10(v) for v in row]
+                for k, row in zip(keys, res.variance_factor, strict=True)
+            },
+        },
+        "horizons": {
+            "samples": list(res.horizons),
+            "optimal_ratio": list(res.horizon_optimal_ratio),
+        },
+        "natural_frequency": res.natural_frequency,
+        "sample_period": res.sample_period,
+        "init_samples": res.init_samples,
+        "samples": res.samples,
+        "success": res.success,
+        "message": res.message,
+    }
+
+
+def _print_table(res, keys: list[str]) -> None:
+    """The optimal ratio per forgetting factor and the horizon study, as text on stdout."""
+    print(
+        f"Variance factor K of the RLS estimator of θ2 (k = {res.samples}, "
+        f"m = {res.init_samples}, "
+        f"ω0 = {res.natural_frequency:.6g} rad/s, T_s = {res.sample_period:g} s), "
+        f"Z in [{res.ratio[0]:g}, {res.ratio[-1]:g}]"
+    )
+    print(f"{'lambda':>8}  {'optimal Z':>10}  {'log10 K':>9}  note")
+    for k, z, kv, edge in zip(
+        keys, res.optimal_ratio, res.optimal_variance_factor, res.at_boundary, strict=True
+    ):
+        print(f"{k:>8}  {z:10.6f}  {math.log10(kv):9.4f}  {'end of range' if edge else ''}")
+    print(
+        "horizon study (λ = 1): "
+        + ", ".join(
+            f"k={h}: Z*={z:.4f}"
+            for h, z in zip(res.horizons, res.horizon_optimal_ratio, strict=True)
+        )
+    )
+    if res.message:
+        print(res.message)
+
+
 def run(args) -> int:
     from ..analysis.input_design import design_input
     from ..models.linear_ode import MSD_NATURAL_FREQUENCY
@@ -124,54 +179,7 @@ def run(args) -> int:
         progress(f"design-input: figure written to {args.plot}")
     keys = [f"{lam:g}" for lam in res.forgetting]
     if args.json:
-        print_json(
-            {
-                "model": "msd",
-                "parameters": res.parameters,
-                "optimal_ratio": res.optimal_ratio_by_forgetting(),
-                "optimal_log10_variance_factor": {
-                    k: math.log10(v) for k, v in zip(keys, res.optimal_variance_factor, strict=True)
-                },
-                "at_boundary": dict(zip(keys, res.at_boundary, strict=True)),
-                "forgetting": list(res.forgetting),
-                "curve": {
-                    "ratio": res.ratio,
-                    "log10_variance_factor": {
-                        k: [math.log10(v) for v in row]
-                        for k, row in zip(keys, res.variance_factor, strict=True)
-                    },
-                },
-                "horizons": {
-                    "samples": list(res.horizons),
-                    "optimal_ratio": list(res.horizon_optimal_ratio),
-                },
-                "natural_frequency": res.natural_frequency,
-                "sample_period": res.sample_period,
-                "init_samples": res.init_samples,
-                "samples": res.samples,
-                "success": res.success,
-                "message": res.message,
-            }
-        )
+        print_json(_summary(res, keys))
         return 0
-    print(
-        f"Variance factor K of the RLS estimator of θ2 (k = {res.samples}, "
-        f"m = {res.init_samples}, "
-        f"ω0 = {res.natural_frequency:.6g} rad/s, T_s = {res.sample_period:g} s), "
-        f"Z in [{res.ratio[0]:g}, {res.ratio[-1]:g}]"
-    )
-    print(f"{'lambda':>8}  {'optimal Z':>10}  {'log10 K':>9}  note")
-    for k, z, kv, edge in zip(
-        keys, res.optimal_ratio, res.optimal_variance_factor, res.at_boundary, strict=True
-    ):
-        print(f"{k:>8}  {z:10.6f}  {math.log10(kv):9.4f}  {'end of range' if edge else ''}")
-    print(
-        "horizon study (λ = 1): "
-        + ", ".join(
-            f"k={h}: Z*={z:.4f}"
-            for h, z in zip(res.horizons, res.horizon_optimal_ratio, strict=True)
-        )
-    )
-    if res.message:
-        print(res.message)
+    _print_table(res, keys)
     return 0

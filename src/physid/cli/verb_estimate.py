@@ -33,6 +33,10 @@ _RLS_ONLY = ("forgetting", "prefilter_cutoff", "init_samples", "bias_compensatio
 
 
 def register(subparsers) -> None:
+    """Add the ``estimate`` verb.
+
+    Long by design: a flat argparse declaration, one ``add_argument`` per option.
+    """
     parser = subparsers.add_parser(
         "estimate",
         help="estimate a linear ODE model's coefficients (algebraic or recursive least squares)",

@@ -41,7 +41,10 @@ def _cutoff(text: str):
 
 
 def register(subparsers) -> None:
-    """Add the ``identify`` verb."""
+    """Add the ``identify`` verb.
+
+    Long by design: a flat argparse declaration, one ``add_argument`` per option.
+    """
     p = subparsers.add_parser(
         "identify",
         help="identify the parameters of a manipulator (input-error or IDIM methods)",

@@ -30,6 +30,10 @@ def _count(text: str) -> int:
 
 
 def register(subparsers) -> None:
+    """Add the ``sweep`` verb.
+
+    Long by design: a flat argparse declaration, one ``add_argument`` per option.
+    """
     parser = subparsers.add_parser(
         "sweep",
         help="Monte-Carlo sweep of the linear-ODE estimators over SNR x frequency ratio "

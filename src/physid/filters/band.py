@@ -347,6 +347,101 @@ def white_floor(x) -> np.ndarray:
     return np.sqrt(np.median(power[freq > 0.6 * np.pi], axis=0) / np.log(2.0))
 
 
+def _bands(arr: np.ndarray, threshold: float | None):
+    """Steps 1–3 of `choose_filter`: the noise floor, the noise band and the signal band.
+
+    Returns the energy threshold used, the signal band Ω_s and the noise band [rad/sample],
+    whether the motion meets a noise floor below π/2, and the noise floor σ̂ and quantum of each
+    channel.
+    """
+    power, freq, sigma, quantum = _spectrum_and_floor(arr)
+    noise = 2.0 * (1.0 - np.cos(freq))[:, None] * sigma**2
+    smooth = _smooth(power, max(1, power.shape[0] // 200))
+    # 2. the noise band: per joint, the first frequency where the motion sinks below the noise
+    #    (smoothed spectrum under twice the noise's); the highest of these over the joints
+    buried = smooth < 2.0 * noise
+    buried[0] = False
+    first = np.where(buried.any(axis=0), np.argmax(buried, axis=0), freq.size - 1)
+    noise_band = float(freq[int(first.max())])
+    # 3. the signal band: energy of (smoothed - noise) up to the noise band. Without noise a
+    #    wider band costs nothing, so it is drawn generously (CLEAN_FRACTION, 25 % margin):
+    #    the nonlinear terms (velocity products) reach beyond the 1e-4 band of Δq.
+    noisy = bool(noise_band < 0.5 * np.pi)
+    signal = np.clip(smooth - noise, 0.0, None) * (freq <= noise_band)[:, None]
+    total = signal.sum(axis=0)
+    cumulative = np.cumsum(signal, axis=0) / np.where(total > 0, total, 1.0)
+
+    def band(fraction: float, margin: float) -> float:
+        edges = [
+            float(freq[min(np.searchsorted(cumulative[:, j], 1.0 - fraction), freq.size - 1)])
+            for j in range(arr.shape[1])
+            if total[j] > 0
+        ]
+        return min(margin * max(edges, default=float(freq[1])), noise_band)
+
+    if threshold is not None:
+        signal_band = band(threshold, 1.0 if noisy else 1.25)
+    elif not noisy:
+        threshold, signal_band = CLEAN_FRACTION, band(CLEAN_FRACTION, 1.25)
+    else:
+        threshold, signal_band = ENERGY_FRACTION_WARN, band(ENERGY_FRACTION_WARN, 1.0)
+        # A quantised q's noise is bounded and known (Δ/√12), so its noise band is reliable:
+        # where the generous clean band still lies well below it (half), the motion there is
+        # far above the noise and passing it costs little, while cutting it biases the
+        # nonlinear terms (a sharp Coulomb friction reaches far beyond the 1e-4 band of Δq).
+        wide = band(CLEAN_FRACTION, 1.25)
+        if np.any(quantum > 0) and wide <= 0.5 * noise_band:
+            threshold, signal_band = CLEAN_FRACTION, wide
+    return threshold, signal_band, noise_band, noisy, sigma, quantum
+
+
+def _lowest_cutoff(m: int, signal_band: float, dt: float) -> tuple[float, float]:
+    """Step 5 of `choose_filter`: the lowest cut-off Ω_g whose flat band reaches Ω_s.
+
+    The flat edge lies a nearly constant δ(M) ≈ 8π/(2M+1) below Ω_g, so two or three
+    corrections of Ω_g suffice. Returns Ω_g and its flat edge.
+    """
+    cutoff = min(signal_band + 8.0 * np.pi / (2 * m + 1), np.pi)
+    for _ in range(4):
+        edge = passband_edge(m, cutoff, dt)
+        step = cutoff / 800.0  # the resolution of passband_edge's grid
+        if 0.0 <= edge - signal_band <= 2.0 * step or cutoff >= np.pi:
+            break
+        cutoff = float(np.clip(cutoff + (signal_band - edge) + step, step, np.pi))
+    cutoff = float(cutoff)
+    edge = passband_edge(m, cutoff, dt)
+    return cutoff, edge
+
+
+def _reason(m, cutoff, edge, threshold, signal_band, noise_band, noisy, sigma, quantum, half_width):
+    """The sentence that says why `choose_filter` chose this filter."""
+    why = (
+        f"the motion's rate holds all but {threshold:g} of its energy below "
+        f"{signal_band:.3g} rad/sample"
+        + (
+            f" and sinks into a noise floor of σ ≈ {np.max(sigma):.2g}"
+            + (
+                f" (q is quantised in steps of {np.max(quantum):.3g}: σ ≥ Δ/√12)"
+                if np.any(quantum > 0)
+                else ""
+            )
+            + f" above {noise_band:.3g} rad/sample"
+            if noisy
+            else ""
+        )
+        + (
+            f"; M = {m} (the longest the record allows"
+            if half_width is None
+            else f"; M = {m} (given"
+        )
+    )
+    return (
+        f"filter M = {m}, Ω_g = {cutoff:.4g} rad/sample (flat to {edge:.3g}): {why}), Ω_g the "
+        "lowest cut-off whose flat band holds that motion (lower would bias the fit, higher "
+        "only adds noise)."
+    )
+
+
 def choose_filter(
     q,
     dt: float,
@@ -405,84 +500,15 @@ def choose_filter(
     if arr.ndim == 1:
         arr = arr[:, None]
     n = arr.shape[0]
-    power, freq, sigma, quantum = _spectrum_and_floor(arr)
-    noise = 2.0 * (1.0 - np.cos(freq))[:, None] * sigma**2
-    smooth = _smooth(power, max(1, power.shape[0] // 200))
-    # 2. the noise band: per joint, the first frequency where the motion sinks below the noise
-    #    (smoothed spectrum under twice the noise's); the highest of these over the joints
-    buried = smooth < 2.0 * noise
-    buried[0] = False
-    first = np.where(buried.any(axis=0), np.argmax(buried, axis=0), freq.size - 1)
-    noise_band = float(freq[int(first.max())])
-    # 3. the signal band: energy of (smoothed - noise) up to the noise band. Without noise a
-    #    wider band costs nothing, so it is drawn generously (CLEAN_FRACTION, 25 % margin):
-    #    the nonlinear terms (velocity products) reach beyond the 1e-4 band of Δq.
-    noisy = bool(noise_band < 0.5 * np.pi)
-    signal = np.clip(smooth - noise, 0.0, None) * (freq <= noise_band)[:, None]
-    total = signal.sum(axis=0)
-    cumulative = np.cumsum(signal, axis=0) / np.where(total > 0, total, 1.0)
-
-    def band(fraction: float, margin: float) -> float:
-        edges = [
-            float(freq[min(np.searchsorted(cumulative[:, j], 1.0 - fraction), freq.size - 1)])
-            for j in range(arr.shape[1])
-            if total[j] > 0
-        ]
-        return min(margin * max(edges, default=float(freq[1])), noise_band)
-
-    if threshold is not None:
-        signal_band = band(threshold, 1.0 if noisy else 1.25)
-    elif not noisy:
-        threshold, signal_band = CLEAN_FRACTION, band(CLEAN_FRACTION, 1.25)
-    else:
-        threshold, signal_band = ENERGY_FRACTION_WARN, band(ENERGY_FRACTION_WARN, 1.0)
-        # A quantised q's noise is bounded and known (Δ/√12), so its noise band is reliable:
-        # where the generous clean band still lies well below it (half), the motion there is
-        # far above the noise and passing it costs little, while cutting it biases the
-        # nonlinear terms (a sharp Coulomb friction reaches far beyond the 1e-4 band of Δq).
-        wide = band(CLEAN_FRACTION, 1.25)
-        if np.any(quantum > 0) and wide <= 0.5 * noise_band:
-            threshold, signal_band = CLEAN_FRACTION, wide
+    threshold, signal_band, noise_band, noisy, sigma, quantum = _bands(arr, threshold)
     # 4. M
     if half_width is None:
         limit = max_half_width if max_half_width is not None else max(10, min(1000, n // 20))
         m = int(limit)
     else:
         m = int(half_width)
-    # 5. Ω_g: the lowest cut-off whose flat band reaches Ω_s. The flat edge lies a nearly
-    #    constant δ(M) ≈ 8π/(2M+1) below Ω_g, so two or three corrections of Ω_g suffice.
-    cutoff = min(signal_band + 8.0 * np.pi / (2 * m + 1), np.pi)
-    for _ in range(4):
-        edge = passband_edge(m, cutoff, dt)
-        step = cutoff / 800.0  # the resolution of passband_edge's grid
-        if 0.0 <= edge - signal_band <= 2.0 * step or cutoff >= np.pi:
-            break
-        cutoff = float(np.clip(cutoff + (signal_band - edge) + step, step, np.pi))
-    cutoff = float(cutoff)
-    edge = passband_edge(m, cutoff, dt)
-    why = (
-        f"the motion's rate holds all but {threshold:g} of its energy below "
-        f"{signal_band:.3g} rad/sample"
-        + (
-            f" and sinks into a noise floor of σ ≈ {np.max(sigma):.2g}"
-            + (
-                f" (q is quantised in steps of {np.max(quantum):.3g}: σ ≥ Δ/√12)"
-                if np.any(quantum > 0)
-                else ""
-            )
-            + f" above {noise_band:.3g} rad/sample"
-            if noisy
-            else ""
-        )
-        + (
-            f"; M = {m} (the longest the record allows"
-            if half_width is None
-            else f"; M = {m} (given"
-        )
-    )
-    reason = (
-        f"filter M = {m}, Ω_g = {cutoff:.4g} rad/sample (flat to {edge:.3g}): {why}), Ω_g the "
-        "lowest cut-off whose flat band holds that motion (lower would bias the fit, higher "
-        "only adds noise)."
+    cutoff, edge = _lowest_cutoff(m, signal_band, dt)
+    reason = _reason(
+        m, cutoff, edge, threshold, signal_band, noise_band, noisy, sigma, quantum, half_width
     )
     return FilterChoice(m, cutoff, edge, signal_band, noise_band, sigma, reason)

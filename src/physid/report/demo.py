@@ -243,26 +243,11 @@ def _lookup_number(results: Mapping[str, Mapping[str, Any]], path: str) -> float
     return None
 
 
-def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
-    """Capabilities beyond the papers, with the report's numbers where the sections give them."""
-    results = {s.title: s.results for s in sections}
-    # Each row: capability, what the papers do, what physid does, a number from the report.
-    rows: list[tuple[str, str, str, Any, str]] = []
-    picked: dict[str, Any] = {}
-
-    def add(
-        key: str, capability: str, paper: str, physid: str, candidates: Sequence[tuple[str, str]]
-    ) -> None:
-        """One row; its number is the first of ``candidates`` (dotted path, meaning) found."""
-        for path, what in candidates:
-            value = _lookup_number(results, path)
-            if value is not None:
-                picked[key] = {"value": value, "meaning": what, "source": path}
-                rows.append((capability, paper, physid, value, what))
-                return
-        rows.append((capability, paper, physid, None, ""))
-
-    add(
+#: The rows of the "beyond the papers" table: key, capability, what the papers do, what physid
+#: does, and the candidates for its number (dotted path into the results, what it means), the
+#: first found wins.
+_ADDS: tuple[tuple[str, str, str, str, list[tuple[str, str]]], ...] = (
+    (
         "evaluations",
         "Input-error fit",
         "derivative-free search, about 1450 evaluations",
@@ -274,8 +259,8 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "(paper: about 1450)",
             )
         ],
-    )
-    add(
+    ),
+    (
         "kinetic_energy",
         "Kinetic energy",
         "keeps only the squared term of each joint rate (no cross terms)",
@@ -286,16 +271,16 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "m2 [kg] found when the paper's model is fitted to data of the exact arm (true 25 kg)",
             )
         ],
-    )
-    add(
+    ),
+    (
         "identifiability",
         "Identifiability",
         "fits all 8 parameters",
         "names the combinations the data cannot separate (m1 and l1 enter only as m1·l1²) and "
         "holds one parameter of each",
         [("models_theta_rank", "rank of the 8 physical parameters in the equations of motion")],
-    )
-    add(
+    ),
+    (
         "filters",
         "Differential filters",
         "fixed M = 100, Ω_g = 0.2; second-derivative filter normalised on t² only",
@@ -308,8 +293,8 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "paper's data and model",
             )
         ],
-    )
-    add(
+    ),
+    (
         "algebraic",
         "Algebraic estimator",
         "printed for order 2 only, with the window run backwards and Simpson's rule",
@@ -321,8 +306,8 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "shortest window [s] with 95 % of windows within 2 % on clean data (exact rule)",
             )
         ],
-    )
-    add(
+    ),
+    (
         "rls",
         "Recursive least squares",
         "covariance update that loses symmetry and overflows with λ < 1 without excitation",
@@ -334,8 +319,8 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
                 "rows after which the printed update overflows (λ = 0.99, no excitation)",
             )
         ],
-    )
-    add(
+    ),
+    (
         "input_design",
         "Input design",
         "optimum at Z = 1, from a variance formula with a spurious ω0",
@@ -348,15 +333,34 @@ def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
             ),
             ("optimal_ratio", "optimal Z = ω1/ω0 for the paper's k = 100, λ = 1"),
         ],
-    )
-    add(
+    ),
+    (
         "sweeps",
         "Monte-Carlo studies",
         "one run per condition",
         "SNR × Z × seed sweeps, each trial seeded from one root seed (same bits on any "
         "backend); local process pool or a Dask cluster",
         [("sweep.n_trials", "trials behind this report's convergence maps")],
-    )
+    ),
+)
+
+
+def _adds_section(sections: Sequence[ReportSection]) -> ReportSection:
+    """Capabilities beyond the papers, with the report's numbers where the sections give them."""
+    results = {s.title: s.results for s in sections}
+    # Each row: capability, what the papers do, what physid does, a number from the report.
+    rows: list[tuple[str, str, str, Any, str]] = []
+    picked: dict[str, Any] = {}
+    for key, capability, paper, physid, candidates in _ADDS:
+        # one row; its number is the first of ``candidates`` (dotted path, meaning) found
+        for path, what in candidates:
+            value = _lookup_number(results, path)
+            if value is not None:
+                picked[key] = {"value": value, "meaning": what, "source": path}
+                rows.append((capability, paper, physid, value, what))
+                break
+        else:
+            rows.append((capability, paper, physid, None, ""))
     rows.append(
         (
             "Your own system",
@@ -394,6 +398,89 @@ def _find(results: Mapping[str, Mapping[str, Any]], title: str, *path: str) -> A
     return value
 
 
+def _manipulator_item(res, link) -> tuple[str, tuple[Any, str] | None]:
+    """Part I's headline: its numbers and its list item (None when the section is missing)."""
+    m = next((t for t in res if t.startswith("Manipulator: what the paper")), None)
+    if m is None:
+        return "manipulator", None
+    r = res[m]
+    picked = {
+        k: r[k]
+        for k in (
+            "identifiable_rank",
+            "paper_parameters_fitted",
+            "our_residual_evaluations",
+            "paper_evaluations",
+            "consistent_combo_error_percent",
+            "paper_combo_error_percent",
+            "n_joints",
+        )
+    }
+    item = (
+        f"<li><strong>Part I, a {r['n_joints']}-DOF arm (Cedro &amp; Janecki):</strong> "
+        f"{r['identifiable_rank']} identifiable parameters (of the "
+        f"{r['paper_parameters_fitted']} the paper fits) in {r['our_residual_evaluations']} "
+        f"evaluations (paper: about {r['paper_evaluations']}); m1·l1² within "
+        f"{abs(r['consistent_combo_error_percent']):.2f} % with consistent filters (paper: "
+        f"{r['paper_combo_error_percent']:+.2f} %). " + link(m, "Part I") + "</li>"
+    )
+    return "manipulator", (picked, item)
+
+
+def _msd_item(res, link) -> tuple[str, tuple[Any, str] | None]:
+    """Part II's headline: its numbers and its list item (None when the claims are missing)."""
+    c = next((t for t in res if t.startswith("MSD: the paper's claims")), None)
+    if c is None or "headline" not in res[c]:
+        return "msd", None
+    h = res[c]["headline"]
+    item = (
+        "<li><strong>Part II, a mass-spring-damper (Oueslati et al.):</strong> "
+        f"ω0 within {100 * h['algebraic_final_error_25dB']:.2g} % at {h['snr_db']:g} dB from "
+        "the algebraic estimator's pooled windows; RLS reaches 2 % only "
+        f"{h['rls_over_algebraic_25dB']:.2g}× later at {h['snr_db']:g} dB, not the paper's "
+        f"{h['paper_ratio']:g}×; {h['claims_hold']} of the "
+        f"{h['claims']} claims checked {'holds' if h['claims_hold'] == 1 else 'hold'} as "
+        "stated. " + link(c, "Part II") + "</li>"
+    )
+    return "msd", (h, item)
+
+
+def _arm6_item(res, link) -> tuple[str, tuple[Any, str] | None]:
+    """Part III's headline: its numbers and its list item (None when the section is missing)."""
+    a = next((t for t in res if t.startswith("6-DOF arm: what")), None)
+    if a is None:
+        return "arm6", None
+    r = res[a]
+    if "iv_bias" in r and "held_out_error_iv" in r:
+        keys = ("n_joints", "n_base", "iv_bias", "ols_bias", "held_out_error_iv", "n_seeds")
+        picked = {k: r[k] for k in keys}
+        body = (
+            f"{r['n_base']} base parameters identified from noisy closed-loop records; the "
+            "torque of a held-out trajectory is predicted within "
+            f"{100 * r['held_out_error_iv']:.2g} % (IDIM-IV). "
+            + (
+                f"Bias the noise adds, over {r['n_seeds']} seeds: {100 * r['iv_bias']:.2g} % "
+                f"by instrumental variables, {100 * r['ols_bias']:.2g} % by least squares."
+                if r["n_seeds"] >= 5
+                else f"This quick run has {r['n_seeds']} seeds, too few to separate bias "
+                "from scatter: see the full run for the OLS/IV bias."
+            )
+        )
+        arm = f"a {r['n_joints']}-DOF arm"
+    else:
+        picked = {"missing": r.get("missing", [])}
+        body = "not run in this build; it needs " + "; ".join(r.get("missing", [])) + "."
+        arm = "a robot arm"
+    item = (
+        f"<li><strong>Part III, {arm} from its URDF:</strong> "
+        + html.escape(body)
+        + " "
+        + link(a, "Part III")
+        + "</li>"
+    )
+    return "arm6", (picked, item)
+
+
 def _headline_section(sections: Sequence[ReportSection]) -> ReportSection:
     """One screen: the headline result of each part beside the paper's number, with links."""
     from .html import _slug  # the page's anchors, made by the same function
@@ -407,72 +494,14 @@ def _headline_section(sections: Sequence[ReportSection]) -> ReportSection:
     def link(title: str, text: str) -> str:
         return f'<a href="#{slugs[title]}">{html.escape(text)}</a>' if title in slugs else text
 
-    m = next((t for t in res if t.startswith("Manipulator: what the paper")), None)
-    if m is not None:
-        r = res[m]
-        picked["manipulator"] = {
-            k: r[k]
-            for k in (
-                "identifiable_rank",
-                "paper_parameters_fitted",
-                "our_residual_evaluations",
-                "paper_evaluations",
-                "consistent_combo_error_percent",
-                "paper_combo_error_percent",
-                "n_joints",
-            )
-        }
-        items.append(
-            f"<li><strong>Part I, a {r['n_joints']}-DOF arm (Cedro &amp; Janecki):</strong> "
-            f"{r['identifiable_rank']} identifiable parameters (of the "
-            f"{r['paper_parameters_fitted']} the paper fits) in {r['our_residual_evaluations']} "
-            f"evaluations (paper: about {r['paper_evaluations']}); m1·l1² within "
-            f"{abs(r['consistent_combo_error_percent']):.2f} % with consistent filters (paper: "
-            f"{r['paper_combo_error_percent']:+.2f} %). " + link(m, "Part I") + "</li>"
-        )
-    c = next((t for t in res if t.startswith("MSD: the paper's claims")), None)
-    if c is not None and "headline" in res[c]:
-        h = res[c]["headline"]
-        picked["msd"] = h
-        items.append(
-            "<li><strong>Part II, a mass-spring-damper (Oueslati et al.):</strong> "
-            f"ω0 within {100 * h['algebraic_final_error_25dB']:.2g} % at {h['snr_db']:g} dB from "
-            "the algebraic estimator's pooled windows; RLS reaches 2 % only "
-            f"{h['rls_over_algebraic_25dB']:.2g}× later at {h['snr_db']:g} dB, not the paper's "
-            f"{h['paper_ratio']:g}×; {h['claims_hold']} of the "
-            f"{h['claims']} claims checked {'holds' if h['claims_hold'] == 1 else 'hold'} as "
-            "stated. " + link(c, "Part II") + "</li>"
-        )
-    a = next((t for t in res if t.startswith("6-DOF arm: what")), None)
-    if a is not None:
-        r = res[a]
-        if "iv_bias" in r and "held_out_error_iv" in r:
-            keys = ("n_joints", "n_base", "iv_bias", "ols_bias", "held_out_error_iv", "n_seeds")
-            picked["arm6"] = {k: r[k] for k in keys}
-            body = (
-                f"{r['n_base']} base parameters identified from noisy closed-loop records; the "
-                "torque of a held-out trajectory is predicted within "
-                f"{100 * r['held_out_error_iv']:.2g} % (IDIM-IV). "
-                + (
-                    f"Bias the noise adds, over {r['n_seeds']} seeds: {100 * r['iv_bias']:.2g} % "
-                    f"by instrumental variables, {100 * r['ols_bias']:.2g} % by least squares."
-                    if r["n_seeds"] >= 5
-                    else f"This quick run has {r['n_seeds']} seeds, too few to separate bias "
-                    "from scatter: see the full run for the OLS/IV bias."
-                )
-            )
-            arm = f"a {r['n_joints']}-DOF arm"
-        else:
-            picked["arm6"] = {"missing": r.get("missing", [])}
-            body = "not run in this build; it needs " + "; ".join(r.get("missing", [])) + "."
-            arm = "a robot arm"
-        items.append(
-            f"<li><strong>Part III, {arm} from its URDF:</strong> "
-            + html.escape(body)
-            + " "
-            + link(a, "Part III")
-            + "</li>"
-        )
+    for key, item in (
+        _manipulator_item(res, link),
+        _msd_item(res, link),
+        _arm6_item(res, link),
+    ):
+        if item is not None:
+            picked[key] = item[0]
+            items.append(item[1])
     paragraphs = [
         "physid identifies the physical parameters of mechanical systems (masses, inertias, "
         "friction, stiffness, damping) from measured motion and force signals. This report "
@@ -495,7 +524,7 @@ def _your_data_section() -> ReportSection:
         return importlib.util.find_spec(f"physid.cli.verb_{verb}") is not None
 
     missing = [v for v in ("identify", "estimate", "validate") if not has(v)]
-    # identify's IDIM methods arrive with the design-excitation verb (the same room); the report
+    # identify's IDIM methods ship together with the design-excitation verb; the report
     # must not import the CLI (report sits below cli in the layers), so look the module up only
     idim_cli = has("identify") and has("design_excitation")
     method = " --method idim-iv --kp 400,400,200,50,50,20 --kd 40,40,20,5,5,2" if idim_cli else ""

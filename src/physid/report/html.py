@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
+import functools
 import html as _html
 import json
 import math
@@ -422,6 +423,169 @@ def _check_sections(sections: Sequence[ReportSection]) -> None:
             names.add(f.name)
 
 
+def _check_errata_after(errata_after: Any, n_sections: int) -> None:
+    """Raise `InputError` unless ``errata_after`` is an int in 0..``n_sections``."""
+    if (
+        isinstance(errata_after, bool)
+        or not isinstance(errata_after, int)
+        or not (0 <= errata_after <= n_sections)
+    ):
+        raise InputError(
+            f"errata_after must be an int between 0 and the number of sections "
+            f"({n_sections}); got {errata_after!r}."
+        )
+
+
+def _write_figures(sections, out: Path, progress):
+    """Write one PNG per figure into ``out``.
+
+    Returns the paths (in report order), each figure's PNG bytes and its description, by name.
+    """
+    figure_paths: list[Path] = []
+    pngs: dict[str, bytes] = {}
+    figure_info: dict[str, dict[str, Any]] = {}
+    for s in sections:
+        for f in s.figures:
+            figure_info[f.name] = {
+                **describe_figure(f.figure),
+                "caption": f.caption,
+                "alt": f.alt or f.caption,
+                "section": s.title,
+            }
+            png = _figure_png(f.figure)
+            path = out / f"{f.name}.png"
+            atomic_write(path, lambda fh, data=png: fh.write(data), binary=True)
+            figure_paths.append(path)
+            pngs[f.name] = png
+            if progress:
+                progress(f"report: wrote {path.name}")
+    return figure_paths, pngs, figure_info
+
+
+def _write_json(json_path: Path, meta: dict, sections, all_errata) -> Path:
+    """Write ``results.json``: the metadata, and each section's results, tables, paragraphs."""
+    payload = {
+        "metadata": meta,
+        "results": {s.title: dict(s.results) for s in sections},
+        "tables": {
+            s.title: [
+                {
+                    "caption": t.caption,
+                    "columns": list(t.columns),
+                    "rows": [list(r) for r in t.rows],
+                    **({} if t.summary is None else {"summary": list(t.summary)}),
+                }
+                for t in s.tables
+            ]
+            for s in sections
+        },
+        "paragraphs": {s.title: [str(p) for p in s.paragraphs] for s in sections},
+        "errata": [e for e in all_errata],
+    }
+    text = json.dumps(jsonable(payload), indent=2, allow_nan=False, ensure_ascii=False)
+    atomic_write(json_path, lambda fh: fh.write(text + "\n"))
+    return json_path
+
+
+def _head_html(title: str, version: str, created, quick, intro) -> list[str]:
+    """The page's head, its header and the introductory paragraphs."""
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f'<meta name="generator" content="physid {_esc(version)}">',
+        f"<title>{_esc(title)}</title>",
+        f"<style>{_CSS}</style>",
+        "</head>",
+        "<body>",
+        "<main>",
+        f"<header><h1>{_esc(title)}</h1>",
+        f'<p class="meta">physid {_esc(version)} · generated {_esc(created.isoformat())}'
+        + ("" if quick is None else f" · {'quick run' if quick else 'full run'}")
+        + " · numbers also in <code>results.json</code></p></header>",
+    ]
+    if intro is not None:
+        intros = [intro] if isinstance(intro, str) else list(intro)
+        parts.extend(_paragraph(p) for p in intros)
+    return parts
+
+
+def _toc_html(sections, slugs, part_slugs, lead, errata_after, has_errata) -> list[str]:
+    """The table of contents: the sections after the first ``lead``, nested by part."""
+    errata_entry = '<li><a href="#errata">Errata found in the papers</a></li>'
+    toc = ['<nav class="toc" id="toc"><h2>Contents</h2><ol>']
+    open_part = ""
+    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i < lead:
+            continue
+        if s.part != open_part:
+            if open_part:
+                toc.append("</ol></li>")
+            if s.part:
+                toc.append(
+                    f'<li><a href="#{part_slugs[s.part]}">{_esc(s.part)}</a><ol class="sections">'
+                )
+            open_part = s.part
+        if i == errata_after and has_errata:
+            toc.append(errata_entry)
+        toc.append(f'<li><a href="#{slug}">{_esc(s.title)}</a></li>')
+    if open_part:
+        toc.append("</ol></li>")
+    if errata_after == len(sections) and has_errata:
+        toc.append(errata_entry)
+    toc.append("</ol></nav>")
+    return toc
+
+
+def _errata_html(errata_tab: Table | None, n_errata: int, last: bool) -> list[str]:
+    """The aggregated errata section (nothing when there are no errata)."""
+    if errata_tab is None:
+        return []
+    where = "above" if last else "below"
+    return [
+        '<section id="errata"><h2>Errata found in the papers</h2>',
+        f"<p>{n_errata} misprint(s) or error(s), each with the evidence; the "
+        f"sections {where} show the details.</p>",
+        _table_html(errata_tab, "errata"),
+        "</section>",
+    ]
+
+
+def _body_html(sections, slugs, part_slugs, lead, errata_after, toc, errata_html, pngs):
+    """The sections in order, grouped by part, with the contents and the errata in place."""
+    parts: list[str] = []
+    open_part = ""
+    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
+        if i == lead:
+            parts.extend(toc)
+        if s.part != open_part:
+            if open_part:
+                parts.append("</div>")
+            if s.part:
+                parts.append(
+                    f'<div class="part" id="{part_slugs[s.part]}">'
+                    f'<h2 class="part-title">{_esc(s.part)}</h2>'
+                )
+            open_part = s.part
+        if i == errata_after:
+            parts.extend(errata_html(last=False))
+        heading = "h3" if s.part else "h2"
+        parts.append(f'<section id="{slug}"><{heading}>{_esc(s.title)}</{heading}>')
+        parts.extend(_paragraph(p) for p in s.paragraphs)
+        parts.extend(_table_html(t) for t in s.tables)
+        parts.extend(_figure_html(f.name, pngs[f.name], f.caption, f.alt) for f in s.figures)
+        parts.append("</section>")
+    if open_part:
+        parts.append("</div>")
+    if lead >= len(sections):
+        parts.extend(toc)
+    if errata_after == len(sections):
+        parts.extend(errata_html(last=True))
+    return parts
+
+
 def write_report(
     sections: Sequence[ReportSection],
     out_dir: str | os.PathLike,
@@ -478,15 +642,7 @@ def write_report(
 
     sections = list(sections)
     _check_sections(sections)
-    if (
-        isinstance(errata_after, bool)
-        or not isinstance(errata_after, int)
-        or not (0 <= errata_after <= len(sections))
-    ):
-        raise InputError(
-            f"errata_after must be an int between 0 and the number of sections "
-            f"({len(sections)}); got {errata_after!r}."
-        )
+    _check_errata_after(errata_after, len(sections))
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -497,26 +653,8 @@ def write_report(
     created = _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0)
 
     # Figures first: PNG files and their bytes for embedding.
-    figure_paths: list[Path] = []
-    pngs: dict[str, bytes] = {}
-    figure_info: dict[str, dict[str, Any]] = {}
-    for s in sections:
-        for f in s.figures:
-            figure_info[f.name] = {
-                **describe_figure(f.figure),
-                "caption": f.caption,
-                "alt": f.alt or f.caption,
-                "section": s.title,
-            }
-            png = _figure_png(f.figure)
-            path = out / f"{f.name}.png"
-            atomic_write(path, lambda fh, data=png: fh.write(data), binary=True)
-            figure_paths.append(path)
-            pngs[f.name] = png
-            if progress:
-                progress(f"report: wrote {path.name}")
+    figure_paths, pngs, figure_info = _write_figures(sections, out, progress)
 
-    # results.json
     meta = {
         "physid_version": __version__,
         "created": created.isoformat(),
@@ -527,116 +665,16 @@ def write_report(
     }
     if metadata:
         meta.update(dict(metadata))
-    payload = {
-        "metadata": meta,
-        "results": {s.title: dict(s.results) for s in sections},
-        "tables": {
-            s.title: [
-                {
-                    "caption": t.caption,
-                    "columns": list(t.columns),
-                    "rows": [list(r) for r in t.rows],
-                    **({} if t.summary is None else {"summary": list(t.summary)}),
-                }
-                for t in s.tables
-            ]
-            for s in sections
-        },
-        "paragraphs": {s.title: [str(p) for p in s.paragraphs] for s in sections},
-        "errata": [e for e in all_errata],
-    }
-    text = json.dumps(jsonable(payload), indent=2, allow_nan=False, ensure_ascii=False)
-    json_path = out / "results.json"
-    atomic_write(json_path, lambda fh: fh.write(text + "\n"))
+    json_path = _write_json(out / "results.json", meta, sections, all_errata)
 
-    # report.html
-    parts = [
-        "<!DOCTYPE html>",
-        '<html lang="en">',
-        "<head>",
-        '<meta charset="utf-8">',
-        '<meta name="viewport" content="width=device-width, initial-scale=1">',
-        f'<meta name="generator" content="physid {_esc(__version__)}">',
-        f"<title>{_esc(title)}</title>",
-        f"<style>{_CSS}</style>",
-        "</head>",
-        "<body>",
-        "<main>",
-        f"<header><h1>{_esc(title)}</h1>",
-        f'<p class="meta">physid {_esc(__version__)} · generated {_esc(created.isoformat())}'
-        + ("" if quick is None else f" · {'quick run' if quick else 'full run'}")
-        + " · numbers also in <code>results.json</code></p></header>",
-    ]
-    if intro is not None:
-        intros = [intro] if isinstance(intro, str) else list(intro)
-        parts.extend(_paragraph(p) for p in intros)
+    parts = _head_html(title, __version__, created, quick, intro)
     part_slugs = {}
     for s in sections:
         if s.part and s.part not in part_slugs:
             part_slugs[s.part] = _slug(s.part, used)
-
-    errata_entry = '<li><a href="#errata">Errata found in the papers</a></li>'
-    toc = ['<nav class="toc" id="toc"><h2>Contents</h2><ol>']
-    open_part = ""
-    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
-        if i < lead:
-            continue
-        if s.part != open_part:
-            if open_part:
-                toc.append("</ol></li>")
-            if s.part:
-                toc.append(
-                    f'<li><a href="#{part_slugs[s.part]}">{_esc(s.part)}</a><ol class="sections">'
-                )
-            open_part = s.part
-        if i == errata_after and errata_tab is not None:
-            toc.append(errata_entry)
-        toc.append(f'<li><a href="#{slug}">{_esc(s.title)}</a></li>')
-    if open_part:
-        toc.append("</ol></li>")
-    if errata_after == len(sections) and errata_tab is not None:
-        toc.append(errata_entry)
-    toc.append("</ol></nav>")
-
-    def errata_html(last: bool) -> list[str]:
-        if errata_tab is None:
-            return []
-        where = "above" if last else "below"
-        return [
-            '<section id="errata"><h2>Errata found in the papers</h2>',
-            f"<p>{len(all_errata)} misprint(s) or error(s), each with the evidence; the "
-            f"sections {where} show the details.</p>",
-            _table_html(errata_tab, "errata"),
-            "</section>",
-        ]
-
-    open_part = ""
-    for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
-        if i == lead:
-            parts.extend(toc)
-        if s.part != open_part:
-            if open_part:
-                parts.append("</div>")
-            if s.part:
-                parts.append(
-                    f'<div class="part" id="{part_slugs[s.part]}">'
-                    f'<h2 class="part-title">{_esc(s.part)}</h2>'
-                )
-            open_part = s.part
-        if i == errata_after:
-            parts.extend(errata_html(last=False))
-        heading = "h3" if s.part else "h2"
-        parts.append(f'<section id="{slug}"><{heading}>{_esc(s.title)}</{heading}>')
-        parts.extend(_paragraph(p) for p in s.paragraphs)
-        parts.extend(_table_html(t) for t in s.tables)
-        parts.extend(_figure_html(f.name, pngs[f.name], f.caption, f.alt) for f in s.figures)
-        parts.append("</section>")
-    if open_part:
-        parts.append("</div>")
-    if lead >= len(sections):
-        parts.extend(toc)
-    if errata_after == len(sections):
-        parts.extend(errata_html(last=True))
+    toc = _toc_html(sections, slugs, part_slugs, lead, errata_after, errata_tab is not None)
+    errata_html = functools.partial(_errata_html, errata_tab, len(all_errata))
+    parts += _body_html(sections, slugs, part_slugs, lead, errata_after, toc, errata_html, pngs)
     parts.append(
         f"<footer>Written by physid {_esc(__version__)}. Figures: "
         f"{len(figure_paths)} PNG file(s) beside this page; all numbers: results.json.</footer>"

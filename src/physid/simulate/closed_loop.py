@@ -89,6 +89,70 @@ def paper_reference(paper: bool = True, *, dt: float = PAPER_MANIPULATOR["dt"]) 
 
 
 # --------------------------------------------------------------------------- right-hand side
+def _compiled_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing):
+    """The compiled right-hand side, or None without a working C compiler.
+
+    A rigid-body chain uses its generic C kernel (with the reference's spline when it is on a
+    uniform grid); another model its equations compiled by `physid.simulate.compiled`.
+    """
+    if hasattr(model, "chain") and hasattr(model, "_c_kernel"):
+        kernel = model._c_kernel()  # rigid-body chain: the generic C kernel
+        if kernel is None:
+            return None
+        spline = None
+        if isinstance(reference, ReferenceTrajectory) and reference.uniform_step is not None:
+            spline = (
+                float(reference.t[0]),
+                float(reference.uniform_step),
+                reference.coefficients,
+                np.asarray(reference.values[0]),
+                np.asarray(reference.values[-1]),
+            )
+        return kernel.pd_rhs(
+            model.parameter_vector(params), kp_a, kd_a, reference, spline, coulomb_smoothing
+        )
+    from .compiled import compiled_pd_rhs
+
+    return compiled_pd_rhs(model, params, kp_a, kd_a, reference)
+
+
+def _pinocchio_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing):
+    """The right-hand side by pinocchio's ABA on an equivalent model (benchmarks, checks)."""
+    import pinocchio as pin
+
+    from ..models.peers import pinocchio_model
+
+    n = int(model.n_joints)
+    if getattr(model, "kinetic", "exact") != "exact":
+        raise InputError(
+            "pinocchio computes the exact kinetic energy; the model uses "
+            f"kinetic={model.kinetic!r}. Load it with kinetic='exact' to compare with "
+            "pinocchio."
+        )
+    if hasattr(model, "chain"):
+        from ..models.peers import to_pinocchio
+
+        peer = to_pinocchio(model, params, coulomb_smoothing=coulomb_smoothing)
+        pmodel, pdata = peer.model, peer.data
+        drive = peer.drive_torque
+    else:
+        pmodel, pdata = pinocchio_model(model, params)
+        drive = None
+    aba = pin.aba
+
+    def rhs_pin(t, y):
+        q = y[:n]
+        qd = y[n:]
+        r = np.asarray(reference(t))
+        tau = kp_a * (r - q) - kd_a * qd  # τ = Kp (r − q) − Kd q̇
+        if drive is not None:
+            tau = tau - drive(qd)
+        return np.concatenate((qd, aba(pmodel, pdata, q, qd, tau)))
+
+    rhs_pin.backend = "pinocchio"
+    return rhs_pin
+
+
 def closed_loop_rhs(
     model,
     *,
@@ -130,33 +194,8 @@ def closed_loop_rhs(
         raise InputError(
             f"backend must be 'auto', 'compiled', 'generated' or 'pinocchio'; got {backend!r}."
         )
-    if backend in ("auto", "compiled") and hasattr(model, "chain") and hasattr(model, "_c_kernel"):
-        kernel = model._c_kernel()  # rigid-body chain: the generic C kernel
-        if kernel is not None:
-            spline = None
-            if isinstance(reference, ReferenceTrajectory) and reference.uniform_step is not None:
-                spline = (
-                    float(reference.t[0]),
-                    float(reference.uniform_step),
-                    reference.coefficients,
-                    np.asarray(reference.values[0]),
-                    np.asarray(reference.values[-1]),
-                )
-            fast = kernel.pd_rhs(
-                model.parameter_vector(params), kp_a, kd_a, reference, spline, coulomb_smoothing
-            )
-            fast.backend = "compiled"
-            return fast
-        if backend == "compiled":
-            raise SimulationError(
-                "the compiled right-hand side is unavailable: no working C compiler (cc, gcc or "
-                "clang on PATH, or $CC) or the build failed. Use backend='generated'."
-            )
-        backend = "generated"
     if backend in ("auto", "compiled"):
-        from .compiled import compiled_pd_rhs
-
-        fast = compiled_pd_rhs(model, params, kp_a, kd_a, reference)
+        fast = _compiled_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing)
         if fast is not None:
             fast.backend = "compiled"
             return fast
@@ -178,41 +217,88 @@ def closed_loop_rhs(
         fused.backend = "generated"
         return fused
     if backend == "pinocchio":
-        import pinocchio as pin
-
-        from ..models.peers import pinocchio_model
-
-        if getattr(model, "kinetic", "exact") != "exact":
-            raise InputError(
-                "pinocchio computes the exact kinetic energy; the model uses "
-                f"kinetic={model.kinetic!r}. Load it with kinetic='exact' to compare with "
-                "pinocchio."
-            )
-        if hasattr(model, "chain"):
-            from ..models.peers import to_pinocchio
-
-            peer = to_pinocchio(model, params, coulomb_smoothing=coulomb_smoothing)
-            pmodel, pdata = peer.model, peer.data
-            drive = peer.drive_torque
-        else:
-            pmodel, pdata = pinocchio_model(model, params)
-            drive = None
-        aba = pin.aba
-
-        def rhs_pin(t, y):
-            q = y[:n]
-            qd = y[n:]
-            r = np.asarray(reference(t))
-            tau = kp_a * (r - q) - kd_a * qd  # τ = Kp (r − q) − Kd q̇
-            if drive is not None:
-                tau = tau - drive(qd)
-            return np.concatenate((qd, aba(pmodel, pdata, q, qd, tau)))
-
-        rhs_pin.backend = "pinocchio"
-        return rhs_pin
+        return _pinocchio_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing)
 
 
 # --------------------------------------------------------------------------- simulation
+def _initial_state(q0, qd0, n: int) -> np.ndarray:
+    """The initial state [q, q̇] (zero where not given), checked: n finite values each."""
+    y0 = np.zeros(2 * n)
+    for name, value, sl in (("q0", q0, slice(0, n)), ("qd0", qd0, slice(n, 2 * n))):
+        if value is not None:
+            v = as_1d(value, name)
+            if v.size != n:
+                raise ShapeError(f"{name} must hold {n} values (one per joint); got {v.size}.")
+            check_finite(v[:, None], name)
+            y0[sl] = v
+    return y0
+
+
+def _run(model, theta, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0, method, rtol,
+         atol):  # fmt: skip
+    """Integrate the loop: by events when a rigid-body model has exact Coulomb friction, else
+    in one `solve_ivp`.
+
+    Returns the states (n_samples, 2n), the Coulomb statistics (None without events) and
+    (nfev, backend used, the integrator's message).
+    """
+    coulomb = None
+    if coulomb_smoothing == 0 and hasattr(model, "chain"):
+        from .coulomb import coulomb_limits, integrate_coulomb
+
+        if coulomb_limits(model, theta)[3].any():  # exact Coulomb law: event-driven
+            y, coulomb = integrate_coulomb(
+                model, theta, kp=kp_a, kd=kd_a, reference=ref, t=t, y0=y0, method=method,
+                rtol=rtol, atol=atol, backend=backend, closed_loop_rhs=closed_loop_rhs,
+            )  # fmt: skip
+    if coulomb is None:
+        y, sol = _integrate(model, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0,
+                            method, rtol, atol)  # fmt: skip
+        nfev, used, message = int(sol.nfev), sol.backend, str(sol.message)
+    else:
+        nfev, used, message = coulomb.pop("nfev"), coulomb.pop("backend"), "event-driven Coulomb"
+    return y, coulomb, (nfev, used, message)
+
+
+def _metadata(model, theta, kp_a, kd_a, coulomb_smoothing, coulomb, period, integrator):
+    """The recording's metadata: the model, its parameters, the gains and the integrator."""
+    return {
+        "simulator": "physid.simulate.simulate_closed_loop",
+        "model": getattr(model, "name", type(model).__name__),
+        "kinetic": getattr(model, "kinetic", None),
+        "parameters": (
+            dict(zip(model.parameter_names, np.asarray(theta, dtype=float).tolist(), strict=True))
+            if theta is not None and hasattr(model, "parameter_names")
+            else None
+        ),
+        "kp": kp_a.tolist(),
+        "kd": kd_a.tolist(),
+        "controller": "tau = Kp (r - q) - Kd qd",
+        **({"coulomb_smoothing": float(coulomb_smoothing)} if hasattr(model, "chain") else {}),
+        **(
+            {"coulomb": {"law": "exact sign with stiction, event-driven", **coulomb}}
+            if coulomb is not None
+            else {}
+        ),  # fmt: skip
+        "dt": period,
+        # no wall-clock time in "integrator": the metadata goes into the data file, and the
+        # same run must give the same bytes (determinism); callers time the call themselves
+        "integrator": integrator,
+    }
+
+
+def _joint_units(model) -> dict[str, str]:
+    """Units per joint: a prismatic joint moves in m and is driven by a force in N."""
+    units = {}
+    for j, kind in enumerate(getattr(model, "joint_types", None) or (), start=1):
+        lin = str(kind) == "prismatic"
+        units.update(
+            {f"q{j}": "m" if lin else "rad", f"qd{j}": "m/s" if lin else "rad/s",
+             f"tau{j}": "N" if lin else "N*m", f"r{j}": "m" if lin else "rad"}
+        )  # fmt: skip
+    return units
+
+
 def simulate_closed_loop(
     model,
     *,
@@ -268,8 +354,8 @@ def simulate_closed_loop(
         events (`physid.simulate.coulomb`: each segment smooth, a switch at every velocity
         reversal or stick/slip change; the number of switches and each joint's time stuck are
         in the metadata). > 0: the smoothed law Fc·tanh(q̇ / coulomb_smoothing) in one
-        integration (before wave 3 the default was 0.01, which biases an IDIM fit of Fc and Fv
-        by several per cent). Recorded in the metadata.
+        integration (a smoothing of 0.01 rad/s already biases an IDIM fit of Fc and Fv by
+        several per cent). Recorded in the metadata.
 
     Returns
     -------
@@ -297,14 +383,7 @@ def simulate_closed_loop(
     kd_a = per_joint(kd, "kd", n)
     ref_grid = t if reference_grid is None else as_1d(reference_grid, "reference_grid")
     ref = make_reference(reference, n, ref_grid)
-    y0 = np.zeros(2 * n)
-    for name, value, sl in (("q0", q0, slice(0, n)), ("qd0", qd0, slice(n, 2 * n))):
-        if value is not None:
-            v = as_1d(value, name)
-            if v.size != n:
-                raise ShapeError(f"{name} must hold {n} values (one per joint); got {v.size}.")
-            check_finite(v[:, None], name)
-            y0[sl] = v
+    y0 = _initial_state(q0, qd0, n)
     check_positive(rtol, "rtol")
     check_positive(atol, "atol")
     theta = model.parameter_vector(params) if hasattr(model, "parameter_vector") else params
@@ -312,57 +391,21 @@ def simulate_closed_loop(
         raise InputError(
             f"coulomb_smoothing must be a velocity >= 0 [rad/s]; got {coulomb_smoothing!r}."
         )
-    coulomb = None
-    if coulomb_smoothing == 0 and hasattr(model, "chain"):
-        from .coulomb import coulomb_limits, integrate_coulomb
-
-        if coulomb_limits(model, theta)[3].any():  # exact Coulomb law: event-driven (wave 3)
-            y, coulomb = integrate_coulomb(
-                model, theta, kp=kp_a, kd=kd_a, reference=ref, t=t, y0=y0, method=method,
-                rtol=rtol, atol=atol, backend=backend, closed_loop_rhs=closed_loop_rhs,
-            )  # fmt: skip
-    if coulomb is None:
-        y, sol = _integrate(model, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0,
-                            method, rtol, atol)  # fmt: skip
-        nfev, used, message = int(sol.nfev), sol.backend, str(sol.message)
-    else:
-        nfev, used, message = coulomb.pop("nfev"), coulomb.pop("backend"), "event-driven Coulomb"
+    y, coulomb, (nfev, used, message) = _run(
+        model, theta, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0,
+        method, rtol, atol,
+    )  # fmt: skip
     q, qd = y[:, :n], y[:, n:]
     if not np.all(np.isfinite(y)):
         raise SimulationError("the simulated state is not finite; the closed loop is unstable.")
     r = ref.sample(t) if isinstance(ref, ReferenceTrajectory) else np.array([ref(tk) for tk in t])
     tau = kp_a * (r - q) - kd_a * qd  # τ = Kp (r − q) − Kd q̇, on the true state
 
-    meta: dict[str, Any] = {
-        "simulator": "physid.simulate.simulate_closed_loop",
-        "model": getattr(model, "name", type(model).__name__),
-        "kinetic": getattr(model, "kinetic", None),
-        "parameters": (
-            dict(zip(model.parameter_names, np.asarray(theta, dtype=float).tolist(), strict=True))
-            if theta is not None and hasattr(model, "parameter_names")
-            else None
-        ),
-        "kp": kp_a.tolist(),
-        "kd": kd_a.tolist(),
-        "controller": "tau = Kp (r - q) - Kd qd",
-        **({"coulomb_smoothing": float(coulomb_smoothing)} if hasattr(model, "chain") else {}),
-        **(
-            {"coulomb": {"law": "exact sign with stiction, event-driven", **coulomb}}
-            if coulomb is not None
-            else {}
-        ),  # fmt: skip
-        "dt": period,
-        "integrator": {
-            "method": method,
-            "rtol": rtol,
-            "atol": atol,
-            "nfev": nfev,
-            # no wall-clock time here: the metadata goes into the data file, and the same run
-            # must give the same bytes (issue 16, determinism); callers time the call themselves
-            "backend": used,
-            "message": message,
-        },
-    }
+    meta = _metadata(
+        model, theta, kp_a, kd_a, coulomb_smoothing, coulomb, period,
+        {"method": method, "rtol": rtol, "atol": atol, "nfev": nfev, "backend": used,
+         "message": message},
+    )  # fmt: skip
     q_meas = q
     if noise_std is not None:
         q_meas, _ = add_white_noise(q, std=noise_std, rng=rng)  # checks: one std or one per joint
@@ -372,14 +415,7 @@ def simulate_closed_loop(
             "seed": int(rng) if isinstance(rng, (int, np.integer)) else None,
         }
     meta.update(dict(metadata or {}))
-    # units per joint: a prismatic joint moves in m and is driven by a force in N
-    units = {}
-    for j, kind in enumerate(getattr(model, "joint_types", None) or (), start=1):
-        lin = str(kind) == "prismatic"
-        units.update(
-            {f"q{j}": "m" if lin else "rad", f"qd{j}": "m/s" if lin else "rad/s",
-             f"tau{j}": "N" if lin else "N*m", f"r{j}": "m" if lin else "rad"}
-        )  # fmt: skip
+    units = _joint_units(model)
     return ClosedLoopRecording.from_columns(
         t,
         {"q": q_meas, "qd": qd, "tau": tau, "r": r},

@@ -138,6 +138,104 @@ class _Loop:
         return d, e
 
 
+class _Modes:
+    """The slip/stick mode of each Coulomb joint: +1 / −1 slipping, 0 stuck.
+
+    Holds the friction limits ``lo``, ``hi`` (offset ``of``) of the joints marked in
+    ``coulomb``, decides a joint's mode when its rate reaches zero, and makes the events that
+    end a segment of constant modes.
+    """
+
+    def __init__(self, loop, n: int, lo, hi, of, coulomb) -> None:
+        self.loop, self.n = loop, n
+        self.lo, self.hi, self.of, self.coulomb = lo, hi, of, coulomb
+        self.mode = np.zeros(n, dtype=int)
+
+    def frozen_extra(self) -> np.ndarray:
+        """The friction torque of each slipping Coulomb joint (zero elsewhere)."""
+        e = np.zeros(self.n)
+        for j in np.flatnonzero(self.coulomb):
+            if self.mode[j] > 0:
+                e[j] = self.hi[j] - self.of[j]
+            elif self.mode[j] < 0:
+                e[j] = self.lo[j] - self.of[j]
+        return e
+
+    def decide(self, j: int, tnow: float, ynow: np.ndarray) -> int:
+        """Joint j at q̇_j = 0: stuck if the torque holding it lies within [lo, hi]."""
+        trial = (self.mode == 0) & self.coulomb
+        trial[j] = True
+        _, e = self.loop.holding(tnow, ynow, trial, self.frozen_extra())
+        f = e[j] + self.of[j]
+        if f >= self.hi[j]:
+            return 1
+        if f <= self.lo[j]:
+            return -1
+        return 0
+
+    def initial(self, tc: float, y: np.ndarray) -> None:
+        """The initial modes, from the initial rates (joints in the order of the chain)."""
+        n = self.n
+        for j in np.flatnonzero(self.coulomb):
+            v = y[n + j]
+            self.mode[j] = int(np.sign(v)) if v != 0 else 0
+        for j in np.flatnonzero(self.coulomb & (y[n:] == 0)):
+            self.mode[j] = self.decide(j, tc, y)
+
+    def events(self, stuck: np.ndarray, base_extra: np.ndarray) -> tuple[list, list]:
+        """The terminal events of a segment and what each means: ``(joint, "zero")`` for a
+        slipping joint's rate reaching zero, ``(joint, ±1)`` for a stuck joint's holding torque
+        reaching its upper or lower limit."""
+        n, loop, of = self.n, self.loop, self.of
+        evs, what = [], []
+        for j in np.flatnonzero(self.coulomb):
+            if self.mode[j] != 0:
+                s = float(self.mode[j])
+
+                def g(tt, yy, j=j, s=s):
+                    return s * yy[n + j]
+
+                g.terminal, g.direction = True, -1
+                evs.append(g)
+                what.append((j, "zero"))
+            else:
+                for side, lim in ((1, self.hi[j]), (-1, self.lo[j])):
+
+                    def g(tt, yy, j=j, lim=lim, stuck=stuck, base_extra=base_extra):
+                        e = loop.holding(tt, yy, stuck, base_extra)[1]
+                        return e[j] + of[j] - lim
+
+                    g.terminal, g.direction = True, side
+                    evs.append(g)
+                    what.append((j, side))
+        return evs, what
+
+    def switch(self, j: int, kind, tc: float, y: np.ndarray) -> None:
+        """Apply the event ``(j, kind)`` at ``tc``: a rate at zero is held and decided again."""
+        if kind == "zero":
+            y[self.n + j] = 0.0
+            self.mode[j] = self.decide(j, tc, y)
+        else:
+            self.mode[j] = int(kind)
+
+
+def _solve(rhs, span, y, grid, evs, method, rtol, atol):
+    """`scipy.integrate.solve_ivp` over one segment of constant modes, up to its first event."""
+    try:
+        return solve_ivp(
+            rhs,
+            span,
+            y,
+            method=method,
+            t_eval=grid,
+            rtol=rtol,
+            atol=atol,
+            events=evs or None,
+        )
+    except ValueError as exc:
+        raise InputError(f"solve_ivp rejected the settings: {exc}") from None
+
+
 def integrate_coulomb(
     model, theta, *, kp, kd, reference, t, y0, method, rtol, atol, backend, closed_loop_rhs
 ) -> tuple[np.ndarray, dict]:
@@ -173,7 +271,7 @@ def integrate_coulomb(
     lo, hi, of, coulomb = coulomb_limits(model, theta)
     theta0 = _frozen_parameters(model, theta, coulomb)
     loop = _Loop(model, theta0, kp, kd, reference, backend, closed_loop_rhs)
-    mode = np.zeros(n, dtype=int)  # +1 / −1 slipping, 0 stuck (Coulomb joints only)
+    modes = _Modes(loop, n, lo, hi, of, coulomb)
     out = np.empty((t.size, 2 * n))
     y = np.array(y0, dtype=float)
     tc = float(t[0])
@@ -183,77 +281,18 @@ def integrate_coulomb(
     events = 0
     stalled = 0
     stick_time = np.zeros(n)
-
-    def decide(j, tnow, ynow):
-        """Joint j at q̇_j = 0: stuck if the torque holding it lies within [lo, hi]."""
-        trial = (mode == 0) & coulomb
-        trial[j] = True
-        _, e = loop.holding(tnow, ynow, trial, frozen_extra())
-        f = e[j] + of[j]
-        if f >= hi[j]:
-            return 1
-        if f <= lo[j]:
-            return -1
-        return 0
-
-    def frozen_extra():
-        e = np.zeros(n)
-        for j in np.flatnonzero(coulomb):
-            if mode[j] > 0:
-                e[j] = hi[j] - of[j]
-            elif mode[j] < 0:
-                e[j] = lo[j] - of[j]
-        return e
-
-    for j in np.flatnonzero(coulomb):  # initial modes (joints in the order of the chain)
-        v = y[n + j]
-        mode[j] = int(np.sign(v)) if v != 0 else 0
-    for j in np.flatnonzero(coulomb & (y[n:] == 0)):
-        mode[j] = decide(j, tc, y)
+    modes.initial(tc, y)
 
     while True:
-        stuck = (mode == 0) & coulomb
+        stuck = (modes.mode == 0) & coulomb
         y[n + np.flatnonzero(stuck)] = 0.0
-        base_extra = frozen_extra()
+        base_extra = modes.frozen_extra()
 
         def rhs(tt, yy, stuck=stuck, base_extra=base_extra):
             return loop.holding(tt, yy, stuck, base_extra)[0]
 
-        evs, what = [], []
-        for j in np.flatnonzero(coulomb):
-            if mode[j] != 0:
-                s = float(mode[j])
-
-                def g(tt, yy, j=j, s=s):
-                    return s * yy[n + j]
-
-                g.terminal, g.direction = True, -1
-                evs.append(g)
-                what.append((j, "zero"))
-            else:
-                for side, lim in ((1, hi[j]), (-1, lo[j])):
-
-                    def g(tt, yy, j=j, lim=lim, stuck=stuck, base_extra=base_extra):
-                        e = loop.holding(tt, yy, stuck, base_extra)[1]
-                        return e[j] + of[j] - lim
-
-                    g.terminal, g.direction = True, side
-                    evs.append(g)
-                    what.append((j, side))
-        grid = t[filled:]
-        try:
-            sol = solve_ivp(
-                rhs,
-                (tc, t_end),
-                y,
-                method=method,
-                t_eval=grid,
-                rtol=rtol,
-                atol=atol,
-                events=evs or None,
-            )
-        except ValueError as exc:
-            raise InputError(f"solve_ivp rejected the settings: {exc}") from None
+        evs, what = modes.events(stuck, base_extra)
+        sol = _solve(rhs, (tc, t_end), y, t[filled:], evs, method, rtol, atol)
         nfev += int(sol.nfev)
         k = int(np.size(sol.t))
         if k:
@@ -280,18 +319,13 @@ def integrate_coulomb(
             )
         y = np.array(sol.y_events[c][0], dtype=float)
         tc = te
-        j, kind = what[c]
         events += 1
         if events > MAX_EVENTS:
             raise SimulationError(
                 f"more than {MAX_EVENTS} Coulomb slip/stick switches before t = {tc:.6g} s: the "
                 "loop chatters. Use coulomb_smoothing > 0 [rad/s] for this case."
             )
-        if kind == "zero":
-            y[n + j] = 0.0
-            mode[j] = decide(j, tc, y)
-        else:
-            mode[j] = int(kind)
+        modes.switch(*what[c], tc, y)
         if tc >= t_end:
             break
     if filled != t.size:

@@ -389,6 +389,164 @@ def uniform_time(t=None, *, duration=None, dt=None, t0: float = 0.0) -> np.ndarr
     return float(t0) + dt * np.arange(n_steps + 1)
 
 
+def _parameter_segments(source, t, params, jumps, exo) -> tuple[list[_Segment], list[float]]:
+    """The segments of constant parameters, split at the jumps, and their start times.
+
+    Raises `InputError` for a malformed jump, a jump outside ``(t[0], t[-1]]``, two jumps at
+    one time, or a jump that changes the model's order.
+    """
+    current = source.initial(params)
+    seg_params = [current]
+    seg_starts = [float(t[0])]
+    for item in sorted(jumps or (), key=lambda j: float(j[0])):
+        try:
+            when, change = item
+            when = float(when)
+        except (TypeError, ValueError):
+            raise InputError(
+                f"each jump must be a pair (time [s], change); got {item!r}."
+            ) from None
+        if not (t[0] < when <= t[-1]):
+            raise InputError(
+                f"jump time {when} s lies outside the simulated interval ({t[0]}, {t[-1]}] s; "
+                "drop it or extend the time grid."
+            )
+        if when == seg_starts[-1]:
+            raise InputError(f"two jumps at the same time {when} s; merge them into one change.")
+        current = source.updated(current, change, when)
+        seg_params.append(current)
+        seg_starts.append(when)
+    segments = []
+    for i, p in enumerate(seg_params):
+        a, b = source.coefficients(p, f"segment {i} (from t = {seg_starts[i]} s)")
+        segments.append(_segment(a, b, exo))
+    n = segments[0].n
+    if any(s.n != n for s in segments):
+        raise InputError(
+            "a jump changed the model order; jumps may change coefficient values only."
+        )
+    return segments, seg_starts
+
+
+def _initial_derivatives(x0, exo, t: np.ndarray, first: _Segment) -> np.ndarray:
+    """The initial output derivatives: ``x0``, or those of the zero realisation state."""
+    n = first.n
+    if x0 is None:  # at rest: zero realisation state (for m = 0 the same as zero derivatives)
+        w0 = exo.state_at(t[:1])
+        d0 = first.derivatives(np.zeros((1, n)), w0)[0]
+    else:
+        d0 = as_1d(x0, "x0")
+    if d0.size != n:
+        raise ShapeError(
+            f"x0 must hold the {n} initial output derivatives (x, ẋ, …, x^({n - 1})); got "
+            f"{d0.size} values."
+        )
+    check_finite(d0[:, None], "x0")
+    return d0
+
+
+def _integrate(segments, seg_starts, exo, t: np.ndarray, period: float, d0) -> np.ndarray:
+    """The output derivatives at every sample, segment by segment (exact discretisation).
+
+    The output derivatives are carried across each jump, so they stay continuous.
+    """
+    n = segments[0].n
+    derivs = np.empty((t.size, n))
+    d_at_start = d0
+    seg_ends = seg_starts[1:] + [np.inf]
+    for seg, start, end in zip(segments, seg_starts, seg_ends, strict=True):
+        w_start = exo.state_at(np.array([start]))[0]
+        z_start = seg.state_from_derivatives(d_at_start, w_start)
+        k0 = int(np.searchsorted(t, start, side="left"))  # first sample at or after the start
+        k1 = int(np.searchsorted(t, end, side="left"))  # first sample of the next segment
+        if k1 > k0:
+            phi_p, gamma_p = seg.step(float(t[k0] - start))
+            z_first = phi_p @ z_start + gamma_p @ w_start
+            W = exo.grid_state(t, slice(k0, k1))
+            phi, gamma = seg.step(period)
+            z = _recurse(phi, gamma, z_first, W[:-1])
+            derivs[k0:k1] = seg.derivatives(z, W)
+            if np.isfinite(end):  # propagate from the last sample of the segment to the jump
+                phi_e, gamma_e = seg.step(float(end - t[k1 - 1]))
+                z_end = phi_e @ z[-1] + gamma_e @ W[-1]
+        elif np.isfinite(end):  # two jumps within one sample period
+            phi_e, gamma_e = seg.step(float(end - start))
+            z_end = phi_e @ z_start + gamma_e @ w_start
+        if np.isfinite(end):
+            w_end = exo.state_at(np.array([end]))[0]
+            d_at_start = seg.derivatives(z_end[None, :], w_end[None, :])[0]
+    return derivs
+
+
+def _measure(
+    x_clean, t, period, snr_db, noise_std, disturbance, rng, meta
+) -> tuple[np.ndarray, bool]:
+    """The measured x: the clean one plus the noise and the disturbance asked for.
+
+    Their description goes into ``meta``. Returns the measured x and whether noise was added.
+    """
+    x_meas = x_clean.copy()
+    if snr_db is not None and noise_std is not None:
+        raise InputError(
+            f"give at most one of snr_db and noise_std; got {snr_db!r} and {noise_std!r}."
+        )
+    noisy = snr_db is not None or noise_std is not None
+    if noisy:
+        seed_info = rng if isinstance(rng, (int, np.integer)) else None
+        generator = make_rng(rng)
+        if snr_db is not None:
+            x_meas, noise = add_white_noise(x_clean, snr_db=snr_db, rng=generator)
+        else:
+            x_meas, noise = add_white_noise(x_clean, std=noise_std, rng=generator)
+        meta["noise"] = {
+            "kind": "white Gaussian, added to x",
+            "snr_db_requested": None if snr_db is None else float(snr_db),
+            "std_requested": None if noise_std is None else float(noise_std),
+            "std_realised": float(np.std(noise)),
+            "snr_db_realised": float(10 * np.log10(np.sum(x_clean**2) / np.sum(noise**2)))
+            if np.any(noise) and np.any(x_clean)
+            else None,
+            "seed": None if seed_info is None else int(seed_info),
+            "snr_definition": "10 log10(sum x_true^2 / sum noise^2) over the record",
+        }
+    if disturbance is not None:
+        try:
+            amp2, omega2 = (float(v) for v in disturbance)
+        except (TypeError, ValueError):
+            raise InputError(
+                "disturbance must be a pair (amplitude, angular_frequency [rad/s]); got "
+                f"{disturbance!r}."
+            ) from None
+        x_meas = x_meas + sinusoidal_disturbance(t, amp2, omega2)
+        meta["disturbance"] = {
+            "amplitude": amp2,
+            "angular_frequency": omega2,
+            "alias_angular_frequency": alias_frequency(omega2, period),
+            "nyquist_angular_frequency": np.pi / period,
+        }
+    return x_meas, noisy
+
+
+def _columns(u, x_meas, x_clean, derivs, with_true: bool, output_derivatives: bool, units):
+    """The recording's channels and their units."""
+    n = derivs.shape[1]
+    units = dict(units or {})
+    columns = {"u": u, "x": x_meas}
+    if with_true:
+        columns["x_true"] = x_clean
+    if output_derivatives:
+        for k in range(1, n):
+            columns[f"x_d{k}"] = derivs[:, k]
+    unit_map = {
+        name: units.get(name, units.get("x", "") if name.startswith("x") else "")
+        for name in columns
+    }
+    for k in range(1, n if output_derivatives else 1):
+        base = units.get("x", "")
+        unit_map[f"x_d{k}"] = f"{base}/s^{k}" if base and k > 1 else (f"{base}/s" if base else "")
+    return columns, unit_map
+
+
 def simulate_linear_ode(
     model,
     t=None,
@@ -480,75 +638,9 @@ def simulate_linear_ode(
     period = sample_period(t, "t")
     exo = _make_input(input, t, hold)
 
-    # ---- parameter segments
-    current = source.initial(params)
-    seg_params = [current]
-    seg_starts = [float(t[0])]
-    for item in sorted(jumps or (), key=lambda j: float(j[0])):
-        try:
-            when, change = item
-            when = float(when)
-        except (TypeError, ValueError):
-            raise InputError(
-                f"each jump must be a pair (time [s], change); got {item!r}."
-            ) from None
-        if not (t[0] < when <= t[-1]):
-            raise InputError(
-                f"jump time {when} s lies outside the simulated interval ({t[0]}, {t[-1]}] s; "
-                "drop it or extend the time grid."
-            )
-        if when == seg_starts[-1]:
-            raise InputError(f"two jumps at the same time {when} s; merge them into one change.")
-        current = source.updated(current, change, when)
-        seg_params.append(current)
-        seg_starts.append(when)
-    segments = []
-    for i, p in enumerate(seg_params):
-        a, b = source.coefficients(p, f"segment {i} (from t = {seg_starts[i]} s)")
-        segments.append(_segment(a, b, exo))
-    n = segments[0].n
-    if any(s.n != n for s in segments):
-        raise InputError(
-            "a jump changed the model order; jumps may change coefficient values only."
-        )
-
-    # ---- initial state from the initial output derivatives
-    if x0 is None:  # at rest: zero realisation state (for m = 0 the same as zero derivatives)
-        w0 = exo.state_at(t[:1])
-        d0 = segments[0].derivatives(np.zeros((1, n)), w0)[0]
-    else:
-        d0 = as_1d(x0, "x0")
-    if d0.size != n:
-        raise ShapeError(
-            f"x0 must hold the {n} initial output derivatives (x, ẋ, …, x^({n - 1})); got "
-            f"{d0.size} values."
-        )
-    check_finite(d0[:, None], "x0")
-
-    derivs = np.empty((t.size, n))
-    d_at_start = d0
-    seg_ends = seg_starts[1:] + [np.inf]
-    for seg, start, end in zip(segments, seg_starts, seg_ends, strict=True):
-        w_start = exo.state_at(np.array([start]))[0]
-        z_start = seg.state_from_derivatives(d_at_start, w_start)
-        k0 = int(np.searchsorted(t, start, side="left"))  # first sample at or after the start
-        k1 = int(np.searchsorted(t, end, side="left"))  # first sample of the next segment
-        if k1 > k0:
-            phi_p, gamma_p = seg.step(float(t[k0] - start))
-            z_first = phi_p @ z_start + gamma_p @ w_start
-            W = exo.grid_state(t, slice(k0, k1))
-            phi, gamma = seg.step(period)
-            z = _recurse(phi, gamma, z_first, W[:-1])
-            derivs[k0:k1] = seg.derivatives(z, W)
-            if np.isfinite(end):  # propagate from the last sample of the segment to the jump
-                phi_e, gamma_e = seg.step(float(end - t[k1 - 1]))
-                z_end = phi_e @ z[-1] + gamma_e @ W[-1]
-        elif np.isfinite(end):  # two jumps within one sample period
-            phi_e, gamma_e = seg.step(float(end - start))
-            z_end = phi_e @ z_start + gamma_e @ w_start
-        if np.isfinite(end):
-            w_end = exo.state_at(np.array([end]))[0]
-            d_at_start = seg.derivatives(z_end[None, :], w_end[None, :])[0]
+    segments, seg_starts = _parameter_segments(source, t, params, jumps, exo)
+    d0 = _initial_derivatives(x0, exo, t, segments[0])
+    derivs = _integrate(segments, seg_starts, exo, t, period, d0)
     x_clean = derivs[:, 0]
     u = exo.values(t)
     if not np.all(np.isfinite(x_clean)):
@@ -557,8 +649,7 @@ def simulate_linear_ode(
             "duration or check the signs of the coefficients."
         )
 
-    # ---- measurement: noise and disturbance
-    x_meas = x_clean.copy()
+    # ---- metadata, then the measurement (noise, disturbance)
     meta: dict[str, Any] = {
         "simulator": "physid.simulate.simulate_linear_ode",
         "method": "exact (sinusoid generator in the matrix exponential)"
@@ -576,58 +667,10 @@ def simulate_linear_ode(
             {"amplitude": float(A), "angular_frequency": float(w), "phase": float(p)}
             for A, w, p in zip(exo.amplitudes, exo.omegas, exo.phases, strict=True)
         ]
-    if snr_db is not None and noise_std is not None:
-        raise InputError(
-            f"give at most one of snr_db and noise_std; got {snr_db!r} and {noise_std!r}."
-        )
-    noisy = snr_db is not None or noise_std is not None
-    if noisy:
-        seed_info = rng if isinstance(rng, (int, np.integer)) else None
-        generator = make_rng(rng)
-        if snr_db is not None:
-            x_meas, noise = add_white_noise(x_clean, snr_db=snr_db, rng=generator)
-        else:
-            x_meas, noise = add_white_noise(x_clean, std=noise_std, rng=generator)
-        meta["noise"] = {
-            "kind": "white Gaussian, added to x",
-            "snr_db_requested": None if snr_db is None else float(snr_db),
-            "std_requested": None if noise_std is None else float(noise_std),
-            "std_realised": float(np.std(noise)),
-            "snr_db_realised": float(10 * np.log10(np.sum(x_clean**2) / np.sum(noise**2)))
-            if np.any(noise) and np.any(x_clean)
-            else None,
-            "seed": None if seed_info is None else int(seed_info),
-            "snr_definition": "10 log10(sum x_true^2 / sum noise^2) over the record",
-        }
-    if disturbance is not None:
-        try:
-            amp2, omega2 = (float(v) for v in disturbance)
-        except (TypeError, ValueError):
-            raise InputError(
-                "disturbance must be a pair (amplitude, angular_frequency [rad/s]); got "
-                f"{disturbance!r}."
-            ) from None
-        x_meas = x_meas + sinusoidal_disturbance(t, amp2, omega2)
-        meta["disturbance"] = {
-            "amplitude": amp2,
-            "angular_frequency": omega2,
-            "alias_angular_frequency": alias_frequency(omega2, period),
-            "nyquist_angular_frequency": np.pi / period,
-        }
+    x_meas, noisy = _measure(x_clean, t, period, snr_db, noise_std, disturbance, rng, meta)
     meta.update(dict(metadata or {}))
 
-    units = dict(units or {})
-    columns = {"u": u, "x": x_meas}
-    if noisy or disturbance is not None:
-        columns["x_true"] = x_clean
-    if output_derivatives:
-        for k in range(1, n):
-            columns[f"x_d{k}"] = derivs[:, k]
-    unit_map = {
-        name: units.get(name, units.get("x", "") if name.startswith("x") else "")
-        for name in columns
-    }
-    for k in range(1, n if output_derivatives else 1):
-        base = units.get("x", "")
-        unit_map[f"x_d{k}"] = f"{base}/s^{k}" if base and k > 1 else (f"{base}/s" if base else "")
+    columns, unit_map = _columns(
+        u, x_meas, x_clean, derivs, noisy or disturbance is not None, output_derivatives, units
+    )
     return LinearODERecording.from_columns(t, columns, units=unit_map, metadata=meta)

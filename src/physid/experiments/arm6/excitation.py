@@ -22,34 +22,12 @@ def _base_cond(model, idim, info, q, qd, qdd, every: int = 10) -> float:
     return float(idim.condition_number(y[..., info.columns]))
 
 
-def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, Any]]:
-    """The designed trajectory and its condition number against random ones.
+def _design(setup, model, idim, info, t, harmonics, period, n_random, quick, results, progress):
+    """Run the excitation design when one is installed; its numbers go into ``results``.
 
-    Returns
-    -------
-    (SectionData, dict)
-        The section and the trajectory the identification runs (``t``, ``q``, ``qd``, ``qdd``,
-        ``designed``).
+    Returns the designed trajectory (None when there is none or it failed) and the condition
+    numbers of the design's random trajectories (empty when there are none).
     """
-    period = 4.0 if quick else 10.0
-    harmonics = 3 if quick else 5
-    n_random = 5 if quick else 20
-    t = np.arange(0.0, period, DT)
-    results: dict[str, Any] = {
-        "period_s": period,
-        "harmonics": harmonics,
-        "n_random": n_random,
-        "missing": list(setup.missing),
-        "missing_reasons": list(setup.reasons),
-    }
-    if setup.model is None or setup.idim is None:
-        results["available"] = False
-        return SectionData(KEYS["excitation"], TITLES["excitation"], results=results), {}
-    import importlib
-
-    idim = importlib.import_module("physid.estimators.idim")
-    model = setup.model
-    info = idim.base_regressor_info(model)  # the base set: computed once
     designed = None
     random: list[float] = []
     if setup.excitation is not None:
@@ -84,6 +62,66 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
             )
         except Exception as exc:  # say what failed, show no number
             results["design_error"] = f"{type(exc).__name__}: {exc}"
+    return designed, random
+
+
+def _tables(results, random, designed) -> tuple[Table, ...]:
+    """The condition numbers: the designed trajectory, the medians, then each random one."""
+    label = (
+        "random trajectory {}, scaled to the limits" if designed else "random trajectory, seed {}"
+    )
+    rows = [(label.format(i + 1), c) for i, c in enumerate(random)]
+    median = "median of the random trajectories" + (" (scaled to the limits)" if designed else "")
+    summary_rows = [(median, results["random_median"])]
+    if "random_within_median" in results:
+        summary_rows.append(
+            (
+                "median of the same at random amplitudes within the limits",
+                results["random_within_median"],
+            )
+        )
+    if designed is not None:
+        summary_rows.insert(0, ("designed trajectory", results["designed_condition_number"]))
+    return (
+        Table(
+            "Condition number of the base regressor (columns scaled to unit norm)",
+            ("trajectory", "condition number"),
+            summary_rows + rows,
+        ),
+    )
+
+
+def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, Any]]:
+    """The designed trajectory and its condition number against random ones.
+
+    Returns
+    -------
+    (SectionData, dict)
+        The section and the trajectory the identification runs (``t``, ``q``, ``qd``, ``qdd``,
+        ``designed``).
+    """
+    period = 4.0 if quick else 10.0
+    harmonics = 3 if quick else 5
+    n_random = 5 if quick else 20
+    t = np.arange(0.0, period, DT)
+    results: dict[str, Any] = {
+        "period_s": period,
+        "harmonics": harmonics,
+        "n_random": n_random,
+        "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
+    }
+    if setup.model is None or setup.idim is None:
+        results["available"] = False
+        return SectionData(KEYS["excitation"], TITLES["excitation"], results=results), {}
+    import importlib
+
+    idim = importlib.import_module("physid.estimators.idim")
+    model = setup.model
+    info = idim.base_regressor_info(model)  # the base set: computed once
+    designed, random = _design(
+        setup, model, idim, info, t, harmonics, period, n_random, quick, results, progress
+    )
     if not random:
         say(progress, f"condition numbers of {n_random} random trajectories")
         for seed in range(1, n_random + 1):
@@ -102,28 +140,7 @@ def compute(setup, quick: bool, progress=None) -> tuple[SectionData, dict[str, A
         results["stand_in_seed"] = best
         results["stand_in_condition_number"] = float(min(random))
     trajectory["designed"] = designed is not None
-    label = (
-        "random trajectory {}, scaled to the limits" if designed else "random trajectory, seed {}"
-    )
-    rows = [(label.format(i + 1), c) for i, c in enumerate(random)]
-    median = "median of the random trajectories" + (" (scaled to the limits)" if designed else "")
-    summary_rows = [(median, results["random_median"])]
-    if "random_within_median" in results:
-        summary_rows.append(
-            (
-                "median of the same at random amplitudes within the limits",
-                results["random_within_median"],
-            )
-        )
-    if designed is not None:
-        summary_rows.insert(0, ("designed trajectory", results["designed_condition_number"]))
-    tables = (
-        Table(
-            "Condition number of the base regressor (columns scaled to unit norm)",
-            ("trajectory", "condition number"),
-            summary_rows + rows,
-        ),
-    )
+    tables = _tables(results, random, designed)
     figures = (
         FigureData(
             "arm6_excitation",

@@ -38,38 +38,37 @@ def _fit(setup, method, rec, **settings):
         return setup.idim(setup.model, method, **settings).fit(rec).result_
 
 
-def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData, dict[str, Any]]:
-    """Closed-loop records with encoder and torque noise, fitted by each method.
+def _record_first(results: dict[str, Any], first: dict[str, Any], key: str, r) -> None:
+    """Keep the first seed's fit of each method and its summary in the results."""
+    if not first.get(key) and key == "input-error":
+        first[key] = r
+        results["input-error_first_seed"] = {
+            "half_width": r.half_width,
+            "cutoff": r.cutoff,
+            "noise": r.noise,
+            "n_rows": int(r.residuals.shape[0]),
+            "condition_number": r.condition_number,
+            "relative_residual": r.relative_residual.tolist(),
+        }
+    elif not first.get(key):
+        first[key] = r
+        results[f"{key}_first_seed"] = {
+            "condition_number": r.condition_number,
+            "relative_error": r.relative_error,
+            "iterations": r.iterations,
+            "iv_changes": list(r.iv_changes),
+            "n_rows": r.n_rows,
+            "decimate": r.decimate,
+        }
 
-    Returns
-    -------
-    (SectionData, dict)
-        The section and what the validation needs (the fitted results of the first seed).
+
+def _fit_seeds(setup, trajectory, seeds, iv_iterations, names, kp, kd, results, progress):
+    """Simulate each seed's noisy closed loop and fit it by every method.
+
+    Returns the estimates and standard errors per method, the seconds spent, the first fits
+    (and the first recording) and the failures; the first seed's summaries go into ``results``.
     """
-    seeds = (1, 2) if quick else tuple(range(1, 6))
-    iv_iterations = 4 if quick else 10
-    results: dict[str, Any] = {
-        "seeds": list(seeds),
-        "encoder_std_rad": ENCODER_STD,
-        "torque_noise_fraction": TORQUE_NOISE,
-        "well_excited_spread": WELL_EXCITED,
-        "iv_max_iterations": iv_iterations,
-        "nominal_level": 0.95,
-        "missing": list(setup.missing),
-        "missing_reasons": list(setup.reasons),
-    }
-    if not trajectory:
-        results["available"] = False
-        return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
-    import importlib
-
-    idim = importlib.import_module("physid.estimators.idim")
     model = setup.model
-    truth = truth_base(model, idim)
-    names = list(truth)
-
-    kp, kd = gains(model)
-    results["kp"], results["kd"] = kp.tolist(), kd.tolist()
     reference = trajectory["q"]
     t = trajectory["t"]
     est: dict[str, list[np.ndarray]] = {k: [] for k in METHODS}
@@ -96,38 +95,22 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
             est[key].append(np.array([r.parameters[n] for n in names]))  # one naming: mcx1R
             stderr = r.stderr or {}
             se[key].append(np.array([stderr.get(n, np.nan) for n in names], dtype=float))
-            if not first.get(key) and key == "input-error":
-                first[key] = r
-                results["input-error_first_seed"] = {
-                    "half_width": r.half_width,
-                    "cutoff": r.cutoff,
-                    "noise": r.noise,
-                    "n_rows": int(r.residuals.shape[0]),
-                    "condition_number": r.condition_number,
-                    "relative_residual": r.relative_residual.tolist(),
-                }
-            elif not first.get(key):
-                first[key] = r
-                results[f"{key}_first_seed"] = {
-                    "condition_number": r.condition_number,
-                    "relative_error": r.relative_error,
-                    "iterations": r.iterations,
-                    "iv_changes": list(r.iv_changes),
-                    "n_rows": r.n_rows,
-                    "decimate": r.decimate,
-                }
+            _record_first(results, first, key, r)
         if "recording" not in first:
             first["recording"] = rec
-    results["failures"] = failures
-    if not est["idim-ols"]:
-        results["available"] = False
-        results["error"] = "every fit failed; the first: " + failures[0]["error"]
-        return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
-    # the same trajectory without noise: what the fit gives when only the model and the filters
-    # err (the filters smear the stick/slip switches, weakly excited directions); the noise's
-    # own bias (errors in variables, what IV is for) is the noisy mean minus this
+    return est, se, seconds, first, failures
+
+
+def _noise_free_fits(setup, trajectory, names, kp, kd, seconds, progress):
+    """The same closed loop without noise, fitted by IDIM-OLS and by input-error.
+
+    What the fit gives when only the model and the filters err (the filters smear the
+    stick/slip switches, weakly excited directions); the noise's own bias (errors in variables,
+    what IV is for) is the noisy mean minus this. Returns the OLS estimate and each method's
+    own noise-free estimate.
+    """
     say(progress, "the same closed loop without noise")
-    clean_rec = simulate(model, reference, t, noisy=False, kp=kp, kd=kd)
+    clean_rec = simulate(setup.model, trajectory["q"], trajectory["t"], noisy=False, kp=kp, kd=kd)
     clean_fit = _fit(setup, "ols", clean_rec)
     clean = np.array([clean_fit.parameters[n] for n in names])
     # input-error filters differently (its FIR bank, no decimation): its own noise-free fit
@@ -139,9 +122,11 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
         "idim-iv": clean,
         "input-error": np.array([clean_ie_fit.parameters[n] for n in names]),
     }
-    true = np.array([truth[n] for n in names])
-    scale = np.maximum(np.abs(true), 1e-9 * np.abs(true).max())
-    clean_error = (clean - true) / scale
+    return clean, clean_own
+
+
+def _method_statistics(est, se, clean_own, true, scale, seconds, names):
+    """Bias, noise bias, spread, coverage and time of each method over the seeds."""
     per_method = {}
     for key in est:
         e = np.array(est[key])
@@ -166,18 +151,12 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
                 )
             ),
         }
-    spread = np.array(list(per_method["idim-ols"]["relative_spread"].values()))
-    well = [n for n, v in zip(names, spread, strict=True) if np.isfinite(v) and v < WELL_EXCITED]
-    if len(seeds) == 1 or not well:
-        well = names
-    mean_abs = {
-        k: float(np.mean([abs(per_method[k]["relative_bias"][n]) for n in well])) for k in est
-    }
-    mean_noise = {
-        k: float(np.mean([abs(per_method[k]["noise_bias"][n]) for n in well])) for k in est
-    }
-    w_idx = [names.index(n) for n in well]
-    for k in est:  # mean |error| (each seed's), and the coverage on the well-excited parameters
+    return per_method
+
+
+def _well_excited_statistics(est, se, per_method, true, scale, w_idx) -> None:
+    """Mean |error| (each seed's) and the coverage on the well-excited parameters."""
+    for k in est:
         e, s = np.array(est[k])[:, w_idx], np.array(se[k])[:, w_idx]
         per_method[k]["mean_abs_error"] = float(np.mean(np.abs(e - true[w_idx]) / scale[w_idx]))
         ok = np.isfinite(s)
@@ -187,42 +166,10 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
         per_method[k]["mean_relative_stderr_well_excited"] = float(
             np.nanmean(np.where(ok, s, np.nan) / scale[w_idx])
         )
-    ie_clean = (clean_own["input-error"] - true) / scale
-    clean_by_name = dict(zip(names, clean_error.tolist(), strict=True))
-    mean_clean = float(np.mean([abs(clean_by_name[n]) for n in well]))
-    results.update(
-        {
-            "available": True,
-            "base_names": names,
-            "n_base": len(names),
-            "truth": truth,
-            "methods": per_method,
-            "well_excited": well,
-            "n_well_excited": len(well),
-            "mean_abs_relative_bias": mean_abs,
-            "mean_abs_noise_bias": mean_noise,
-            "noise_free_relative_error": clean_by_name,
-            "mean_abs_noise_free_error": mean_clean,
-            "iv_over_ols_noise_bias": mean_noise["idim-iv"] / mean_noise["idim-ols"]
-            if mean_noise["idim-ols"] > 0
-            else None,
-            "iv_over_ols_bias": mean_abs["idim-iv"] / mean_abs["idim-ols"]
-            if mean_abs["idim-ols"] > 0
-            else None,
-            "simulate_wall_time_s": seconds["simulate"],
-            "input_error": {
-                "run": True,
-                "settings": "InputErrorEstimator(model): the defaults, i.e. base parameters, "
-                "cutoff='auto', noise='auto'",
-                "noise_free_relative_error": dict(zip(names, ie_clean.tolist(), strict=True)),
-                "mean_abs_noise_free_error": float(np.mean(np.abs(ie_clean[w_idx]))),
-                "noise_free_wall_time_s": seconds["input-error noise-free"],
-            },
-            "ie_over_ols_bias": mean_abs["input-error"] / mean_abs["idim-ols"]
-            if mean_abs["idim-ols"] > 0
-            else None,
-        }
-    )
+
+
+def _tables(names, truth, clean_by_name, per_method, well, mean_clean, mean_abs):
+    """The bias-and-spread table and the error/coverage/time table."""
     rows = [
         (
             n,
@@ -242,7 +189,7 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
         *(None for _ in METHODS),
         None,
     )
-    tables = (
+    return (
         Table(
             "Relative bias and spread of each base parameter over the seeds (relative to |truth|)",
             (
@@ -284,6 +231,119 @@ def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData,
             ],
         ),
     )
+
+
+def _ratio(num: float, den: float) -> float | None:
+    return num / den if den > 0 else None
+
+
+def _well_excited(per_method, names, seeds) -> list[str]:
+    """The base parameters whose IDIM-OLS spread over the seeds is below `WELL_EXCITED`."""
+    spread = np.array(list(per_method["idim-ols"]["relative_spread"].values()))
+    well = [n for n, v in zip(names, spread, strict=True) if np.isfinite(v) and v < WELL_EXCITED]
+    if len(seeds) == 1 or not well:
+        well = names
+    return well
+
+
+def _summary(est, se, per_method, well, truth, true, scale, clean, clean_own, seconds, results):
+    """The means over the well-excited parameters, written into ``results``.
+
+    Returns the mean |bias| per method, the noise-free OLS error per name
+    and its mean over the well-excited parameters.
+    """
+    names = list(truth)
+    clean_error = (clean - true) / scale
+    mean_abs = {
+        k: float(np.mean([abs(per_method[k]["relative_bias"][n]) for n in well])) for k in est
+    }
+    mean_noise = {
+        k: float(np.mean([abs(per_method[k]["noise_bias"][n]) for n in well])) for k in est
+    }
+    w_idx = [names.index(n) for n in well]
+    _well_excited_statistics(est, se, per_method, true, scale, w_idx)
+    ie_clean = (clean_own["input-error"] - true) / scale
+    clean_by_name = dict(zip(names, clean_error.tolist(), strict=True))
+    mean_clean = float(np.mean([abs(clean_by_name[n]) for n in well]))
+    results.update(
+        {
+            "available": True,
+            "base_names": names,
+            "n_base": len(names),
+            "truth": truth,
+            "methods": per_method,
+            "well_excited": well,
+            "n_well_excited": len(well),
+            "mean_abs_relative_bias": mean_abs,
+            "mean_abs_noise_bias": mean_noise,
+            "noise_free_relative_error": clean_by_name,
+            "mean_abs_noise_free_error": mean_clean,
+            "iv_over_ols_noise_bias": _ratio(mean_noise["idim-iv"], mean_noise["idim-ols"]),
+            "iv_over_ols_bias": _ratio(mean_abs["idim-iv"], mean_abs["idim-ols"]),
+            "simulate_wall_time_s": seconds["simulate"],
+            "input_error": {
+                "run": True,
+                "settings": "InputErrorEstimator(model): the defaults, i.e. base parameters, "
+                "cutoff='auto', noise='auto'",
+                "noise_free_relative_error": dict(zip(names, ie_clean.tolist(), strict=True)),
+                "mean_abs_noise_free_error": float(np.mean(np.abs(ie_clean[w_idx]))),
+                "noise_free_wall_time_s": seconds["input-error noise-free"],
+            },
+            "ie_over_ols_bias": _ratio(mean_abs["input-error"], mean_abs["idim-ols"]),
+        }
+    )
+    return mean_abs, clean_by_name, mean_clean
+
+
+def compute(setup, trajectory, quick: bool, progress=None) -> tuple[SectionData, dict[str, Any]]:
+    """Closed-loop records with encoder and torque noise, fitted by each method.
+
+    Returns
+    -------
+    (SectionData, dict)
+        The section and what the validation needs (the fitted results of the first seed).
+    """
+    seeds = (1, 2) if quick else tuple(range(1, 6))
+    iv_iterations = 4 if quick else 10
+    results: dict[str, Any] = {
+        "seeds": list(seeds),
+        "encoder_std_rad": ENCODER_STD,
+        "torque_noise_fraction": TORQUE_NOISE,
+        "well_excited_spread": WELL_EXCITED,
+        "iv_max_iterations": iv_iterations,
+        "nominal_level": 0.95,
+        "missing": list(setup.missing),
+        "missing_reasons": list(setup.reasons),
+    }
+    if not trajectory:
+        results["available"] = False
+        return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
+    import importlib
+
+    idim = importlib.import_module("physid.estimators.idim")
+    model = setup.model
+    truth = truth_base(model, idim)
+    names = list(truth)
+
+    kp, kd = gains(model)
+    results["kp"], results["kd"] = kp.tolist(), kd.tolist()
+    est, se, seconds, first, failures = _fit_seeds(
+        setup, trajectory, seeds, iv_iterations, names, kp, kd, results, progress
+    )
+    results["failures"] = failures
+    if not est["idim-ols"]:
+        results["available"] = False
+        results["error"] = "every fit failed; the first: " + failures[0]["error"]
+        return SectionData(KEYS["identification"], TITLES["identification"], results=results), {}
+    clean, clean_own = _noise_free_fits(setup, trajectory, names, kp, kd, seconds, progress)
+    true = np.array([truth[n] for n in names])
+    scale = np.maximum(np.abs(true), 1e-9 * np.abs(true).max())
+    per_method = _method_statistics(est, se, clean_own, true, scale, seconds, names)
+    well = _well_excited(per_method, names, seeds)
+    mean_abs, clean_by_name, mean_clean = _summary(
+        est, se, per_method, well, truth, true, scale, clean, clean_own, seconds, results
+    )
+    tables = _tables(names, truth, clean_by_name, per_method, well, mean_clean, mean_abs)
     figures = (
         FigureData(
             "arm6_bias_bars",

@@ -23,6 +23,35 @@ Z99 = 2.5758
 WHITE_SHARE = 0.1
 
 
+def _tables(per_method: dict[str, Any], n: int) -> tuple[Table, ...]:
+    """The held-out relative torque error of each joint and each method, and the whiteness."""
+    table_rows = [
+        (
+            f"tau{j + 1}",
+            per_method["idim-ols"]["relative_error"][f"tau{j + 1}"],
+            per_method["idim-iv"]["relative_error"][f"tau{j + 1}"],
+            per_method["idim-iv"]["lags_outside_band"][f"tau{j + 1}"],
+        )
+        for j in range(n)
+    ]
+    table_rows.append(
+        (
+            "overall",
+            per_method["idim-ols"]["relative_error"]["overall"],
+            per_method["idim-iv"]["relative_error"]["overall"],
+            None,
+        )
+    )
+    return (
+        Table(
+            "Held-out trajectory: relative torque error ‖τ̂ − τ‖/‖τ‖ and the share of residual "
+            "autocorrelation lags outside the 99 % band",
+            ("joint", "IDIM-OLS error", "IDIM-IV error", "IDIM-IV lags outside band"),
+            table_rows,
+        ),
+    )
+
+
 def compute(setup, first, period: float, harmonics: int, progress=None) -> SectionData:
     """Predict the torque of a held-out closed-loop record from each fit.
 
@@ -81,31 +110,7 @@ def compute(setup, first, period: float, harmonics: int, progress=None) -> Secti
         }
     )
     n = model.n_joints
-    table_rows = [
-        (
-            f"tau{j + 1}",
-            per_method["idim-ols"]["relative_error"][f"tau{j + 1}"],
-            per_method["idim-iv"]["relative_error"][f"tau{j + 1}"],
-            per_method["idim-iv"]["lags_outside_band"][f"tau{j + 1}"],
-        )
-        for j in range(n)
-    ]
-    table_rows.append(
-        (
-            "overall",
-            per_method["idim-ols"]["relative_error"]["overall"],
-            per_method["idim-iv"]["relative_error"]["overall"],
-            None,
-        )
-    )
-    tables = (
-        Table(
-            "Held-out trajectory: relative torque error ‖τ̂ − τ‖/‖τ‖ and the share of residual "
-            "autocorrelation lags outside the 99 % band",
-            ("joint", "IDIM-OLS error", "IDIM-IV error", "IDIM-IV lags outside band"),
-            table_rows,
-        ),
-    )
+    tables = _tables(per_method, n)
     t_rows, channels = series["idim-iv"]
     joint_names = [f"tau{j + 1}" for j in range(n)]
     figures = (

@@ -7,6 +7,14 @@ from ._common import PAPER, see
 
 
 def errata(evidence) -> tuple[Erratum, ...]:
+    """The paper's errata, each with the evidence physid measured for it.
+
+    Long by design: a flat table of literal `Erratum` entries in the paper's order.
+
+    Returns
+    -------
+    tuple of Erratum
+    """
     n = 9.7 / 0.001
     return (
         Erratum(

@@ -13,16 +13,11 @@ TARGET_PERCENT = 0.05
 PAPER_FILTER = (100, 0.2)
 
 
-def compute(exact_model, rec_exact, r_pp, quick, progress, filtr2, j_pd) -> SectionData:
-    """The filter sweep; ``r_pp`` is the paper's setting (M = 100, Ω_g = 0.2, its filters,
-    measured torque) fitted to the paper-mode data, shared with the noise section.
+def _sweep(exact_model, rec_exact, widths, cutoffs, progress):
+    """Fit the exact record with each half-width, derivative filter and cut-off.
 
-    Returns
-    -------
-    SectionData
+    Returns the table rows, the max-error curves per filter and the sweep's records.
     """
-    cutoffs = (0.2, 0.4, 0.6) if quick else (0.1, 0.2, 0.3, 0.4, 0.6, 0.8)
-    widths = (200,) if quick else (100, 200)
     rows, curves, sweep = [], {}, []
     for m in widths:
         for derivatives in ("paper", "consistent"):
@@ -67,6 +62,20 @@ def compute(exact_model, rec_exact, r_pp, quick, progress, filtr2, j_pd) -> Sect
                         "nfev": r.nfev,
                     }
                 )
+    return rows, curves, sweep
+
+
+def compute(exact_model, rec_exact, r_pp, quick, progress, filtr2, j_pd) -> SectionData:
+    """The filter sweep; ``r_pp`` is the paper's setting (M = 100, Ω_g = 0.2, its filters,
+    measured torque) fitted to the paper-mode data, shared with the noise section.
+
+    Returns
+    -------
+    SectionData
+    """
+    cutoffs = (0.2, 0.4, 0.6) if quick else (0.1, 0.2, 0.3, 0.4, 0.6, 0.8)
+    widths = (200,) if quick else (100, 200)
+    rows, curves, sweep = _sweep(exact_model, rec_exact, widths, cutoffs, progress)
     lp = design_filter("lowpass", *PAPER_FILTER, rec_exact.dt)
     best = min(
         (row for row in sweep if row["derivatives"] == "consistent"),

@@ -14,6 +14,38 @@ N_STATES = 64
 VALLEY_L1 = (0.37, 0.40, 0.43)
 
 
+def _cost_grid(fast, theta, names, n_grid: int):
+    """J over an (m1, l1) grid, the other parameters at ``theta``.
+
+    Returns the m1 and l1 axes and J (rows: l1).
+    """
+    m1 = np.linspace(40.0, 60.0, n_grid)
+    l1 = np.linspace(0.36, 0.44, n_grid)
+    i_m1, i_l1 = names.index("m1"), names.index("l1")
+    cost = np.empty((l1.size, m1.size))
+    for a, lv in enumerate(l1):
+        for b, mv in enumerate(m1):
+            th = theta.copy()
+            th[i_m1], th[i_l1] = mv, lv
+            cost[a, b] = fast(th)
+    return m1, l1, cost
+
+
+def _valley(fast, theta, names, product: float) -> list[float]:
+    """J along the valley m1·l1² = ``product``, at each l1 of `VALLEY_L1`."""
+    i_m1, i_l1 = names.index("m1"), names.index("l1")
+    return [
+        fast(
+            np.where(
+                np.arange(len(names)) == i_m1,
+                product / lv**2,
+                np.where(np.arange(len(names)) == i_l1, lv, theta),
+            )
+        )
+        for lv in VALLEY_L1
+    ]
+
+
 def compute(model, result, fast, nm, quick) -> SectionData:
     """The structural SVD, J over an (m1, l1) grid and along the valley.
 
@@ -25,27 +57,10 @@ def compute(model, result, fast, nm, quick) -> SectionData:
     s = structural_identifiability(model, n_states=N_STATES)
     theta = np.array([result.parameters[n] for n in names])
     n_grid = 41 if quick else 81
-    m1 = np.linspace(40.0, 60.0, n_grid)
-    l1 = np.linspace(0.36, 0.44, n_grid)
-    i_m1, i_l1 = names.index("m1"), names.index("l1")
-    cost = np.empty((l1.size, m1.size))
-    for a, lv in enumerate(l1):
-        for b, mv in enumerate(m1):
-            th = theta.copy()
-            th[i_m1], th[i_l1] = mv, lv
-            cost[a, b] = fast(th)
+    m1, l1, cost = _cost_grid(fast, theta, names, n_grid)
     paper = PAPER_RESULT["parameters"]
     nm_params = dict(zip(names, nm.x.tolist(), strict=True))
-    along = [
-        fast(
-            np.where(
-                np.arange(len(names)) == i_m1,
-                result.combinations[COMBO] / lv**2,
-                np.where(np.arange(len(names)) == i_l1, lv, theta),
-            )
-        )
-        for lv in VALLEY_L1
-    ]
+    along = _valley(fast, theta, names, result.combinations[COMBO])
     sv_rows = [(f"σ{i + 1}/σ1", float(v)) for i, v in enumerate(s.singular_values)]
     theta_rank = int(model.base_parameters().theta_rank)
     return SectionData(

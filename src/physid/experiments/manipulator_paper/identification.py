@@ -50,29 +50,10 @@ def nelder_mead(fast: FastJ, max_evaluations: int):
     return sol, np.array(history), time.perf_counter() - start
 
 
-def compute(
-    result,
-    walltime,
-    nm,
-    nm_history,
-    nm_time,
-    fast,
-    result_consistent,
-    filtr2,
-    inertia_share,
-    linear_nfev,
-) -> SectionData:
-    """The identification table, the evaluation counts and the parameter histories.
-
-    Returns
-    -------
-    SectionData
-    """
+def _parameter_table(result, result_consistent, paper_combo: float) -> Table:
+    """Each parameter: truth, the paper's value and error, ours, ours with consistent filters."""
     names = result.parameter_names
     paper = PAPER_RESULT["parameters"]
-    paper_combo = paper["m1"] * paper["l1"] ** 2
-    consistent_errors = errors(result_consistent.parameters, result_consistent.combinations[COMBO])
-    nm_params = dict(zip(names, nm.x.tolist(), strict=True))
     rows = []
     for n in names:
         held = " (held)" if n in result.fixed else ""
@@ -102,7 +83,7 @@ def compute(
     rows.append(
         ("J [N²·m²]", 0.0, PAPER_RESULT["J"], None, result.cost, None, result_consistent.cost)
     )
-    table = Table(
+    return Table(
         "Identification from the paper's initial values (paper's kinetic energy, data and "
         "filter M = 100, Ω_g = 0.2; torque rebuilt from the PD law as in the paper). Last "
         "column: the same with consistent derivative filters.",
@@ -117,7 +98,12 @@ def compute(
         ),
         rows,
     )
-    evals = Table(
+
+
+def _evaluations_table(result, walltime, nm, nm_time, nm_params, paper_combo) -> Table:
+    """The evaluations of J: the paper's FindMinimum, physid's least squares, Nelder–Mead."""
+    ours_combo = result.combinations[COMBO]
+    return Table(
         "Evaluations of J needed",
         (
             "method",
@@ -154,6 +140,51 @@ def compute(
             ),
         ),
     )
+
+
+def _quoted(result, errs, consistent_errors, inertia_share, linear_nfev, nm_params) -> dict:
+    """The numbers the section's text quotes."""
+    paper = PAPER_RESULT["parameters"]
+    paper_combo = paper["m1"] * paper["l1"] ** 2
+    return {
+        "J_vs_paper_percent": 100 * (result.cost / PAPER_RESULT["J"] - 1),
+        "max_separate_error_percent": max(abs(errs[n]) for n in SEPARATE),
+        "target_percent": TARGET_PERCENT,
+        "paper_combo_error_percent": 100 * (paper_combo / TRUE_COMBO - 1),
+        "rod_inertia_share_percent": 100 * inertia_share,
+        "max_consistent_error_percent": max_abs(consistent_errors),
+        "linear_nfev_min": min(linear_nfev),
+        "linear_nfev_max": max(linear_nfev),
+        "nelder_mead_combo": nm_params["m1"] * nm_params["l1"] ** 2,
+    }
+
+
+def compute(
+    result,
+    walltime,
+    nm,
+    nm_history,
+    nm_time,
+    fast,
+    result_consistent,
+    filtr2,
+    inertia_share,
+    linear_nfev,
+) -> SectionData:
+    """The identification table, the evaluation counts and the parameter histories.
+
+    Returns
+    -------
+    SectionData
+    """
+    names = result.parameter_names
+    paper = PAPER_RESULT["parameters"]
+    paper_combo = paper["m1"] * paper["l1"] ** 2
+    consistent_errors = errors(result_consistent.parameters, result_consistent.combinations[COMBO])
+    nm_params = dict(zip(names, nm.x.tolist(), strict=True))
+    ours_combo = result.combinations[COMBO]
+    table = _parameter_table(result, result_consistent, paper_combo)
+    evals = _evaluations_table(result, walltime, nm, nm_time, nm_params, paper_combo)
     errs = errors(result.parameters, ours_combo)
     j_truth = fast(np.array([TRUTH[n] for n in names]))
     return SectionData(
@@ -204,16 +235,8 @@ def compute(
                 "success": bool(nm.success),
                 "wall_time_s": nm_time,
             },
-            "quoted": {
-                "J_vs_paper_percent": 100 * (result.cost / PAPER_RESULT["J"] - 1),
-                "max_separate_error_percent": max(abs(errs[n]) for n in SEPARATE),
-                "target_percent": TARGET_PERCENT,
-                "paper_combo_error_percent": 100 * (paper_combo / TRUE_COMBO - 1),
-                "rod_inertia_share_percent": 100 * inertia_share,
-                "max_consistent_error_percent": max_abs(consistent_errors),
-                "linear_nfev_min": min(linear_nfev),
-                "linear_nfev_max": max(linear_nfev),
-                "nelder_mead_combo": nm_params["m1"] * nm_params["l1"] ** 2,
-            },
+            "quoted": _quoted(
+                result, errs, consistent_errors, inertia_share, linear_nfev, nm_params
+            ),
         },
     )

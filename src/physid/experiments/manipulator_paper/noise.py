@@ -12,6 +12,69 @@ from ._common import COMBO, KEYS, SEPARATE, TITLES, TRUE_COMBO, TRUTH, errors, f
 FULL_SEEDS = (1, 2, 3, 4, 5)
 
 
+def _fit_setting(paper_model, rec_paper, r_pp, noisy_recs, setting, std, progress, rows) -> dict:
+    """Fit the clean and each noisy record with one filter setting; its rows are appended.
+
+    Returns the setting's errors and reported standard errors, clean and noisy.
+    """
+    m, w, derivatives = setting
+    seeds = list(noisy_recs)
+    label = f"M={m}, Ω_g={w}, {derivatives}"
+    if (m, w, derivatives) == (100, 0.2, "paper"):
+        clean_fit = r_pp  # already fitted for the filter section
+    else:
+        clean_fit, _ = fit(
+            paper_model,
+            rec_paper,
+            half_width=m,
+            cutoff=w,
+            derivatives=derivatives,
+            start="linear",
+        )
+    clean = errors(clean_fit.parameters, clean_fit.combinations[COMBO])
+    errs, stderrs = [], []
+    for seed in seeds:
+        say(progress, f"noise std {std} rad, seed {seed}, {label}")
+        r, _ = fit(
+            paper_model,
+            noisy_recs[seed],
+            half_width=m,
+            cutoff=w,
+            derivatives=derivatives,
+            start="linear",
+        )
+        errs.append(errors(r.parameters, r.combinations[COMBO]))
+        stderr = r.stderr or dict.fromkeys(SEPARATE, float("nan"))  # None: withheld
+        stderrs.append(
+            {n: 100 * stderr[n] / TRUTH[n] for n in SEPARATE}
+            | {COMBO: 100 * r.combination_stderr[COMBO] / TRUE_COMBO}
+        )
+    for key in (*SEPARATE, COMBO):
+        vals = np.array([e[key] for e in errs])
+        sd = float(vals.std(ddof=1)) if vals.size > 1 else None
+        rows.append(
+            (
+                label,
+                key,
+                clean[key],
+                float(vals.mean()),
+                sd,
+                float(np.mean([e[key] for e in stderrs])),
+            )
+        )
+    return {
+        "mean_errors_percent": {
+            key: float(np.mean([e[key] for e in errs])) for key in (*SEPARATE, COMBO)
+        },
+        "mean_reported_stderr_percent": {
+            key: float(np.mean([e[key] for e in stderrs])) for key in (*SEPARATE, COMBO)
+        },
+        "clean_errors_percent": clean,
+        "noisy_errors_percent": errs,
+        "reported_stderr_percent": stderrs,
+    }
+
+
 def compute(paper_model, rec_paper, r_pp, quick, progress) -> SectionData:
     """Fits of noisy records with the paper's filter and a lower, consistent one.
 
@@ -32,59 +95,9 @@ def compute(paper_model, rec_paper, r_pp, quick, progress) -> SectionData:
     rows, results = [], {}
     for m, w, derivatives in settings:
         label = f"M={m}, Ω_g={w}, {derivatives}"
-        if (m, w, derivatives) == (100, 0.2, "paper"):
-            clean_fit = r_pp  # already fitted for the filter section
-        else:
-            clean_fit, _ = fit(
-                paper_model,
-                rec_paper,
-                half_width=m,
-                cutoff=w,
-                derivatives=derivatives,
-                start="linear",
-            )
-        clean = errors(clean_fit.parameters, clean_fit.combinations[COMBO])
-        errs, stderrs = [], []
-        for seed in seeds:
-            say(progress, f"noise std {std} rad, seed {seed}, {label}")
-            r, _ = fit(
-                paper_model,
-                noisy_recs[seed],
-                half_width=m,
-                cutoff=w,
-                derivatives=derivatives,
-                start="linear",
-            )
-            errs.append(errors(r.parameters, r.combinations[COMBO]))
-            stderr = r.stderr or dict.fromkeys(SEPARATE, float("nan"))  # None: withheld
-            stderrs.append(
-                {n: 100 * stderr[n] / TRUTH[n] for n in SEPARATE}
-                | {COMBO: 100 * r.combination_stderr[COMBO] / TRUE_COMBO}
-            )
-        for key in (*SEPARATE, COMBO):
-            vals = np.array([e[key] for e in errs])
-            sd = float(vals.std(ddof=1)) if vals.size > 1 else None
-            rows.append(
-                (
-                    label,
-                    key,
-                    clean[key],
-                    float(vals.mean()),
-                    sd,
-                    float(np.mean([e[key] for e in stderrs])),
-                )
-            )
-        results[label] = {
-            "mean_errors_percent": {
-                key: float(np.mean([e[key] for e in errs])) for key in (*SEPARATE, COMBO)
-            },
-            "mean_reported_stderr_percent": {
-                key: float(np.mean([e[key] for e in stderrs])) for key in (*SEPARATE, COMBO)
-            },
-            "clean_errors_percent": clean,
-            "noisy_errors_percent": errs,
-            "reported_stderr_percent": stderrs,
-        }
+        results[label] = _fit_setting(
+            paper_model, rec_paper, r_pp, noisy_recs, (m, w, derivatives), std, progress, rows
+        )
     paper_label = "M={}, Ω_g={}, {}".format(*settings[0])
     low_label = "M={}, Ω_g={}, {}".format(*settings[1])
     mean_paper = results[paper_label]["mean_errors_percent"]

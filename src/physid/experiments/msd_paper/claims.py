@@ -11,67 +11,63 @@ from ..data import SectionData, Table
 from ._common import KEYS, TITLES, TS, WINDOW, fmt_s, pct, verdict
 
 
-def compute(
-    traces: dict,
-    maps: dict,
-    windows: dict,
-    disturbance: dict,
-    variance: Mapping[str, Any] | None,
-    quick: bool,
-) -> SectionData:
-    rows = []
+def _speed_row(traces: dict) -> tuple:
+    """The claim that RLS needs about 100 times the algebraic convergence time."""
     speed = traces["speed_ratios"]
     hundred = traces["hundredfold"]
     ratios = [s["first_hit_ratio_rls_over_algebraic"] for s in speed]
-    rows.append(
-        (
-            "RLS/Kalman-Bucy needs about 100 times the algebraic convergence time (5.A)",
-            "≈ 100×",
-            "first hit RLS / algebraic: "
-            + ", ".join(f"{r:.2g}×" for r in ratios)
-            + " at 25/50/80 dB",
-            verdict(all(r >= 50 for r in ratios) if ratios else None),
-            ("holds under no tested condition" if not hundred["holds_anywhere"] else "")
-            + f"; first-hit rule, T = {WINDOW:g} s; even taking T "
-            f"itself as the algebraic time, RLS's fastest first hit "
-            f"({hundred['rls_fastest_first_hit_s']:.3g} s) is {hundred['ratio_over_window']:.2g}× "
-            f"T, and 100× would need T = {1e3 * hundred['window_for_100x_s']:.2g} ms, below the "
-            f"kernels' minimum of {hundred['min_window_intervals']} sample intervals "
-            f"({1e3 * hundred['min_window_s']:g} ms); algebraic settle times at 25/50/80 dB: "
-            + ", ".join(fmt_s(sp["settle_algebraic"]) for sp in speed),
-        )
+    return (
+        "RLS/Kalman-Bucy needs about 100 times the algebraic convergence time (5.A)",
+        "≈ 100×",
+        "first hit RLS / algebraic: " + ", ".join(f"{r:.2g}×" for r in ratios) + " at 25/50/80 dB",
+        verdict(all(r >= 50 for r in ratios) if ratios else None),
+        ("holds under no tested condition" if not hundred["holds_anywhere"] else "")
+        + f"; first-hit rule, T = {WINDOW:g} s; even taking T "
+        f"itself as the algebraic time, RLS's fastest first hit "
+        f"({hundred['rls_fastest_first_hit_s']:.3g} s) is {hundred['ratio_over_window']:.2g}× "
+        f"T, and 100× would need T = {1e3 * hundred['window_for_100x_s']:.2g} ms, below the "
+        f"kernels' minimum of {hundred['min_window_intervals']} sample intervals "
+        f"({1e3 * hundred['min_window_s']:g} ms); algebraic settle times at 25/50/80 dB: "
+        + ", ".join(fmt_s(sp["settle_algebraic"]) for sp in speed),
     )
+
+
+def _window_row(maps: dict, windows: dict, hundred: dict) -> tuple:
+    """The claim that ω0 is computed in 0.005 s at 80 dB and Z = 10."""
     clean = windows["clean"]
     db80 = windows["80dB"]
     first_80_10 = maps.get("algebraic_80dB_Z10_first_hit_s", math.nan)
-    rows.append(
-        (
-            "ω0 computed in 0.005 s at 80 dB and Z = 10 (5.A)",
-            "0.005 s",
-            f"sweep median first hit {first_80_10:.3g} s (T = {WINDOW:g} s); expanding window: "
-            f"{db80['expanding_first_hit_s']:.3g} s (80 dB), {clean['expanding_first_hit_s']:.3g} "
-            "s "
-            f"(clean); shortest window with 95 % of windows within 2 %: "
-            f"{fmt_s(db80['shortest_window_s'])} at 80 dB, {fmt_s(clean['shortest_window_s'])} "
-            "clean",
-            verdict(
-                bool(
-                    (first_80_10 <= 0.005 * 1.5)
-                    or db80["expanding_first_hit_s"] <= 0.005 * 1.5
-                    or (db80["shortest_window_s"] or math.inf) <= 0.005 * 1.5
-                )
-            ),
-            f"the kernels need ≥ {hundred['min_window_intervals']} sample intervals "
-            f"({1e3 * hundred['min_window_s']:g} ms), so 5 ms is not a possible window; "
-            f"noise-free, the expanding window first hits 2 % at "
-            f"{fmt_s(clean['expanding_first_hit_s'])}; at 80 dB the shortest window that keeps "
-            f"95 % of its windows within 2 % is {fmt_s(db80['shortest_window_s'])}",
-        )
+    return (
+        "ω0 computed in 0.005 s at 80 dB and Z = 10 (5.A)",
+        "0.005 s",
+        f"sweep median first hit {first_80_10:.3g} s (T = {WINDOW:g} s); expanding window: "
+        f"{db80['expanding_first_hit_s']:.3g} s (80 dB), {clean['expanding_first_hit_s']:.3g} "
+        "s "
+        f"(clean); shortest window with 95 % of windows within 2 %: "
+        f"{fmt_s(db80['shortest_window_s'])} at 80 dB, {fmt_s(clean['shortest_window_s'])} "
+        "clean",
+        verdict(
+            bool(
+                (first_80_10 <= 0.005 * 1.5)
+                or db80["expanding_first_hit_s"] <= 0.005 * 1.5
+                or (db80["shortest_window_s"] or math.inf) <= 0.005 * 1.5
+            )
+        ),
+        f"the kernels need ≥ {hundred['min_window_intervals']} sample intervals "
+        f"({1e3 * hundred['min_window_s']:g} ms), so 5 ms is not a possible window; "
+        f"noise-free, the expanding window first hits 2 % at "
+        f"{fmt_s(clean['expanding_first_hit_s'])}; at 80 dB the shortest window that keeps "
+        f"95 % of its windows within 2 % is {fmt_s(db80['shortest_window_s'])}",
     )
 
-    def zs(values):
-        return "/".join(f"{z:g}" for z in values) or "none"
 
+def _zs(values) -> str:
+    return "/".join(f"{z:g}" for z in values) or "none"
+
+
+def _ratio_rows(maps: dict) -> list[tuple]:
+    """The claims on the fastest input ratio: Z = 10 for the algebraic method, Z = 1 for RLS."""
+    rows = []
     fastest = [f for f in maps["fastest_ratio_lists"] if f["estimator"].startswith("algebraic")]
     ok_alg = [any(z >= 10 for z in f["z_first_hit"]) for f in fastest]
     rows.append(
@@ -79,10 +75,10 @@ def compute(
             "The algebraic method converges fastest when ω1 = 10 ω0 (5.A)",
             "Z = 10",
             "fastest Z (first hit) per SNR: "
-            + ", ".join(f"{f['snr_db']:g} dB → {zs(f['z_first_hit'])}" for f in fastest),
+            + ", ".join(f"{f['snr_db']:g} dB → {_zs(f['z_first_hit'])}" for f in fastest),
             verdict(all(ok_alg) if all(ok_alg) or not any(ok_alg) else None),
             f"Z up to {max(maps['grid']['ratio']):g} in the maps; by the settle rule: "
-            + ", ".join(f"{f['snr_db']:g} dB → {zs(f['z_settle'])}" for f in fastest),
+            + ", ".join(f"{f['snr_db']:g} dB → {_zs(f['z_settle'])}" for f in fastest),
         )
     )
     rls_fast = [f for f in maps["fastest_ratio_lists"] if f["estimator"].startswith("RLS")]
@@ -94,7 +90,7 @@ def compute(
             "Kalman-Bucy converges best at ω1 = ω0 (5.A, Fig. 6)",
             "Z = 1",
             "fastest Z for RLS by the settle rule per SNR: "
-            + ", ".join(f"{f['snr_db']:g} dB → {zs(f['z_settle'])}" for f in rls_fast),
+            + ", ".join(f"{f['snr_db']:g} dB → {_zs(f['z_settle'])}" for f in rls_fast),
             verdict(all(ok_rls) if all(ok_rls) or not any(ok_rls) else None),
             (
                 "SNRs where every Z ties (RLS's time is then its first estimate after the "
@@ -105,6 +101,12 @@ def compute(
             else "no SNR where every Z ties",
         )
     )
+    return rows
+
+
+def _peaks_rows(traces: dict) -> list[tuple]:
+    """The claim on the peaks of Fig. 7 (none when the 25 dB trace is missing)."""
+    rows = []
     steady = [
         c
         for c in traces["cases"]
@@ -132,6 +134,12 @@ def compute(
                 + "; with noise the window's variance dominates",
             )
         )
+    return rows
+
+
+def _disturbance_rows(disturbance: dict) -> list[tuple]:
+    """The claims on the ω2 = 500 ω0 disturbance."""
+    rows = []
     alg = disturbance["cases"]["algebraic T=0.05 s, Z=10"]
     kb = disturbance["cases"]["RLS λ=1, Z=1"]
     rows.append(
@@ -162,6 +170,23 @@ def compute(
             "same SNR, same estimator settings",
         )
     )
+    return rows
+
+
+def compute(
+    traces: dict,
+    maps: dict,
+    windows: dict,
+    disturbance: dict,
+    variance: Mapping[str, Any] | None,
+    quick: bool,
+) -> SectionData:
+    speed = traces["speed_ratios"]
+    hundred = traces["hundredfold"]
+    rows = [_speed_row(traces), _window_row(maps, windows, hundred)]
+    rows += _ratio_rows(maps)
+    rows += _peaks_rows(traces)
+    rows += _disturbance_rows(disturbance)
     for row in (variance or {}).get("claim_rows", ()):
         rows.append(row)
     table = Table(

@@ -36,6 +36,79 @@ FAST_FACTOR = 10
 WINDOW_ERRORS_AFTER = 0.2
 
 
+def _case_rows(fits: dict, cases: dict, duration: float) -> list[tuple]:
+    """Each fit's convergence (into ``cases``) and its row; then the same record sampled 10x faster.
+
+    The same disturbance sampled 10x faster is not aliased: the last row compares.
+    """
+    rows = []
+    for label, res in fits.items():
+        conv = convergence(res)
+        if label.startswith("algebraic"):
+            conv["window_errors"] = steady_errors(res, WINDOW_ERRORS_AFTER)
+        cases[label] = conv
+        rows.append(
+            (
+                label,
+                num(conv["first_hit"]),
+                num(conv["first_hit"] / TS),
+                num(conv["settle"]),
+                num(conv["final_relative_error"]),
+            )
+        )
+    fast_dt = TS / FAST_FACTOR
+    rec_fast = msd_paper_scenario(
+        ratio=10.0,
+        snr_db=80.0,
+        disturbance="paper",
+        duration=min(duration, 2.0),
+        dt=fast_dt,
+        seed=SEED + 13,
+    )
+    fast = convergence(algebraic(rec_fast))
+    cases["algebraic T=0.05 s, Z=10, T_s=0.1 ms"] = fast
+    rows.append(
+        (
+            "algebraic T=0.05 s, Z=10, sampled at 10 kHz",
+            num(fast["first_hit"]),
+            num(fast["first_hit"] / TS),
+            num(fast["settle"]),
+            num(fast["final_relative_error"]),
+        )
+    )
+    return rows
+
+
+def _panels(fits: dict) -> dict[str, tuple]:
+    """The ω0 traces of Figs. 14–15 (RLS without a validity mask)."""
+    panels = {}
+    for label in ("algebraic T=0.05 s, Z=10", "algebraic T=0.2 s, Z=10"):
+        panels[label] = trace(fits[label])
+    for label in ("RLS λ=1, Z=1", "RLS λ=1, Z=10"):
+        t, w, _ = trace(fits[label])
+        panels[label] = (t, w, None)
+    return panels
+
+
+def _quoted(a2: float, signal_amp: float, alg: dict, kb: dict, alg0: dict, kb0: dict):
+    """The numbers the section's text quotes (times in sample periods)."""
+    return {
+        "nyquist_hz": 1 / (2 * TS),
+        "a2_over_peak": a2 / signal_amp,
+        "paper_algebraic_ts": PAPER_ALGEBRAIC_TS,
+        "paper_rls_ts": PAPER_RLS_TS,
+        "algebraic_first_hit_ts": alg["first_hit"] / TS,
+        "window_ts": WINDOW / TS,
+        "rls_first_hit_ts": kb["first_hit"] / TS,
+        "undisturbed_algebraic_ts": alg0["first_hit"] / TS,
+        "undisturbed_rls_ts": kb0["first_hit"] / TS,
+        "fast_factor": FAST_FACTOR,
+        "fast_khz": 1e-3 * FAST_FACTOR / TS,
+        "window_errors_after_s": WINDOW_ERRORS_AFTER,
+        "windows_s": [WINDOW, 0.2],
+    }
+
+
 def compute(quick: bool, progress, traces: Mapping[str, Any]) -> tuple[SectionData, dict]:
     """Disturbed records: time to 2 %, final errors, the aliased frequency.
 
@@ -61,42 +134,7 @@ def compute(quick: bool, progress, traces: Mapping[str, Any]) -> tuple[SectionDa
         "RLS λ=1, Z=1": rls(rec_kb),
         "RLS λ=1, Z=10": rls(rec_alg),
     }
-    rows = []
-    for label, res in fits.items():
-        conv = convergence(res)
-        if label.startswith("algebraic"):
-            conv["window_errors"] = steady_errors(res, WINDOW_ERRORS_AFTER)
-        cases[label] = conv
-        rows.append(
-            (
-                label,
-                num(conv["first_hit"]),
-                num(conv["first_hit"] / TS),
-                num(conv["settle"]),
-                num(conv["final_relative_error"]),
-            )
-        )
-    # the same disturbance sampled 10x faster is not aliased: compare
-    fast_dt = TS / FAST_FACTOR
-    rec_fast = msd_paper_scenario(
-        ratio=10.0,
-        snr_db=80.0,
-        disturbance="paper",
-        duration=min(duration, 2.0),
-        dt=fast_dt,
-        seed=SEED + 13,
-    )
-    fast = convergence(algebraic(rec_fast))
-    cases["algebraic T=0.05 s, Z=10, T_s=0.1 ms"] = fast
-    rows.append(
-        (
-            "algebraic T=0.05 s, Z=10, sampled at 10 kHz",
-            num(fast["first_hit"]),
-            num(fast["first_hit"] / TS),
-            num(fast["settle"]),
-            num(fast["final_relative_error"]),
-        )
-    )
+    rows = _case_rows(fits, cases, duration)
     x_true = rec_alg["x_true"]
     signal_amp = float(np.max(np.abs(x_true)))
     alg = cases["algebraic T=0.05 s, Z=10"]
@@ -129,27 +167,8 @@ def compute(quick: bool, progress, traces: Mapping[str, Any]) -> tuple[SectionDa
         ),
         rows,
     )
-    results["quoted"] = {
-        "nyquist_hz": 1 / (2 * TS),
-        "a2_over_peak": a2 / signal_amp,
-        "paper_algebraic_ts": PAPER_ALGEBRAIC_TS,
-        "paper_rls_ts": PAPER_RLS_TS,
-        "algebraic_first_hit_ts": alg["first_hit"] / TS,
-        "window_ts": WINDOW / TS,
-        "rls_first_hit_ts": kb["first_hit"] / TS,
-        "undisturbed_algebraic_ts": alg0["first_hit"] / TS,
-        "undisturbed_rls_ts": kb0["first_hit"] / TS,
-        "fast_factor": FAST_FACTOR,
-        "fast_khz": 1e-3 * FAST_FACTOR / TS,
-        "window_errors_after_s": WINDOW_ERRORS_AFTER,
-        "windows_s": [WINDOW, 0.2],
-    }
-    panels = {}
-    for label in ("algebraic T=0.05 s, Z=10", "algebraic T=0.2 s, Z=10"):
-        panels[label] = trace(fits[label])
-    for label in ("RLS λ=1, Z=1", "RLS λ=1, Z=10"):
-        t, w, _ = trace(fits[label])
-        panels[label] = (t, w, None)
+    results["quoted"] = _quoted(a2, signal_amp, alg, kb, alg0, kb0)
+    panels = _panels(fits)
     section = SectionData(
         KEYS["disturbance"],
         TITLES["disturbance"],

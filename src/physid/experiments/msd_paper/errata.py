@@ -159,6 +159,16 @@ def _eq3_evidence(quick: bool) -> dict[str, float]:
 
 
 def errata(quick: bool) -> tuple[list[Erratum], dict]:
+    """The paper's errata, each with the evidence physid measured for it.
+
+    Long by design: a flat table of the errata in the paper's order, one literal `Erratum` per
+    entry beside the call that measures its evidence.
+
+    Returns
+    -------
+    (list of Erratum, dict)
+        The errata and their evidence by equation.
+    """
     evidence: dict[str, Any] = {}
     errata = []
     e2 = _eq2_evidence(quick)

@@ -24,43 +24,19 @@ def truth_trace(rec) -> tuple[np.ndarray, list[float]]:
     return truth, starts[1:]
 
 
-def compute(quick: bool, progress) -> tuple[SectionData, dict]:
-    """Recovery times after each stiffness jump for the algebraic windows and RLS.
+def _recoveries(fits: dict, truth, jump_times: list[float], recovery: dict):
+    """Each estimator's recovery times after each jump (into ``recovery``).
 
-    Returns
-    -------
-    (SectionData, dict)
+    Returns the table rows, the curves of the figure and the summary per estimator.
     """
-    say(progress, "jumping ω0")
-    duration = 3.0 if quick else 5.0
-    jumps = (
-        [(0.1, 600.0), (1.2, 300.0), (2.2, 500.0)]
-        if quick
-        else [(0.1, 600.0), (1.5, 300.0), (3.0, 500.0)]
-    )
-    rec = msd_paper_scenario(
-        ratio=10.0, snr_db=80.0, duration=duration, jumps=jumps, seed=SEED + 16
-    )
-    truth, jump_times = truth_trace(rec)
-    fits = {
-        f"algebraic T={WINDOW:g} s": algebraic(rec),
-        "algebraic T=0.2 s": algebraic(rec, window=0.2),
-        "RLS λ=0.99": rls(rec, forgetting=0.99),
-        "RLS λ=0.999": rls(rec, forgetting=0.999),
-        "RLS λ=1": rls(rec, forgetting=1.0),
-    }
     rows = []
-    results: dict[str, Any] = {
-        "jumps": [{"time_s": tj, "stiffness_N_per_m": k} for tj, k in jumps],
-        "recovery": {},
-    }
     curves = []
     summary: dict[str, dict[str, Any]] = {}
     for label, res in fits.items():
         t, w, v = trace(res)
         curves.append((label, t, w, v))
         rec_times = metrics.recovery_times(t, w, truth, jump_times, valid=v)
-        results["recovery"][label] = {k: np.asarray(val).tolist() for k, val in rec_times.items()}
+        recovery[label] = {k: np.asarray(val).tolist() for k, val in rec_times.items()}
         shown = np.isfinite(w) if v is None else np.isfinite(w) & np.asarray(v, dtype=bool)
         first_estimate = float(t[np.flatnonzero(shown)[0]]) if shown.any() else math.inf
         # a jump before the estimator's first estimate is not a recovery: its start-up
@@ -91,7 +67,18 @@ def compute(quick: bool, progress) -> tuple[SectionData, dict]:
                     else "",
                 )
             )
-    results["summary"] = summary
+    return rows, curves, summary
+
+
+def _recovered(summary: dict, label: str) -> tuple[int, int]:
+    """How many real jumps (not start-ups) the estimator recovered from, and how many there were."""
+    info = summary[label]
+    real = [k for k, up in enumerate(info["startup"]) if not up]
+    return sum(info["first_hit"][k] is not None for k in real), len(real)
+
+
+def _quoted(summary: dict, jump_times: list[float]) -> dict[str, Any]:
+    """The numbers the section's text quotes."""
     alg = summary[f"algebraic T={WINDOW:g} s"]
     alg_real = [k for k, up in enumerate(alg["startup"]) if not up]
     alg_hits = [alg["first_hit"][k] for k in alg_real]
@@ -99,21 +86,15 @@ def compute(quick: bool, progress) -> tuple[SectionData, dict]:
     within_window = all(h is not None and h <= WINDOW + 1e-9 for h in alg_hits)
     n_settled = sum(x is not None for x in alg_settles)
     memory = {lam: TS / (1 - lam) for lam in (0.99, 0.999)}
-
-    def recovered(label):
-        info = summary[label]
-        real = [k for k, up in enumerate(info["startup"]) if not up]
-        return sum(info["first_hit"][k] is not None for k in real), len(real)
-
     rls_startups = {
         label: info["first_estimate_s"]
         for label, info in summary.items()
         if label.startswith("RLS") and any(info["startup"])
     }
-    lam1_ok, lam1_n = recovered("RLS λ=1")
+    lam1_ok, lam1_n = _recovered(summary, "RLS λ=1")
     n_rls = sum(label.startswith("RLS") for label in summary)
     who = "RLS (every λ)" if len(rls_startups) == n_rls else ", ".join(rls_startups)
-    results["quoted"] = {
+    return {
         "window_s": WINDOW,
         "snr_db": 80.0,
         "forgettings": [0.99, 0.999],
@@ -129,6 +110,40 @@ def compute(quick: bool, progress) -> tuple[SectionData, dict]:
         "rls_lambda1_recovered": lam1_ok,
         "rls_lambda1_jumps": lam1_n,
     }
+
+
+def compute(quick: bool, progress) -> tuple[SectionData, dict]:
+    """Recovery times after each stiffness jump for the algebraic windows and RLS.
+
+    Returns
+    -------
+    (SectionData, dict)
+    """
+    say(progress, "jumping ω0")
+    duration = 3.0 if quick else 5.0
+    jumps = (
+        [(0.1, 600.0), (1.2, 300.0), (2.2, 500.0)]
+        if quick
+        else [(0.1, 600.0), (1.5, 300.0), (3.0, 500.0)]
+    )
+    rec = msd_paper_scenario(
+        ratio=10.0, snr_db=80.0, duration=duration, jumps=jumps, seed=SEED + 16
+    )
+    truth, jump_times = truth_trace(rec)
+    fits = {
+        f"algebraic T={WINDOW:g} s": algebraic(rec),
+        "algebraic T=0.2 s": algebraic(rec, window=0.2),
+        "RLS λ=0.99": rls(rec, forgetting=0.99),
+        "RLS λ=0.999": rls(rec, forgetting=0.999),
+        "RLS λ=1": rls(rec, forgetting=1.0),
+    }
+    results: dict[str, Any] = {
+        "jumps": [{"time_s": tj, "stiffness_N_per_m": k} for tj, k in jumps],
+        "recovery": {},
+    }
+    rows, curves, summary = _recoveries(fits, truth, jump_times, results["recovery"])
+    results["summary"] = summary
+    results["quoted"] = _quoted(summary, jump_times)
     table = Table(
         "Recovery after each jump (time from the jump)",
         ("estimator", "jump at [s]", "new ω0 [rad/s]", "first hit [s]", "settle [s]", "note"),

@@ -114,6 +114,42 @@ def variance(sd, r) -> ReportSection:
     return _section(sd, paragraphs, figures)
 
 
+def _traces_figures(sd) -> list[FigureSpec]:
+    """The grid of ω0 traces: one row per SNR, one panel per estimator."""
+    data = sd.figure("msd_fig7_12_omega_traces").data
+    rows = []
+    for snr, c in data["curves"].items():
+        rows.append(
+            (
+                f"{snr} dB",
+                [
+                    (
+                        f"algebraic T = {data['window']:g} s (Fig. {c['figure_algebraic']})",
+                        *c["algebraic_short"],
+                    ),
+                    (f"algebraic T = {data['long_window']:g} s", *c["algebraic_long"]),
+                    (f"RLS λ = 1, Z = 1 (Fig. {c['figure_rls']})", *c["rls"]),
+                ],
+            )
+        )
+    return [
+        FigureSpec(
+            "msd_fig7_12_omega_traces",
+            plot_trace_grid(
+                rows,
+                data["truth"],
+                title="ω0 estimates against time: one row per SNR, one panel per estimator",
+            ),
+            "The short algebraic window answers first but scatters at low SNR; the longer "
+            "window and RLS settle more slowly and stay in the band.",
+            alt="A three-by-three grid of ω0 estimates against time. Rows are 25, 50 and 80 dB; "
+            "columns are the algebraic estimator with the short and the long window and RLS. "
+            "At 25 dB the short window scatters widely around the true ω0; at 80 dB every "
+            "estimator stays inside the shaded 2 % band once it has started.",
+        )
+    ]
+
+
 def traces(sd, r) -> ReportSection:
     q = r["quoted"]
     hf = r["hundredfold"]
@@ -162,38 +198,7 @@ def traces(sd, r) -> ReportSection:
             else f"; at 80 dB its first hit comes later ({rls80_hit:.3g} s)."
         ),
     ]
-    data = sd.figure("msd_fig7_12_omega_traces").data
-    rows = []
-    for snr, c in data["curves"].items():
-        rows.append(
-            (
-                f"{snr} dB",
-                [
-                    (
-                        f"algebraic T = {data['window']:g} s (Fig. {c['figure_algebraic']})",
-                        *c["algebraic_short"],
-                    ),
-                    (f"algebraic T = {data['long_window']:g} s", *c["algebraic_long"]),
-                    (f"RLS λ = 1, Z = 1 (Fig. {c['figure_rls']})", *c["rls"]),
-                ],
-            )
-        )
-    figures = [
-        FigureSpec(
-            "msd_fig7_12_omega_traces",
-            plot_trace_grid(
-                rows,
-                data["truth"],
-                title="ω0 estimates against time: one row per SNR, one panel per estimator",
-            ),
-            "The short algebraic window answers first but scatters at low SNR; the longer "
-            "window and RLS settle more slowly and stay in the band.",
-            alt="A three-by-three grid of ω0 estimates against time. Rows are 25, 50 and 80 dB; "
-            "columns are the algebraic estimator with the short and the long window and RLS. "
-            "At 25 dB the short window scatters widely around the true ω0; at 80 dB every "
-            "estimator stays inside the shaded 2 % band once it has started.",
-        )
-    ]
+    figures = _traces_figures(sd)
     return _section(sd, paragraphs, figures)
 
 
@@ -266,6 +271,48 @@ def maps(sd, r) -> ReportSection:
     return _section(sd, paragraphs, figures)
 
 
+def _disturbance_figures(sd) -> list[FigureSpec]:
+    """The disturbed position (Fig. 13) and the ω0 estimates with the disturbance (Figs. 14–15)."""
+    m = sd.figure("msd_fig13_disturbed_position").data
+    panels = sd.figure("msd_fig14_15_disturbance_estimates").data
+    items = list(panels["panels"].items())
+    rows = [
+        ("", [(label, *curve) for label, curve in items[:2]]),
+        ("", [(label, *curve) for label, curve in items[2:]]),
+    ]
+    return [
+        FigureSpec(
+            "msd_fig13_disturbed_position",
+            plot_measurement(
+                m["t"],
+                m["x"],
+                m["x_true"],
+                t_max=m["t_max"],
+                title="Fig. 13 re-made: the measured position carries the aliased disturbance",
+            ),
+            "The 1 kHz samples of the 500 ω0 disturbance look like a slow in-band wobble "
+            "around the true position.",
+            alt="Measured and true position against time over the first 0.3 s: the measured "
+            "curve wobbles around the smooth true one with an amplitude comparable to the "
+            "signal.",
+        ),
+        FigureSpec(
+            "msd_fig14_15_disturbance_estimates",
+            plot_trace_grid(
+                rows,
+                panels["truth"],
+                ylim_relative=0.5,
+                title="Figs. 14–15 re-made: ω0 estimates with the disturbance, 80 dB",
+            ),
+            "Each window's algebraic estimate swings with the aliased disturbance; RLS "
+            "averages it out.",
+            alt="Four panels of ω0 estimates against time with the disturbance: the algebraic "
+            "estimator with the short and the long window (top) swings around the true value; "
+            "RLS at Z = 1 and Z = 10 (bottom) converges smoothly.",
+        ),
+    ]
+
+
 def disturbance(sd, r) -> ReportSection:
     q = r["quoted"]
     cases = r["cases"]
@@ -308,44 +355,7 @@ def disturbance(sd, r) -> ReportSection:
         f"the swings out ({_pct(alg['final_relative_error'])} with T = {t_short:g} s, "
         f"{_pct(long['final_relative_error'])} with T = {t_long:g} s).",
     ]
-    m = sd.figure("msd_fig13_disturbed_position").data
-    panels = sd.figure("msd_fig14_15_disturbance_estimates").data
-    items = list(panels["panels"].items())
-    rows = [
-        ("", [(label, *curve) for label, curve in items[:2]]),
-        ("", [(label, *curve) for label, curve in items[2:]]),
-    ]
-    figures = [
-        FigureSpec(
-            "msd_fig13_disturbed_position",
-            plot_measurement(
-                m["t"],
-                m["x"],
-                m["x_true"],
-                t_max=m["t_max"],
-                title="Fig. 13 re-made: the measured position carries the aliased disturbance",
-            ),
-            "The 1 kHz samples of the 500 ω0 disturbance look like a slow in-band wobble "
-            "around the true position.",
-            alt="Measured and true position against time over the first 0.3 s: the measured "
-            "curve wobbles around the smooth true one with an amplitude comparable to the "
-            "signal.",
-        ),
-        FigureSpec(
-            "msd_fig14_15_disturbance_estimates",
-            plot_trace_grid(
-                rows,
-                panels["truth"],
-                ylim_relative=0.5,
-                title="Figs. 14–15 re-made: ω0 estimates with the disturbance, 80 dB",
-            ),
-            "Each window's algebraic estimate swings with the aliased disturbance; RLS "
-            "averages it out.",
-            alt="Four panels of ω0 estimates against time with the disturbance: the algebraic "
-            "estimator with the short and the long window (top) swings around the true value; "
-            "RLS at Z = 1 and Z = 10 (bottom) converges smoothly.",
-        ),
-    ]
+    figures = _disturbance_figures(sd)
     return _section(sd, paragraphs, figures)
 
 
