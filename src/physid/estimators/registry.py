@@ -4,11 +4,10 @@
 build estimators; a new method registers itself with `register` and is then available to `make`
 and `methods` (the library). The command line and the sweeps accept fixed lists — ``physid
 estimate``: algebraic, rls; ``physid identify``: input-error, idim-*; sweeps: algebraic, rls — so
-a registered method reaches the CLI only once its verb lists it. Built in (`BUILT_IN`):
-``"algebraic"``, ``"rls"`` (linear ODE models), ``"input-error"`` and the IDIM methods
-``"idim-ols"``, ``"idim-wls"``, ``"idim-iv"`` (chain models). The built-in estimators are named
-by module and class and imported only when `make` builds one, so no estimator module imports
-this registry and the registry imports none of them.
+a registered method reaches the CLI only once its verb lists it. Built in: ``"algebraic"``,
+``"rls"`` (linear ODE models), ``"input-error"`` and the IDIM methods ``"idim-ols"``,
+``"idim-wls"``, ``"idim-iv"`` (chain models); each is imported only when `make` builds one, and no
+estimator module imports this registry.
 
 Examples
 --------
@@ -22,7 +21,6 @@ True
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -43,17 +41,6 @@ class _Entry:
 
 
 _REGISTRY: dict[str, _Entry] = {}
-
-#: The built-in methods: name, kind, and the estimator class as (module, class name, method
-#: argument or None); the module is imported when the method is first built.
-BUILT_IN = (
-    ("algebraic", "linear_ode", ("physid.estimators.algebraic", "AlgebraicEstimator", None)),
-    ("rls", "linear_ode", ("physid.estimators.recursive", "RecursiveLeastSquares", None)),
-    ("input-error", "chain", ("physid.estimators.input_error", "InputErrorEstimator", None)),
-    ("idim-ols", "chain", ("physid.estimators.idim", "IDIMEstimator", "ols")),
-    ("idim-wls", "chain", ("physid.estimators.idim", "IDIMEstimator", "wls")),
-    ("idim-iv", "chain", ("physid.estimators.idim", "IDIMEstimator", "iv")),
-)
 
 
 def register(name: str, factory: Callable[..., Any], *, kind: str) -> None:
@@ -160,27 +147,44 @@ def make(method: str, model, **settings):
         ) from None
 
 
-def _lazy(module: str, cls: str, method: str | None, label: str) -> Callable[..., Any]:
-    """A factory that imports ``module`` when it is first called and builds ``cls``.
+def _algebraic(model, **settings):
+    from .algebraic import AlgebraicEstimator
 
-    With a ``method`` (IDIM) the class takes it as its second argument, and a model given by
-    name is loaded first.
-    """
+    return AlgebraicEstimator(model, **settings)
+
+
+def _rls(model, **settings):
+    from .recursive import RecursiveLeastSquares
+
+    return RecursiveLeastSquares(model, **settings)
+
+
+def _input_error(model, **settings):
+    from .input_error import InputErrorEstimator
+
+    return InputErrorEstimator(model, **settings)
+
+
+def _idim(method: str) -> Callable[..., Any]:
+    """The factory of IDIM-``method``; a model given by name is loaded first."""
 
     def factory(model, **settings):
-        estimator = getattr(importlib.import_module(module), cls)
-        if method is None:
-            return estimator(model, **settings)
+        from .idim import IDIMEstimator
+
         if isinstance(model, str):
             from ..models import load_model
 
             model = load_model(model)
-        return estimator(model, method, **settings)
+        return IDIMEstimator(model, method, **settings)
 
-    factory.__name__ = label
+    factory.__name__ = f"IDIMEstimator[{method}]"
     return factory
 
 
-for _name, _kind, (_module, _cls, _method) in BUILT_IN:
-    _label = f"{_cls}[{_method}]" if _method else "_" + _name.replace("-", "_")
-    register(_name, _lazy(_module, _cls, _method, _label), kind=_kind)
+# The built-in methods. Each factory imports its estimator when it is first called (so that
+# importing the registry stays cheap); no estimator module imports this registry.
+register("algebraic", _algebraic, kind="linear_ode")
+register("rls", _rls, kind="linear_ode")
+register("input-error", _input_error, kind="chain")
+for _method in ("ols", "wls", "iv"):
+    register(f"idim-{_method}", _idim(_method), kind="chain")
