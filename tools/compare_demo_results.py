@@ -25,10 +25,11 @@ from typing import Any
 #: Paths (dotted, regex on the whole path) whose values change from run to run.
 SKIP = re.compile(
     r"(^|\.)(wall_time_s|elapsed_s|run_time_s|total_wall_time_s|created|versions|cpu_count"
-    r"|python|physid_version)(\.|$)"
+    r"|python|physid_version|design_seconds|wall_time_per_fit_s|simulate_wall_time_s"
+    r"|noise_free_wall_time_s)(\.|$)"
 )
 #: Table columns that hold timings.
-TIME_COLUMN = re.compile(r"wall time|time \[s\]$")
+TIME_COLUMN = re.compile(r"wall time|time \[s\]$|time per fit \[s\]")
 
 #: Old section title -> new one, where a restructuring renamed a section (empty: none renamed).
 RENAMED: dict[str, str] = {
