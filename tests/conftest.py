@@ -73,3 +73,13 @@ def offset_msd():
         unknown=("theta1", "theta2"),
         output_offset="offset",
     )
+
+
+@pytest.fixture(scope="module")
+def planar():
+    """The planar two-link arm of tests/data/planar2.urdf (revolute joints, gravity in its
+    plane): the small rigid-body model of the IDIM and excitation-design tests."""
+    import physid
+    from _helpers import PLANAR2
+
+    return physid.load_model(PLANAR2)

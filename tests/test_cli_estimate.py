@@ -273,3 +273,27 @@ def test_resample_accepts_a_jittered_record(tmp_path, capsys):
     out = _json(capsys)
     assert out["derived"]["natural_frequency"] == pytest.approx(12.0, rel=1e-3)
     assert out["derived"]["damping_ratio"] == pytest.approx(0.3, rel=1e-2)
+
+
+def test_rls_bias_compensation_flag_and_its_mention_in_cli_words(tmp_path, capsys):
+    # the withholding reason names the flag, not a Python keyword the CLI has no flag for.
+    import json
+
+    from physid.cli import main
+
+    rec = tmp_path / "m30.csv"
+    assert main(["simulate", "msd", "--out", str(rec), "--snr", "30", "--seed", "1"]) == 0
+    capsys.readouterr()
+    base = ["estimate", str(rec), "--model", "msd", "--method", "rls", "--json"]
+    assert main(base) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert plain["stderr"] is None
+    assert "--bias-compensation" in plain["stderr_reason"]
+    assert "bias_compensation=" not in plain["stderr_reason"]
+    assert main([*base, "--bias-compensation"]) == 0
+    comp = json.loads(capsys.readouterr().out)
+    assert set(comp["stderr"]) == {"theta1", "theta2"}
+    assert all(v > 0 for v in comp["stderr"].values())
+    assert comp["parameters"]["theta2"] != plain["parameters"]["theta2"]
+    argv = ["estimate", str(rec), "--model", "msd", "--method", "algebraic", "--bias-compensation"]
+    assert main(argv) == 2

@@ -7,6 +7,7 @@ import re
 import numpy as np
 import pytest
 
+from _helpers import cli_output as _main
 from physid.cli import main
 from physid.cli.verb_filter import derivative_unit
 from physid.filters import design_filter
@@ -148,3 +149,20 @@ def test_resample_option_interpolates_non_uniform_file(tmp_path, capsys):
 )
 def test_derivative_unit(unit, order, expected):
     assert derivative_unit(unit, order) == expected
+
+
+def test_filter_cutoff_auto_prints_the_choice_and_uses_choose_filter(tmp_path, capsys):
+    from physid.filters import choose_filter
+
+    t = 1e-3 * np.arange(8000)
+    q = np.sin(2 * np.pi * 2 * t) + 1e-4 * np.random.default_rng(1).normal(size=t.size)
+    path = save_recording(Recording(t, q[:, None], ["q1"], ["rad"]), tmp_path / "n.csv")
+    out = tmp_path / "f.csv"
+    code, _, err = _main(["filter", path, "--cutoff", "auto", "--out", out], capsys)
+    assert code == 0, err
+    want = choose_filter(load_recording(path).data, 1e-3, half_width=100).cutoff
+    meta = load_recording(out).metadata["filter"]
+    assert meta["cutoff_rad_per_sample"] == pytest.approx(want, rel=1e-12)
+    assert meta["cutoff_auto"] is True
+    assert 0.05 < want < 0.3  # measured 0.1147 rad/sample (18.3 Hz) for a 2 Hz motion, M = 100
+    assert "--cutoff auto, from q1: filter M = 100" in err

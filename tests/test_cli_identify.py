@@ -216,3 +216,41 @@ def test_fit_on_a_bound_is_reported_and_fails(tmp_path, capsys):
     assert out["stderr"] is None and "balance only to" in out["stderr_reason"]  # withheld
     assert "ended on a bound: m1 = 5e-05" in out["message"]
     assert "warning: the fit ended on a bound" in err
+
+
+# identify must not drop the options of the other method family silently (exit 0).
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--fix", "m1=5"], r"--fix applies to --method input-error, not to --method idim-ols"),
+        (["--initial", "m1=2", "--noise", "compensate"], r"--initial, --noise apply to"),
+        (["--method", "idim-wls", "--kp", "1,2"], r"--kp applies to --method idim-iv"),
+        (["--method", "input-error", "--consistent"], r"--consistent applies to the idim-\*"),
+        (["--method", "input-error", "--decimate", "5"], r"--decimate applies to the idim-\*"),
+    ],
+)
+def test_identify_refuses_options_the_method_ignores(tmp_path, capsys, flags, message):
+    import re
+
+    from physid.cli import main
+
+    rec = tmp_path / "run.csv"
+    rec.write_text("t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.001,0,0,0,0\n")  # never read: refused first
+    assert main(["identify", str(rec), "--model", "tests/data/planar2.urdf", *flags]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("physid: error: ") and err.count("\n") == 1
+    assert re.search(message, err), err
+
+
+def test_detrend_of_joint_channels_is_refused_for_an_arm(tmp_path, capsys):
+    # --detrend would subtract the gravity load from tau and the mean angle from q, and
+    # IDIM then would report success with a 48 % torque error.
+    from physid.cli import main
+
+    rec = tmp_path / "run.csv"
+    rec.write_text("t,q1,q2,tau1,tau2\n0,0,0,0,0\n0.001,0,0,0,0\n0.002,0,0,0,0\n")
+    argv = ["identify", str(rec), "--model", "tests/data/planar2.urdf", "--detrend"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--detrend would subtract the mean of q1, q2, tau1, tau2" in err
+    assert "OF1..OFn" in err

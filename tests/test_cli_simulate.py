@@ -5,6 +5,7 @@ import re
 import numpy as np
 import pytest
 
+import physid
 from physid.cli import main
 from physid.signals import load_recording
 from physid.simulate import msd_paper_scenario
@@ -127,3 +128,43 @@ def test_simulate_msd_help_states_each_default_once(capsys):
     assert "(default: None)" not in text
     assert "(default: 3)" in text and "(default 3)" not in text
     assert text.count("default:") == len(re.findall(r"\(default: [^)]*\)", text))
+
+
+def _reference_file(tmp_path, seconds=1.0):
+    t = np.arange(0.0, seconds + 1e-12, 0.01)
+    path = tmp_path / "ref.csv"
+    rows = ["t,r1,r2"] + [f"{float(x)!r},{0.1 * float(np.sin(x))!r},0.0" for x in t]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--duration", "3"], r"--duration 3 s is longer than the --reference file \(1 s\)"),
+        (["--dt", "1e-8"], r"asks for 1e\+08 samples; at most 5e7"),
+    ],
+)
+def test_simulate_with_reference_checks_duration_and_size(tmp_path, capsys, extra, message):
+    # --duration must not be silently ignored with --reference F, nor the sample guard bypassed.
+    import re
+
+    from physid.cli import main
+
+    ref = _reference_file(tmp_path)
+    out = tmp_path / "out.csv"
+    argv = ["simulate", "tests/data/planar2.urdf", "--reference", str(ref), "--out", str(out)]
+    assert main([*argv, *extra]) == 2
+    assert re.search(message, capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_simulate_honours_a_shorter_duration_with_a_reference(tmp_path):
+    from physid.cli import main
+
+    ref = _reference_file(tmp_path)
+    out = tmp_path / "out.csv"
+    argv = ["simulate", "tests/data/planar2.urdf", "--reference", str(ref), "--out", str(out)]
+    assert main([*argv, "--duration", "0.5", "--dt", "0.01"]) == 0
+    rec = physid.load_recording(out)
+    assert rec.t.size == 51 and rec.t[-1] == pytest.approx(0.5, abs=1e-12)

@@ -238,7 +238,7 @@ def _alive(pid: int) -> bool:
 
 
 def test_sigterm_kills_the_pool_and_exits_143(tmp_path):
-    """SIGTERM to `physid sweep --workers 2` leaves no worker behind and exits 143 (issue 16)."""
+    """SIGTERM to `physid sweep --workers 2` leaves no worker behind and exits 143."""
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "physid", "sweep", "msd", "--workers", "2", "--trials", "500"]
     cmd += ["--snr", "25", "--ratio", "1", "--method", "rls", "--no-progress", "--out", str(out)]

@@ -349,8 +349,8 @@ def test_what_physid_adds_finds_its_numbers_in_the_real_sections(payload):
 
 
 def test_every_demo_section_ran_in_the_test_environment(payload):
-    # wave 4: the arm6 validation section failed (a KeyError caught and shown as "not run")
-    # while every other test passed; every section must run where all dependencies are there
+    # a section can fail quietly (a KeyError caught and shown as "not run") while every other
+    # test passes; every section must run where all dependencies are there
     broken = {
         title: section.get("error")
         for title, section in payload["results"].items()

@@ -1,4 +1,4 @@
-"""Every link in README.md and docs/*.md resolves inside the repository (issue 12 item 12).
+"""Every link in README.md and docs/*.md resolves inside the repository .
 
 Markdown links ``[text](target)`` must point at a file of this repository (no ``../`` out of
 it, no web address: the docs travel with the source), and a ``#fragment`` at a heading of the

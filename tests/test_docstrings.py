@@ -1,4 +1,4 @@
-"""Every public name has a numpydoc docstring with its sections (issue 12 item 1).
+"""Every public name has a numpydoc docstring with its sections.
 
 Public names are the ``__all__`` of ``physid`` and of every subpackage (the curated API the
 docs name). For each function or class the test parses the docstring with numpydoc

@@ -1,4 +1,4 @@
-"""physid.errors: library errors name Python arguments, the CLI shows flags (issue 12 item 2)."""
+"""physid.errors: library errors name Python arguments, the CLI shows flags."""
 
 from __future__ import annotations
 
@@ -180,3 +180,33 @@ def test_cli_user_reads_flags(arm_csv, capsys):
     code = main(["identify", str(arm_csv), "--model", "manipulator", "--half-width", "0"])
     err = capsys.readouterr().err
     assert code == 2 and "physid: error: --half-width must be an integer >= 1; got 0" in err
+
+
+def test_warning_names_python_argument_in_python_and_flag_on_the_cli(tmp_path, capsys):
+    from physid.cli import main
+    from physid.errors import PhysidWarning
+    from physid.models.identifiability import (
+        IdentifiabilityWarning,
+        hold_plan,
+        structural_identifiability,
+    )
+    from physid.signals import save_recording
+    from physid.simulate.closed_loop import paper_manipulator_experiment
+
+    arm = physid.load_model("manipulator")
+    with pytest.warns(IdentifiabilityWarning) as record:
+        hold_plan(structural_identifiability(arm), dict(arm.parameters, l1=0.41))
+    (w,) = record.list
+    assert isinstance(w.message, PhysidWarning)
+    assert "Pass fixed={'l1': VALUE} with a measured value" in str(w.message)  # Python words
+
+    path = tmp_path / "arm.csv"
+    save_recording(paper_manipulator_experiment(kinetic="paper"), path)
+    argv = ["identify", str(path), "--model", "manipulator", "--kinetic", "paper"]
+    argv += ["--torque", "pd", "--half-width", "100", "--cutoff", "0.2", "--json"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    line = next(x for x in err.splitlines() if "m1*l1**2" in x and "warning" in x)
+    assert line.startswith("physid: warning: m1 and l1 enter only as m1*l1**2")
+    assert "Pass --fix l1=VALUE with a measured value" in line  # the verb's flag
+    assert "fixed=" not in err and "\x1e" not in err

@@ -1,4 +1,4 @@
-"""The estimator registry and the one result schema (issue 12 item 7)."""
+"""The estimator registry and the one result schema."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 from scipy import signal
 
+import physid
 from physid import Recording
-from physid.errors import InputError, PhysidError
+from physid.errors import InputError, PhysidError, ShapeError
 from physid.estimators import (
     AlgebraicEstimator,
     AlgebraicSettings,
@@ -55,7 +56,7 @@ def test_every_result_has_the_schema(fitted):
     assert set(d["parameters"]) == set(d["names"])  # fitted only
     assert d["derived"]["natural_frequency"] == pytest.approx(10.0, rel=1e-4)
     if method == "algebraic":
-        # wave 3: on this noise-free record the default lies 2-4 of its (rounding-level) standard
+        # on this noise-free record the default lies 2-4 of its (rounding-level) standard
         # errors from the bias-compensated estimate, so it withholds them and says why
         assert d["stderr"] is None and "final='bias-compensated'" in d["stderr_reason"]
         d = make("algebraic", "msd", final="bias-compensated").fit(REC).result_.to_dict()
@@ -134,3 +135,12 @@ def test_result_file_round_trip(tmp_path, fitted):
     assert d["parameters"] == pytest.approx(dict(res.parameters))
     with pytest.raises(InputError, match="is the recording"):
         save_result(res, tmp_path / "d.csv", recording=tmp_path / "d.csv")
+
+
+def test_fit_arrays_names_the_channel_of_a_wrong_shape():
+    t = np.arange(1000) * 1e-3
+    est = physid.estimators.make("rls", "msd")
+    with pytest.raises(ShapeError, match=r"channel 'u' has 999 samples but t has 1000"):
+        est.fit_arrays(t, u=np.ones(999), x=np.sin(t))
+    with pytest.raises(ShapeError, match=r"u must be one-dimensional; got shape \(1000, 2\)"):
+        est.fit_arrays(t, u=np.ones((1000, 2)), x=np.sin(t))

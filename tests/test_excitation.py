@@ -100,3 +100,13 @@ def test_cli_writes_a_reference_recording(tmp_path, capsys):
     rec = physid.load_recording(out)
     assert {"r1", "r4", "rd1", "rdd4"} <= set(rec.names)
     assert rec.t[-1] == pytest.approx(2.0)
+
+
+def test_design_excitation_refuses_a_huge_grid_before_allocating(tmp_path, capsys):
+    from physid.cli import main
+
+    out = tmp_path / "x.csv"
+    argv = ["design-excitation", "tests/data/planar2.urdf", "--harmonics", "2", "--period"]
+    assert main([*argv, "1e12", "--out", str(out)]) == 2
+    assert "asks for 1e+15 samples; at most 5e7" in capsys.readouterr().err
+    assert not out.exists()

@@ -77,7 +77,7 @@ def test_filter_sweep_meets_exact_target_and_warns_low_cutoff(run_quick):
     sweep = run_quick[0][exp.TITLES["filters"]].results["sweep"]
     by = {(c["half_width"], c["cutoff"], c["derivatives"]): c for c in sweep}
     best = by[(200, 0.6, "consistent")]
-    assert max(abs(v) for v in best["errors_percent"].values()) < 0.05  # issue 5: 0.05 %
+    assert max(abs(v) for v in best["errors_percent"].values()) < 0.05  # 0.05 %
     assert by[(200, 0.2, "paper")]["warned"] and not best["warned"]
 
 

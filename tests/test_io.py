@@ -302,7 +302,7 @@ def test_csv_loader_loads_or_raises_physid_error(tmp_path, text):
 
 
 # ------------------------------------------------------------------------------- hostile files
-# (issue 16: each of these failed on the loader before the channel-map/units rework)
+# (each of these is a file a careless loader gets wrong)
 def test_npz_is_never_unpickled_and_object_channels_are_named(tmp_path):
     t = np.arange(5.0)
     np.savez(tmp_path / "o.npz", t=t, x=np.array([1, "a", None, 2, 3], dtype=object))

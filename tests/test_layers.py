@@ -1,4 +1,4 @@
-"""The stage order of docs/architecture.md, enforced (issue 12 item 4).
+"""The stage order of docs/architecture.md, enforced.
 
 `make test` runs ``lint-imports`` (the contracts in pyproject.toml); this file runs the same
 contracts under plain pytest and checks what import-linter cannot: that each upward import it

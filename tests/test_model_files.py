@@ -7,8 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import physid
 from physid.errors import ModelFileError
 from physid.models import load_model, load_model_file
+from physid.models.library import model_from_spec
+from physid.models.spec import check_nominal_values, parse_model_text, symbolic_chain
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "models" / "manipulator.toml"
@@ -313,3 +316,55 @@ def test_missing_file_and_unknown_name():
         load_model("manipulater")
     with pytest.raises(ModelFileError, match="does not exist"):
         load_model_file("/nonexistent/arm.toml")
+
+
+_CHAIN = """name = "arm"
+kind = "chain"
+[parameters]
+m1 = {{ value = 1.0 }}
+l1 = {{ value = 1.0 }}
+[[joints]]
+{geometry}
+mass = "m1"
+rotor_inertia = "{inertia}"
+"""
+
+
+def test_a_transform_entry_near_the_float_limit_is_refused_not_an_overflow_warning():
+    # fuzz: R Rᵀ overflowed (RuntimeWarning) for an entry of 1e308
+    text = _CHAIN.format(
+        geometry='transform = [["1e308", 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]',
+        inertia="0",
+    )
+    spec = parse_model_text(text)
+    check_nominal_values(spec)
+    with pytest.raises(ModelFileError, match=r"not orthonormal .*max \|R Rᵀ − I\| = inf"):
+        symbolic_chain(spec)
+
+
+def test_abs_of_exp_derives_as_a_real_expression():
+    # fuzz: sympy writes abs(exp(m1)) as exp(re(m1)); the derivation's printers refused `re`
+    text = _CHAIN.format(geometry='dh = { a = "l1", alpha = "m1" }', inertia="abs(exp(m1))")
+    model = model_from_spec(parse_model_text(text), cache=False)
+    # one joint: M = m1 l1² + rotor inertia = 1 + e at the nominal values, any q
+    assert model.mass_matrix(np.array([[0.3]]))[0, 0, 0] == pytest.approx(1.0 + np.e, rel=1e-12)
+
+
+def test_rigid_toml_identify_false_reaches_model_unknown(tmp_path):
+    text = (
+        'name = "axis"\ngravity = [0.0, 0.0, -9.81]\n\n[parameters]\n'
+        'm1 = { value = 12.0, unit = "kg", identify = false }\n'
+        'Fv1 = { value = 8.0, unit = "N*s/m" }\n\n'
+        '[[joints]]\nname = "carriage"\ntype = "prismatic"\naxis = [1, 0, 0]\n'
+        "transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
+        'mass = "m1"\nviscous = "Fv1"\n'
+    )
+    path = tmp_path / "axis.toml"
+    path.write_text(text)
+    model = physid.load_model(path)
+    assert "m1" not in model.unknown
+    assert set(model.parameter_names) - set(model.unknown) == {"m1"}
+    # a symbol that is no model parameter cannot be held: refused, not dropped
+    path.write_text(text.replace("m1 = {", "mass1 = {").replace('mass = "m1"', 'mass = "mass1"'))
+    with pytest.raises(physid.errors.ModelFileError, match=r"identify = false on \['mass1'\]"):
+        physid.load_model(path)

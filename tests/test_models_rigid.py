@@ -346,8 +346,8 @@ def test_worked_example_of_the_docs():
 @pytest.mark.parametrize("smoothing", [0.01, 0.0])
 def test_coulomb_smoothing_is_the_same_in_every_backend(smoothing):
     """arm6 has Coulomb friction: the C kernel, the numpy fallback and pinocchio's peer all
-    simulate Fc·tanh(q̇ / v_s) (smoothing > 0) or the exact law by events (0, the default since
-    wave 3; this test pinned the old default 0.01), so their runs agree."""
+    simulate Fc·tanh(q̇ / v_s) (smoothing > 0) or the exact law by events (0, the default), so
+    their runs agree."""
     from physid.simulate import simulate_closed_loop
 
     model = physid.load_model("arm6")

@@ -381,6 +381,35 @@ def test_msd_sweep_refuses_a_bad_record_length_before_running():
         msd_sweep([80.0], [1.0], trials=1, duration=-1.0, scheduler="serial", progress=False)
     with pytest.raises(InputError, match=r"dt must be finite and > 0"):
         msd_sweep([80.0], [1.0], trials=1, dt=0.0, scheduler="serial", progress=False)
-    # a coarse dt is blamed on dt, not on a duration the caller never gave (issue 16)
+    # a coarse dt is blamed on dt, not on a duration the caller never gave
     with pytest.raises(InputError, match=r"dt = 1 s leaves only 5 sample\(s\) in duration = 5 s"):
         msd_sweep([80.0], [1.0], trials=1, dt=1.0, scheduler="serial", progress=False)
+
+
+# ------------------------------------------------------------------ memory check
+def test_sweep_memory_check_goes_through_the_one_helper(monkeypatch):
+    import physid._resources as resources
+    from physid.analysis import montecarlo
+    from physid.errors import InputError
+
+    calls = []
+    monkeypatch.setattr(resources, "available_memory", lambda: calls.append(1) or 10**9)
+    montecarlo._check_memory({"snr_db": [25, 50]}, 83_333)  # 499,998,000 B ≤ half of 1 GB: runs
+    with pytest.raises(InputError) as info:
+        montecarlo._check_memory({"snr_db": [25, 50]}, 10**6)  # 2e6 trials × 3000 B = 6 GB
+    text = str(info.value)
+    assert text.startswith("a sweep of 2,000,000 trials (2 grid point(s) × trials = 1,000,000)")
+    assert "needs about 6 GB of memory for its table (3000 B per trial)" in text
+    assert "has 1 GB available (a sweep may use 50%)" in text
+    assert "at most about 83,333 trials per point here" in text
+    assert len(calls) == 2  # the sweep asked the shared helper, not a copy of its own
+
+
+def test_check_memory_default_wording_and_units():
+    from physid._resources import check_memory, format_bytes
+    from physid.errors import InputError
+
+    check_memory(5e8, what="x", fix="y", available=10**9)  # exactly half: allowed
+    with pytest.raises(InputError, match=r"^x needs about 501 MB of memory, more than half of "):
+        check_memory(5.01e8, what="x", fix="lower y", available=10**9)
+    assert format_bytes(9e15) == "9 PB" and format_bytes(2.5e18) == "2.5 EB"

@@ -5,6 +5,8 @@ from __future__ import annotations
 import matplotlib
 
 matplotlib.use("Agg")
+from pathlib import Path
+
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.colors import to_rgb  # noqa: E402
@@ -107,3 +109,35 @@ def test_rls_plot_sets_limits_by_the_converged_part_and_draws_final_and_truth():
     assert low <= truth["theta2"] <= high
     assert high - low < 0.5 * np.ptp(finite)  # not stretched by the start-up transient
     assert theta2.get_legend() is not None
+
+
+def _toy_trial(settings, seed):
+    return {"mean": float(np.random.default_rng(seed).normal(settings["mu"], 1.0, 50).mean())}
+
+
+def test_sweep_and_validation_figures_go_through_save_figure(tmp_path, monkeypatch):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    import physid.report.style as style
+    from physid.analysis.montecarlo import run_sweep
+    from physid.analysis.sweep_table import write_sweep
+    from physid.report.style import figure_png
+
+    saved = []
+    real = style.save_figure
+
+    def spy(fig, path):
+        saved.append(Path(path).name)
+        return real(fig, path)
+
+    monkeypatch.setattr(style, "save_figure", spy)
+    res = run_sweep(_toy_trial, {"mu": [0.0, 1.0]}, trials=2, seed=1, scheduler="serial",
+                    progress=False)  # fmt: skip
+    fig = Figure(figsize=(3, 2))
+    fig.add_subplot().plot([0, 1], [0, 1])
+    paths = write_sweep(res, tmp_path, figures={"toy": fig})
+    assert saved == ["toy.png"]
+    assert paths["figure:toy"].read_bytes() == figure_png(fig)  # style.DPI, tight bounding box

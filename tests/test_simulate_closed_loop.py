@@ -1,18 +1,23 @@
 """Closed-loop PD simulation of the paper's manipulator: invariants, balance, cross-checks."""
 
+import json
 from importlib import resources
 
 import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
+import physid
+from _golden import GOLDEN
 from physid.errors import InputError, ShapeError, SimulationError
 from physid.models import load_model
 from physid.simulate import (
     PAPER_MANIPULATOR,
     ReferenceTrajectory,
+    closed_loop_rhs,
     paper_manipulator_experiment,
     paper_reference,
+    pd_rhs,
     simulate_closed_loop,
 )
 
@@ -269,3 +274,49 @@ def test_a_seed_without_noise_is_refused_not_ignored(arm):
         simulate_closed_loop(
             arm, kp=KP, kd=KD, reference=np.zeros(4), duration=0.01, dt=1e-3, rng=3
         )
+
+
+# ------------------------------------------------------------------ the PD law (physid.simulate.pd)
+def test_pd_rhs_is_bit_identical_to_the_golden_manipulator_floats():
+    """The symbolic chain's fused PD right-hand side gives the golden floats bit for bit
+    (tests/golden/pd_rhs_manipulator.json: the PD law fused into the manipulator's code)."""
+    gold = json.loads((GOLDEN / "pd_rhs_manipulator.json").read_text())
+    arm = physid.load_model("manipulator")
+    rng = np.random.default_rng(7)
+    kp = np.array([3800.0, 40000.0, 10000.0, 500.0])
+    kd = np.array([159.5, 120.0, 50.0, 2.0])
+    r = np.array([0.5, 0.4, 0.3, 0.2])
+    f = pd_rhs(arm, {"m3": 14.0}, kp=kp, kd=kd, reference=lambda t: r * t)
+    g = pd_rhs(arm, {"m3": 14.0}, kp=kp, kd=kd, reference=r)
+    ys = rng.normal(size=(3, 8))
+    assert [[float(v).hex() for v in f(1.7, y)] for y in ys] == gold["chain_callable"]
+    assert [[float(v).hex() for v in g(0.0, y)] for y in ys] == gold["chain_const"]
+    # and it is the closed loop: [q̇, M⁻¹(τ − h)] with τ = Kp (r t − q) − Kd q̇
+    y = ys[0]
+    tau = kp * (r * 1.7 - y[:4]) - kd * y[4:]
+    qdd = arm.forward_dynamics(y[None, :4], y[None, 4:], tau[None], {"m3": 14.0})[0]
+    np.testing.assert_allclose(f(1.7, y), np.r_[y[4:], qdd], rtol=1e-10, atol=1e-9)
+
+
+def test_rigid_pd_rhs_is_the_model_rhs_under_pd_torque_exactly():
+    arm6 = physid.load_model("arm6")
+    n = arm6.n_joints
+    kp, kd = np.linspace(500, 4000, n), np.linspace(2, 150, n)
+    f = pd_rhs(arm6, kp=kp, kd=kd, reference=lambda t: np.full(n, 0.3) * t, coulomb_smoothing=0.01)
+    accel = arm6.make_rhs(None, coulomb_smoothing=0.01)
+    y = np.random.default_rng(7).normal(size=2 * n)
+    q, qd = y[:n], y[n:]
+    old = np.concatenate([qd, accel(q, qd, kp * (np.full(n, 0.3) * 1.3 - q) - kd * qd)])
+    np.testing.assert_array_equal(f(1.3, y), old)
+    assert not hasattr(arm6, "make_pd_rhs")  # the model holds no controller any more
+
+
+def test_closed_loop_generated_backend_uses_the_pd_law():
+    arm = physid.load_model("manipulator")
+    kp, kd = [3800.0, 40000.0, 10000.0, 500.0], [159.5, 120.0, 50.0, 2.0]
+    ref = np.array([0.5, 0.4, 0.3, 0.2])
+    f = closed_loop_rhs(arm, kp=kp, kd=kd, reference=lambda t: ref, backend="generated")
+    g = pd_rhs(arm, kp=kp, kd=kd, reference=ref)
+    y = np.linspace(-0.5, 0.5, 8)
+    assert f.backend == "generated"
+    assert f(0.2, y) == g(0.2, y)

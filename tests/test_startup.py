@@ -1,4 +1,4 @@
-"""``physid --version`` and ``--help`` import nothing heavy (issue 12 item 12).
+"""``physid --version`` and ``--help`` import nothing heavy.
 
 Start-up time itself is measured in benchmarks/bench_cli.py (no timed assertions here); this
 checks the cause structurally: after ``--version``, ``--help`` or a verb's ``--help`` none of

@@ -1,4 +1,4 @@
-"""physid._validate: the shared checks (issue 12 items 3 and 12)."""
+"""physid._validate: the shared argument checks."""
 
 from __future__ import annotations
 

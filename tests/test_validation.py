@@ -1,12 +1,20 @@
-"""physid.analysis.validation and `physid validate` (issue 15, "Validation")."""
+"""physid.analysis.validation and `physid validate`: the torque balance (a), the simulation (b)
+and the residual correlations (c) on held-out data, for every estimator's result."""
 
 from __future__ import annotations
 
 import json
+import re
+import warnings
 
 import numpy as np
 import pytest
+from scipy import signal
 
+import physid
+from _helpers import DATA, PLANAR2
+from _helpers import planar2_pd_run as _run
+from physid import Recording
 from physid.analysis.validation import (
     BAND_Z,
     fit_percent,
@@ -17,8 +25,11 @@ from physid.analysis.validation import (
 from physid.cli import main
 from physid.errors import DataFileError, InputError
 from physid.estimators import make
+from physid.estimators.algebraic import AlgebraicEstimator
+from physid.estimators.idim import IDIMEstimator
 from physid.estimators.results import save_result
 from physid.signals import save_recording
+from physid.simulate.closed_loop import simulate_closed_loop
 from physid.simulate.msd import msd_paper_scenario
 
 
@@ -110,3 +121,192 @@ def test_cli_estimate_save_then_validate(records, tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["fit_percent"]["x"] > 99.0 and 0 < d["relative_error"]["overall"] < 0.05
     assert {p.name for p in plots.iterdir()} >= {"index.html", "residual.png", "output_error.png"}
+
+
+# ------------------------------------------------------------------ residual correlations
+def _old_xcorr(a, b, max_lag):
+    """The reference kernel: the full correlation (O(n²)), sliced to ±max_lag, normalised."""
+    n = a.size
+    full = np.correlate(a, b, mode="full")
+    return full[n - 1 - max_lag : n + max_lag] / np.sqrt(float(a @ a) * float(b @ b))
+
+
+def test_residual_analysis_matches_the_full_correlation_without_computing_it(monkeypatch):
+    rng = np.random.default_rng(11)
+    n, lag = 3000, 25
+    e = rng.normal(size=(n, 2)) + np.linspace(0, 1, n)[:, None]  # a mean to remove
+    u = rng.normal(size=(n, 3))
+    ec, uc = e - e.mean(axis=0), u - u.mean(axis=0)
+    auto_ref = [_old_xcorr(ec[:, j], ec[:, j], lag)[lag:] for j in range(2)]
+    cross_ref = [_old_xcorr(ec[:, j], uc[:, k], lag) for j in range(2) for k in range(3)]
+
+    def refuse(*args, **kwargs):  # the O(n²) full correlation must not be computed any more
+        raise AssertionError("np.correlate(mode='full') is O(n^2)")
+
+    monkeypatch.setattr(np, "correlate", refuse)
+    r = residual_analysis(e, u, max_lag=lag)
+    assert len(r["autocorrelation"]) == 2 and len(r["cross_correlation"]) == 6
+    for got, ref in zip(r["autocorrelation"], auto_ref, strict=True):
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+        assert got[0] == pytest.approx(1.0, abs=1e-15)
+    for got, ref in zip(r["cross_correlation"], cross_ref, strict=True):
+        np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(r["lags"], np.arange(-lag, lag + 1))
+
+
+# ---------------------------------------------- IDIM results: few held-out rows, the sample period
+@pytest.fixture(scope="module")
+def idim_file(tmp_path_factory):
+    model = physid.load_model(PLANAR2)
+    result = IDIMEstimator(model, "ols").fit(_run(model)).result_
+    path = tmp_path_factory.mktemp("idim") / "idim.json"
+    save_result(result, path, model=str(PLANAR2))
+    return model, path
+
+
+def test_validate_skips_the_residual_test_on_few_rows_instead_of_failing(idim_file):
+    model, path = idim_file
+    short = _run(model, phase=0.7, duration=0.6)  # (600 - 2·52) / 10 < 52 decimated rows
+    report = validate(path, short)
+    assert report.residual == {}
+    assert report.relative_error["overall"] < 1e-4  # (a) still stands: noise-free, true model
+    (note,) = [n for n in report.notes if n.startswith("(c) skipped")]
+    assert re.search(
+        r"need more than 51 filtered, decimated rows; the held-out record gives \d+", note
+    )
+    assert "--" not in note and "max_lag" not in note
+    assert "(c) skipped" in report.summary()
+
+
+def test_validate_of_an_idim_file_without_sample_period_says_so(idim_file, tmp_path):
+    model, path = idim_file
+    data = json.loads(path.read_text())
+    assert data["dt"] == pytest.approx(1e-3, rel=1e-12)  # IDIM results carry dt
+    held_2ms = _run(model, phase=0.7, duration=2.0)
+    with pytest.raises(InputError, match=r"sampled every 0\.002 s but the fit used 0\.001 s"):
+        validate(path, physid.Recording(held_2ms.t[::2], held_2ms.data[::2], held_2ms.names))
+    data.pop("dt")  # a file written before IDIM results carried dt
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(data))
+    held = _run(model, phase=0.7, duration=2.0)
+    notes = [n for n in validate(old, held).notes if n.startswith("sampling:")]
+    assert len(notes) == 1 and "does not record the fit's sample period" in notes[0]
+    assert "Hz at this period" in notes[0]
+    data["dt"] = 0.002  # a recorded period that differs from the held-out record's: refused
+    old.write_text(json.dumps(data))
+    with pytest.raises(InputError, match=r"sampled every 0\.001 s but the fit used 0\.002 s"):
+        validate(old, held)
+
+
+# ------------------------------------------------------------------ an estimated output offset
+def _msd_record(freqs, offset):
+    t = np.arange(3000) * 1e-3
+    u = np.sin(freqs[0] * t) + 0.5 * np.sin(freqs[1] * t)
+    x = signal.lsim(([1.0], [1.0, 2.0, 100.0]), u, t)[1]
+    return Recording(t, np.c_[u, x + offset], ["u", "x"])
+
+
+def test_inverse_cross_test_subtracts_the_estimated_output_offset(offset_msd):
+    model = offset_msd
+    res = AlgebraicEstimator(model).fit(_msd_record((10, 23), 0.01)).result_
+    assert res.parameters["offset"] == pytest.approx(0.01, rel=1e-5)
+    same = validate(res, _msd_record((7, 17), 0.01), model=model)
+    # (a) and (b) now agree: both see the same offset the fit estimated (before: (a) 0.62)
+    assert same.relative_error["overall"] < 1e-3
+    assert same.fit_percent["x"] > 99.9
+    assert any("output offset offset = 0.01" in n for n in same.notes)
+    # a held-out record without the offset fails both tests (before: (a) passed at 6.8e-5)
+    none = validate(res, _msd_record((7, 17), 0.0), model=model)
+    assert none.relative_error["overall"] > 0.3
+    assert none.fit_percent["x"] < 60
+
+
+# ----------------------------------- IDIM: the near-rest rule in (a), the fitted base model in (b)
+@pytest.fixture(scope="module")
+def pendulum():
+    """The 1-DOF pendulum with exact Coulomb friction: it sticks under PD control."""
+    model = physid.load_model(DATA / "pendulum1.toml")
+
+    def record(phase):
+        t = np.arange(0.0, 10.0, 1e-3)
+        r = 0.8 * np.sin(2 * np.pi * 0.5 * t + phase) + 0.3 * np.sin(2 * np.pi * 1.3 * t + 0.4)
+        kd = [2 * np.sqrt(40.0)]
+        return simulate_closed_loop(model, kp=[200.0], kd=kd, reference=(r - r[0])[:, None], t=t)
+
+    fit_rec, held_out = record(0.0), record(1.1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = IDIMEstimator(model, "ols").fit(fit_rec).result_
+    return model, fit_rec, held_out, res
+
+
+def test_idim_cross_test_drops_the_near_rest_rows_the_fit_dropped(pendulum, tmp_path):
+    model, fit_rec, _, res = pendulum
+    assert fit_rec.metadata["coulomb"]["stick_time"][0] > 0.05  # [s]: the joint sticks
+    assert "dropped near rest" in res.message and res.stick_threshold == 0.05
+    path = save_result(res, tmp_path / "idim.json", model=str(DATA / "pendulum1.toml"))
+    for result in (res, path):  # the result object and its file (which records the threshold)
+        rep = validate(result, fit_rec, model=model)
+        # the fit's own record gives the fit's relative error (before: 0.0218 against 2.1e-4)
+        assert rep.relative_error["overall"] == pytest.approx(
+            res.relative_error["overall"], rel=1e-6
+        )
+        assert rep.relative_error["overall"] < 1e-3
+        note = next(n for n in rep.notes if "dropped near rest" in n)
+        assert "0.05·rms" in note and "the fit's" in note and "(c) uses the" in note
+
+
+def test_idim_closed_loop_test_simulates_the_fitted_base_model(pendulum):
+    model, _, held_out, res = pendulum
+    assert not res.derived  # no consistent estimate: the base model is simulated
+    rep = validate(res, held_out, model=model)
+    # before: "(b) skipped: IDIM estimates base parameters ..."
+    assert rep.fit_percent["q1"] > 99.0
+    assert rep.output_relative_error["q1"] < 0.01
+    note = next(n for n in rep.notes if n.startswith("(b)"))
+    assert "fitted base model" in note and "not a physical parameter set" in note
+    assert "IDIMEstimator" not in " ".join(rep.notes)
+
+
+def test_idim_closed_loop_test_on_planar2():
+    """Two joints with regrouped columns (mcx1R, ZZ1R, …): θ on the kept columns reproduces
+    the closed loop on a held-out reference."""
+    model = physid.load_model(DATA / "planar2.urdf")
+    t = np.arange(0.0, 6.0, 1e-3)
+    ramp = np.clip(t, 0.0, 1.0)[:, None] ** 3
+    w = np.array([2.0, 3.1])
+
+    def record(phase):
+        r = ramp * (0.7 * np.sin(np.outer(t, w) + phase) + 0.3 * np.sin(np.outer(t, 2.3 * w)))
+        return simulate_closed_loop(model, kp=[300.0, 200.0], kd=[30.0, 20.0], reference=r, t=t)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = IDIMEstimator(model, "ols").fit(record(0.0)).result_
+    assert any(n.endswith("R") for n in res.names)  # regrouped base parameters
+    rep = validate(res, record(0.9), model=model)
+    assert rep.fit_percent["q1"] > 99.0 and rep.fit_percent["q2"] > 99.0
+
+
+# ------------------------------------------------------------ a result file whose model file moved
+def test_load_result_with_a_missing_model_file_asks_for_the_model(tmp_path):
+    data = {
+        "format": "physid-result",
+        "method": "idim-ols",
+        "parameters": {"ZZ1R": 1.0},
+        "model": str(tmp_path / "elsewhere" / "arm.urdf"),
+    }
+    from physid.estimators.results import RESULT_FORMAT
+
+    data["format"] = RESULT_FORMAT
+    path = tmp_path / "r.json"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(InputError, match=r"does not exist here; pass the model \(model=\.\.\.\)"):
+        load_result(path)
+    try:
+        load_result(path)
+    except InputError as exc:
+        assert "--model MODEL" in exc.render({"model": "--model"})
+    # with the model given, the file loads
+    loaded = load_result(path, model=DATA / "pendulum1.toml")
+    assert loaded.parameters == {"ZZ1R": 1.0}

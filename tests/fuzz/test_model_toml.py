@@ -3,11 +3,11 @@ ODEs, a model; for chains, parsed and checked expressions and transforms) or rai
 `PhysidError` — never another exception.
 
 ``make fuzz`` runs the first property at 20 000 examples (profile ``fuzz`` in tests/conftest.py)
-and the derivation property at 1/20 of that. Where the time goes (profiled, wave 3): not in
+and the derivation property at 1/20 of that. Where the time goes (profiled): not in
 physid (parsing and checking a generated file takes about 1 ms) but in hypothesis drawing the
-text. The wave-2 generator nested the whole expression grammar (up to 40 leaves) inside TOML
-values (up to 12 leaves) inside 4×4 transforms: about 60-100 ms per example to *draw*, and almost
-every text then failed at the first structural check (no chain in 300 draws reached the
+text. A generator that nests the whole expression grammar (up to 40 leaves) inside TOML
+values (up to 12 leaves) inside 4×4 transforms takes about 60-100 ms per example to *draw*, and
+almost every text then fails at the first structural check (no chain in 300 draws reaches the
 expression checks). The generator below draws near-valid files cheaply (small expressions over
 the declared names, 0-2 joints, the hostile grammar and values only as a minority branch) and
 mutates them, so the checks after the structure are reached (the ``Events`` of

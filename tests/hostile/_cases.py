@@ -1,6 +1,6 @@
 """The hostile-input framework: run ``physid`` in-process on a table of hostile command lines.
 
-A room adds its cases as a table in ``tests/hostile/test_<room>.py``::
+A test module adds its cases as a table in ``tests/hostile/test_<subject>.py``::
 
     from ._cases import case_ids, check_case
 
@@ -12,7 +12,7 @@ A room adds its cases as a table in ``tests/hostile/test_<room>.py``::
 
     @pytest.mark.parametrize(("case_id", "argv", "expected_exit", "message_regex"), CASES,
                              ids=case_ids(CASES))
-    def test_room(case_id, argv, expected_exit, message_regex, hostile):
+    def test_subject(case_id, argv, expected_exit, message_regex, hostile):
         check_case(hostile, argv, expected_exit, message_regex)
 
 ``argv`` items may hold placeholders, filled by `HostileEnv.expand`: ``{tmp}`` (a fresh folder of
@@ -20,7 +20,7 @@ the test), and input files built once per session and copied into ``{tmp}`` for 
 ``{msd_csv}`` (a 2 s MSD recording t, u, x), ``{msd_npz}`` (the same as .npz), ``{arm_csv}``
 (a 0.3 s closed-loop run of the built-in 4-joint manipulator), ``{short_csv}`` (50 samples of
 one channel), ``{model_toml}`` (a one-joint chain model file), ``{dir_csv}`` (an empty
-folder named ``dir.csv``). Rooms may add their own with
+folder named ``dir.csv``). A module may add its own with
 ``hostile.add_file(name, path)`` before calling `check_case`.
 
 `check_case` asserts physid's promises for the command:

@@ -1,4 +1,4 @@
-"""Hostile inputs of the linear-ODE estimators (issue 16): never a wrong answer as success.
+"""Hostile inputs of the linear-ODE estimators: never a wrong answer as success.
 
 Each case: ``(case_id, argv, expected_exit, message_regex)``; ``{tmp}`` is the test's folder and
 ``{NAME}`` one of the files built below. Exit 2 is refused input (one ``physid: error:`` line),

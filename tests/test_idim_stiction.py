@@ -1,6 +1,6 @@
 """IDIM drops the equations of Coulomb joints near rest (stiction), where the regressor is wrong.
 
-With exact Coulomb friction in simulation (wave 3) a PD-controlled joint sticks whenever its
+With exact Coulomb friction in simulation a PD-controlled joint sticks whenever its
 drive torque is below Fc; the holding friction is then anywhere in [−Fc, Fc] while the regressor
 writes Fc·sign(0) = 0. On the 1-DOF pendulum (stuck 0.14 s of a 10 s run) keeping those equations
 biases mcz1 by ~5 % on noise-free data; dropping them recovers every base parameter to 1e-3.

@@ -1,10 +1,9 @@
-"""Wave 3 (room idimstats): exact Coulomb friction in simulation, and IDIM on it.
+"""Exact Coulomb friction in simulation (`physid.simulate.coulomb`), and IDIM on it.
 
-Before wave 3, `simulate_closed_loop` smoothed Coulomb friction to Fc·tanh(q̇ / 0.01 rad/s) while
-the IDIM regressor writes Fc·sign(q̇); a noise-free IDIM fit of a simulated arm was then biased by
-the simulator itself (Fc and Fv by 2 % on the pendulum below, 15–75 % on arm6 in the bench's
-soft loop). The simulator now integrates the exact law, with stiction, by events
-(`physid.simulate.coulomb`).
+The IDIM regressor writes Fc·sign(q̇). A simulation that smooths Coulomb friction to
+Fc·tanh(q̇ / 0.01 rad/s) (still available as ``coulomb_smoothing``) biases a noise-free IDIM fit
+of its own record (Fc and Fv by 2 % on the pendulum below, 15–75 % on arm6 in the bench's soft
+loop). The simulator integrates the exact law, with stiction, by events.
 """
 
 from __future__ import annotations
@@ -118,36 +117,3 @@ def test_smoothing_still_available_and_negative_refused(pendulum):
     assert "coulomb" not in rec.metadata and rec.metadata["coulomb_smoothing"] == 0.01
     with pytest.raises(InputError, match="coulomb_smoothing"):
         _run(pendulum, -1.0, duration=1.0)
-
-
-def test_filtered_standard_errors_use_the_parallel_filters_correlation():
-    """White noise through `parallel_decimate` has the lag correlation the filter predicts
-    (cross-check on 400 000 samples); ``stderr="filtered"`` widens the iid interval by it."""
-    from physid.estimators.idim import _decimated_noise_correlation, parallel_decimate
-
-    nd = 20
-    rho = _decimated_noise_correlation(nd)
-    assert rho[0] == 1.0 and 0.1 < rho[1] < 0.3
-    x = np.random.default_rng(3).standard_normal((400_000, 1))
-    y, _ = parallel_decimate(x, nd)
-    y = y[:, 0] - y[:, 0].mean()
-    empirical = [np.dot(y[k:], y[: y.size - k]) / np.dot(y, y) for k in (1, 2, 3)]
-    np.testing.assert_allclose(empirical, rho[1:4], atol=0.03)  # 1/√20000 ≈ 0.007 per lag
-
-    model = physid.load_model(DATA / "planar2.urdf")
-    t = np.arange(0.0, 4.0, 1e-3)
-    ref = np.column_stack([0.6 * np.sin(2 * np.pi * 0.5 * t), 0.5 * np.sin(2 * np.pi * 0.8 * t)])
-    rec = simulate_closed_loop(model, kp=[200, 100], kd=[20, 10], reference=ref, t=t)
-    tau = rec.select(["tau1", "tau2"])
-    noisy = tau + 0.02 * tau.std(axis=0) * np.random.default_rng(4).standard_normal(tau.shape)
-    rec = rec.with_channels({"tau1": noisy[:, 0], "tau2": noisy[:, 1]})
-    fits = {}
-    for form in ("iid", "filtered"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            fits[form] = IDIMEstimator(model, "ols", stderr=form).fit(rec).result_
-    ratio = [fits["filtered"].stderr[n] / fits["iid"].stderr[n] for n in fits["iid"].names]
-    assert fits["filtered"].decimate > 1
-    assert all(1.0 < r < 1.6 for r in ratio), ratio
-    with pytest.raises(InputError, match="filtered"):
-        IDIMEstimator(model, "ols", stderr="sandwich").fit(rec)

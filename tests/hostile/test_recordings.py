@@ -1,4 +1,4 @@
-"""Hostile recordings (room `data`, issue 16): each case ends in exit 2 with a message naming the
+"""Hostile recordings: each case ends in exit 2 with a message naming the
 channel or file and the fix — never a traceback, a silent wrong unit, or an API-only keyword."""
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def _files(env):
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_data(case_id, argv, expected_exit, message_regex, hostile):
+def test_recording(case_id, argv, expected_exit, message_regex, hostile):
     _files(hostile)
     check_case(hostile, argv, expected_exit, message_regex)
 

@@ -1,7 +1,7 @@
-"""cutoff="auto" on an encoder-quantised position (wave 4, room autocut).
+"""cutoff="auto" on an encoder-quantised position (physid.filters.band).
 
 The linear axis of examples/linear_axis_drive.py (12 kg, PD loop, Coulomb friction, encoder of
-1 µm): before, `choose_filter` saw no noise floor (the jump between the record's first and last
+1 µm): without the quantisation rule, `choose_filter` saw no noise floor (the jump between the record's first and last
 Δq leaked into the top of the spectrum like 1/Ω² and hid the rounding noise), chose M = 500,
 Ω_g = 1.605 rad/sample and m1 ended 1.06 % off. Now the grid is recognised (`quantisation_step`),
 the spectrum is tapered, σ̂ = Δ/√12 and Ω_g = 0.178 (m1 +0.005 %).
@@ -138,7 +138,7 @@ def test_intervals_withheld_where_the_noise_does_not_explain_the_residual(axis, 
 
 
 def test_the_quantisation_floor_needs_a_moving_q():
-    # review: a slow q that stays on one grid value for many samples has a correlated rounding
+    # a slow q that stays on one grid value for many samples has a correlated rounding
     # error, not white noise of Δ/√12; the floor then does not apply (the spectrum's does)
     t = np.arange(0.0, 10.0, 1e-3)
     slow = np.round(1e-4 * np.sin(2 * np.pi * 0.5 * t) / 1e-6) * 1e-6  # 13 % of samples move

@@ -1,4 +1,4 @@
-"""Hostile cases of the report room: ``physid demo`` with an output that cannot be a folder.
+"""Hostile output paths of ``physid demo``: an output that cannot be a folder.
 
 Each is refused before the demo runs (exit 2, one ``physid: error:`` line naming --out and the
 fix), and the file in the way is left unchanged (the framework hashes the placeholder inputs).
@@ -30,5 +30,5 @@ CASES = [
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_report(case_id, argv, expected_exit, message_regex, hostile):
+def test_demo_output(case_id, argv, expected_exit, message_regex, hostile):
     check_case(hostile, argv, expected_exit, message_regex)

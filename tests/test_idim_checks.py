@@ -1,22 +1,23 @@
-"""Wave 3, room idimfix: the review findings F1, F3, F6, F8, F9, F13, F14, F17 (notes3/review.md).
+"""IDIM on the planar two-link arm (tests/data/planar2.urdf) in a PD closed loop: what it checks
+and what it reports.
 
-Every test reproduces a finding on a planar two-link arm (tests/data/planar2.urdf) in a PD
-closed loop and asserts numbers that the code before the fix got wrong: a crash (F1), a missing
-field (F3), a silently ignored model flag (F6), a non-converged or wrongly priced consistent
-estimate (F8), standard names on base parameters (F9), accepted bad settings (F13), success on a
-fit that explains half the torque (F14), instruments of another model (F17).
+Each test asserts numbers a wrong implementation gets wrong: IV on records of different lengths
+(one FIR half-width for all), the sample period in the result, settings checked like every other
+argument, ``success`` false for a fit that explains half the torque, a model with known
+parameters refused, base parameters named as such, the consistent estimate's cost ratio and
+convergence, and an instruments' model that reaches a sign change.
 """
 
 from __future__ import annotations
 
 import math
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import physid
+from _helpers import DATA
 from physid.errors import InputError, ShapeError
 from physid.estimators.idim import (
     REL_ERROR_FAIL,
@@ -25,7 +26,6 @@ from physid.estimators.idim import (
 )
 from physid.simulate.closed_loop import simulate_closed_loop
 
-DATA = Path(__file__).parent / "data"
 KP = (200.0, 100.0)
 KD = (20.0, 10.0)
 
@@ -47,8 +47,8 @@ def _run(model, duration=8.0, seed=1, alt=False):
 
 
 @pytest.fixture(scope="module")
-def arm():
-    return physid.load_model(DATA / "planar2.urdf")
+def arm(planar):
+    return planar
 
 
 @pytest.fixture(scope="module")
@@ -66,8 +66,8 @@ def run2(arm):
     return _run(arm, seed=2, alt=True)
 
 
-# ---------------------------------------------------------------------- F1
-def test_f1_iv_on_recordings_of_different_length(arm, truth, run1, run2):
+# --------------------------------------------------------------------- records of different lengths
+def test_iv_on_recordings_of_different_length(arm, truth, run1, run2):
     """IV on a 3 s and an 8 s recording: one FIR half-width for both (old: internal ShapeError)."""
     short = run2.slice_time(0.0, 3.0)
     with warnings.catch_warnings():
@@ -84,15 +84,15 @@ def test_f1_iv_on_recordings_of_different_length(arm, truth, run1, run2):
     np.testing.assert_allclose(r.beta_vector(), truth, rtol=0.05, atol=2e-3)
 
 
-# ---------------------------------------------------------------------- F3
-def test_f3_result_carries_the_sample_period(arm, run1):
+# --------------------------------------------------------------------- the sample period
+def test_result_carries_the_sample_period(arm, run1):
     est = IDIMEstimator(arm).fit(run1)
     assert est.result_.dt == pytest.approx(1e-3, rel=1e-9)
     assert est.rows_.dt == pytest.approx(1e-3, rel=1e-9)
     assert est.result_.to_dict()["dt"] == pytest.approx(1e-3, rel=1e-9)
 
 
-# ---------------------------------------------------------------------- F13
+# --------------------------------------------------------------------- settings
 @pytest.mark.parametrize(
     ("settings", "cls", "match"),
     [
@@ -108,7 +108,7 @@ def test_f3_result_carries_the_sample_period(arm, run1):
         ({"kp": "abc", "kd": [1.0, 2.0], "method": "iv"}, InputError, "kp"),
     ],
 )
-def test_f13_settings_checked_like_everywhere_else(arm, run1, settings, cls, match):
+def test_settings_checked_like_everywhere_else(arm, run1, settings, cls, match):
     settings = dict(settings)
     method = settings.pop("method", "ols")
     with pytest.raises(cls, match=match) as info:
@@ -116,7 +116,7 @@ def test_f13_settings_checked_like_everywhere_else(arm, run1, settings, cls, mat
     assert type(info.value) is cls
 
 
-def test_f13_setting_names_are_marked_for_the_cli(arm, run1):
+def test_setting_names_are_marked_for_the_cli(arm, run1):
     with pytest.raises(InputError) as info:
         IDIMEstimator(arm, decimate=0).fit(run1)
     assert info.value.render({"decimate": "--decimate"}).startswith("--decimate must be")
@@ -125,8 +125,8 @@ def test_f13_setting_names_are_marked_for_the_cli(arm, run1):
     assert info.value.render({"cutoff": "--cutoff"}).startswith("--cutoff must lie in")
 
 
-# ---------------------------------------------------------------------- F14
-def test_f14_success_false_when_the_model_does_not_explain_the_torques(arm, truth, run1):
+# --------------------------------------------------------------------- the success verdict
+def test_success_false_when_the_model_does_not_explain_the_torques(arm, truth, run1):
     good = IDIMEstimator(arm).fit(run1).result_
     assert good.success
     assert good.relative_error["overall"] < 2e-3  # measured 5.3e-4
@@ -150,8 +150,8 @@ def test_f14_success_false_when_the_model_does_not_explain_the_torques(arm, trut
     assert math.isfinite(sw.relative_error["overall"])
 
 
-# ---------------------------------------------------------------------- F6
-def test_f6_idim_refuses_a_model_with_known_parameters(arm, run1, tmp_path):
+# --------------------------------------------------------------------- known parameters
+def test_idim_refuses_a_model_with_known_parameters(arm, run1, tmp_path):
     side = tmp_path / "planar2_side.toml"
     side.write_text(
         f'name = "planar2_side"\nextends = "{(DATA / "planar2.urdf").as_posix()}"\n'
@@ -166,62 +166,7 @@ def test_f6_idim_refuses_a_model_with_known_parameters(arm, run1, tmp_path):
     assert IDIMEstimator(arm).fit(run1).result_.success
 
 
-def test_f6_rigid_toml_identify_false_reaches_model_unknown(tmp_path):
-    text = (
-        'name = "axis"\ngravity = [0.0, 0.0, -9.81]\n\n[parameters]\n'
-        'm1 = { value = 12.0, unit = "kg", identify = false }\n'
-        'Fv1 = { value = 8.0, unit = "N*s/m" }\n\n'
-        '[[joints]]\nname = "carriage"\ntype = "prismatic"\naxis = [1, 0, 0]\n'
-        "transform = [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n"
-        'mass = "m1"\nviscous = "Fv1"\n'
-    )
-    path = tmp_path / "axis.toml"
-    path.write_text(text)
-    model = physid.load_model(path)
-    assert "m1" not in model.unknown
-    assert set(model.parameter_names) - set(model.unknown) == {"m1"}
-    # a symbol that is no model parameter cannot be held: refused, not dropped
-    path.write_text(text.replace("m1 = {", "mass1 = {").replace('mass = "m1"', 'mass = "mass1"'))
-    with pytest.raises(physid.errors.ModelFileError, match=r"identify = false on \['mass1'\]"):
-        physid.load_model(path)
-
-
-def test_f6_input_error_holds_identify_false_parameters(tmp_path):
-    from physid.estimators import InputErrorEstimator
-
-    src = Path(physid.__file__).parent / "models" / "data" / "manipulator.toml"
-    text = src.read_text()
-    line = next(s for s in text.splitlines() if s.startswith("l4 ="))
-    path = tmp_path / "man_fix.toml"
-    path.write_text(text.replace(line, line.replace("identify = true", "identify = false")))
-    model = physid.load_model(path)
-    assert "l4" not in model.unknown
-    t = np.arange(0.0, 6.0, 1e-3)
-    w0 = 2 * np.pi * np.array([0.2, 0.3, 0.5, 0.7])
-    ramp = np.clip(t / 1.0, 0.0, 1.0)[:, None] ** 3
-    ref = ramp * (0.8 * np.sin(np.outer(t, w0)) + 0.3 * np.sin(np.outer(t, 2.3 * w0) + 1))
-    # the data come from l4 = 0.21, so a fit that estimates l4 moves it away from 0.2
-    true = physid.load_model("manipulator")
-    rec = simulate_closed_loop(
-        true,
-        kp=(3800.0, 40000.0, 10000.0, 500.0),
-        kd=(159.5, 120.0, 50.0, 2.0),
-        reference=ref,
-        t=t,
-        params={"l4": 0.21},
-    )
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        r = InputErrorEstimator(model).fit(rec).result_
-        free = InputErrorEstimator(model).fit(rec, initial={"l4": 0.2}).result_
-    assert r.fixed["l4"] == 0.2  # held at the file's value (old: estimated, 0.21)
-    assert r.parameters.get("l4", 0.2) == 0.2
-    # initial= names it: estimated from there
-    assert "l4" not in free.fixed
-    assert free.parameters["l4"] == pytest.approx(0.21, rel=1e-3)
-
-
-# ---------------------------------------------------------------------- F8
+# --------------------------------------------------------------------- the consistent estimate
 def _infeasible(arm, run1):
     """Rows of run1 with torques from a base vector whose YY2 = −0.01 (no real arm has it)."""
     est = IDIMEstimator(arm).fit(run1)
@@ -233,7 +178,7 @@ def _infeasible(arm, run1):
     return W, y, info
 
 
-def test_f8_cost_ratio_is_measured_on_the_rows_for_a_non_ls_estimate(arm, run1):
+def test_cost_ratio_is_measured_on_the_rows_for_a_non_ls_estimate(arm, run1):
     from physid.estimators.consistent import consistent_estimate
     from physid.estimators.idim import _lstsq
 
@@ -245,7 +190,7 @@ def test_f8_cost_ratio_is_measured_on_the_rows_for_a_non_ls_estimate(arm, run1):
         c = consistent_estimate(arm, info, W, y, beta_hat, ones)
         bc = np.array([c.base[n] for n in info.names])
         true_ratio = np.sum((W @ bc - y) ** 2) / np.sum((W @ beta_hat - y) ** 2)
-        # old: 4.03 reported for the non-LS estimate against the true 3.91 (review F8)
+        # a wrong pricing reports 4.03 for the non-LS estimate against the true 3.91
         assert c.cost_ratio == pytest.approx(true_ratio, rel=1e-9)
         assert "link2" in c.at_boundary  # YY2 < 0 is outside the cone: the optimum is on it
         fits.append(c)
@@ -253,7 +198,7 @@ def test_f8_cost_ratio_is_measured_on_the_rows_for_a_non_ls_estimate(arm, run1):
     assert all(c.converged for c in fits)
 
 
-def test_f8_a_solver_that_stops_early_is_reported(arm, run1, monkeypatch):
+def test_a_solver_that_stops_early_is_reported(arm, run1, monkeypatch):
     import physid.estimators.consistent as cons
     from physid.estimators.idim import _lstsq
 
@@ -274,8 +219,8 @@ def test_f8_a_solver_that_stops_early_is_reported(arm, run1, monkeypatch):
     assert any("did not converge" in w for w in r.warnings)
 
 
-# ---------------------------------------------------------------------- F9
-def test_f9_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path):
+# --------------------------------------------------------------------- base-parameter names
+def test_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path):
     from physid.analysis.validation import validate
     from physid.estimators.idim import predict_torque
     from physid.estimators.results import save_result
@@ -291,7 +236,7 @@ def test_f9_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path)
     q = run2.select(["q1", "q2"])
     with pytest.raises(InputError, match=r"\['mcx1R', 'YY1R'\] are base parameters"):
         arm.inverse_dynamics(q, q, q, params=r.parameters)
-    # a result file keyed by the kept columns (before wave 3) still predicts the same torques
+    # a result file keyed by the kept columns (an older file) still predicts the same torques
     old = predict_torque(
         arm,
         r.columns,
@@ -310,8 +255,8 @@ def test_f9_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path)
     assert out.relative_error["overall"] < 0.01
 
 
-# ---------------------------------------------------------------------- F17
-def test_f17_instruments_model_reaches_a_sign_change(arm):
+# --------------------------------------------------------------------- the instruments' model
+def test_instruments_model_reaches_a_sign_change(arm):
     from physid.estimators.idim import _params_for_base
 
     info = base_regressor_info(arm)

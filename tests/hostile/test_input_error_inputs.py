@@ -1,4 +1,4 @@
-"""Hostile input to ``physid identify`` and `InputErrorEstimator` (issue 16, room inputerr).
+"""Hostile input to ``physid identify`` on the built-in arm and to `InputErrorEstimator`.
 
 One row per case: ``(case_id, argv, expected_exit, message_regex)``, run by the shared framework
 (tests/hostile/_cases.py; ``{arm_csv}`` is a short closed-loop run of the built-in arm).
@@ -47,7 +47,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_inputerr(case_id, argv, expected_exit, message_regex, hostile):
+def test_input_error_input(case_id, argv, expected_exit, message_regex, hostile):
     check_case(hostile, argv, expected_exit, message_regex)
 
 

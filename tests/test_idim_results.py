@@ -1,16 +1,15 @@
-"""Wave 3, room idimperf: IDIMResult.predict, the base-parameter cache, the estimator mixin and
-the consistent estimate's barrier solver.
+"""What an IDIM fit of the planar two-link arm gives back: predicted torques
+(`IDIMResult.predict`, `predict_torque`, the held-out rows of the documented recipe), the
+estimator's settings interface, and the consistent (physically feasible) estimate.
 
 Kinds of test: an independent implementation (predict against pinocchio's rnea on the same
 filtered states, filtered and decimated by scipy directly), equivalence of forms (predict =
-W β = the fit's own residual; validate = predict), cache behaviour with tampered and foreign
-entries, and optimality of the consistent estimate against the log-Cholesky least-squares
-solution of the same problem.
+W β = the fit's own residual; validate = predict), and optimality of the consistent estimate
+against the log-Cholesky least-squares solution of the same problem.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -19,41 +18,17 @@ import pytest
 from scipy import optimize, signal
 
 import physid
+from _helpers import DATA, PLANAR2
+from _helpers import planar2_pd_run as _run
 from physid.analysis.validation import validate
 from physid.errors import InputError
 from physid.estimators.base import EstimatorMixin
 from physid.estimators.consistent import log_cholesky_to_standard, standard_to_log_cholesky
 from physid.estimators.idim import IDIMEstimator, base_regressor_info, predict_torque
 from physid.filters import filter_derivatives
-from physid.models import _base_cache, _cache
 from physid.models.inertial import pseudo_inertia
-from physid.simulate.closed_loop import simulate_closed_loop
 
-DATA = Path(__file__).parent / "data"
-PLANAR2 = DATA / "planar2.urdf"
-KP, KD = (200.0, 100.0), (20.0, 10.0)
-
-
-def _reference(t, phase=0.0):
-    ramp = np.clip(t / 0.5, 0.0, 1.0)[:, None] ** 3
-    return ramp * np.column_stack(
-        [
-            0.5 * np.sin(2 * np.pi * 0.5 * t + phase) + 0.3 * np.sin(2 * np.pi * 1.3 * t),
-            0.4 * np.sin(2 * np.pi * 0.7 * t + 1 + phase) + 0.2 * np.sin(2 * np.pi * 1.9 * t),
-        ]
-    )
-
-
-def _run(model, phase=0.0, duration=4.0, noise=None, seed=None):
-    t = np.arange(0.0, duration, 1e-3)
-    return simulate_closed_loop(
-        model, kp=KP, kd=KD, reference=_reference(t, phase), t=t, noise_std=noise, rng=seed
-    )
-
-
-@pytest.fixture(scope="module")
-def planar():
-    return physid.load_model(PLANAR2)
+KP, KD = (200.0, 100.0), (20.0, 10.0)  # the gains of planar2_pd_run
 
 
 @pytest.fixture(scope="module")
@@ -130,68 +105,7 @@ def test_predict_refuses_another_models_parameters(planar, fitted, clean):
         predict_torque(arm7, r.names, r.beta_vector(), clean)
 
 
-# ------------------------------------------------------------------------------ the cache
-def _fresh(path):
-    return physid.load_model(path)
-
-
-def test_base_parameter_cache_hit_is_identical(tmp_path, monkeypatch):
-    monkeypatch.setenv("PHYSID_CACHE_DIR", str(tmp_path))
-    a = _fresh(PLANAR2)
-    bp = a.base_parameters()
-    assert not a.base_from_cache
-    assert a.base_parameters() is bp  # in memory on the model
-    assert not bp.base_matrix.flags.writeable
-    files = sorted(tmp_path.glob("base-*.json"))
-    assert len(files) == 1
-    b = _fresh(PLANAR2)
-    hit = b.base_parameters()
-    assert b.base_from_cache
-    np.testing.assert_array_equal(hit.base_matrix, bp.base_matrix)
-    np.testing.assert_array_equal(hit.null_directions, bp.null_directions)
-    for name in ("beta_names", "base_names", "expressions", "independent", "words", "combinations"):
-        assert getattr(hit, name) == getattr(bp, name), name
-    assert hit.n_base == bp.n_base == 6
-    # other settings are another entry
-    b.base_parameters(seed=1)
-    assert len(list(tmp_path.glob("base-*.json"))) == 2
-
-
-def test_tampered_or_foreign_cache_entries_are_not_used(tmp_path, monkeypatch):
-    monkeypatch.setenv("PHYSID_CACHE_DIR", str(tmp_path))
-    good = _fresh(PLANAR2).base_parameters()
-    (path,) = tmp_path.glob("base-*.json")
-    entry = json.loads(path.read_text())
-    # a tampered matrix (key and content intact): the regressor check rejects it
-    K = np.array(entry["data"]["base_matrix"])
-    dep = np.flatnonzero(np.abs(K).sum(axis=0) > 0)
-    K[0, dep[-1]] += 0.25
-    entry["data"]["base_matrix"] = K.tolist()
-    path.write_text(json.dumps(entry))
-    m = _fresh(PLANAR2)
-    again = m.base_parameters()
-    assert not m.base_from_cache
-    np.testing.assert_array_equal(again.base_matrix, good.base_matrix)
-    # another model's entry under this model's key: its stored content differs, not used
-    arm3 = _fresh(DATA / "arm3_prismatic.urdf")
-    foreign = arm3.base_parameters()
-    key = _base_cache.base_cache_key(_base_cache.base_content(m, n_states=None, seed=0, rtol=1e-9))
-    content3 = _base_cache.base_content(arm3, n_states=None, seed=0, rtol=1e-9)
-    assert _cache.save_entry("base", key, _base_cache._to_data(foreign, content3))
-    m2 = _fresh(PLANAR2)
-    assert m2.base_parameters().n_base == good.n_base
-    assert not m2.base_from_cache
-    # even with the content forged to match, the foreign matrix fails the regressor check
-    content = _base_cache.base_content(m2, n_states=None, seed=0, rtol=1e-9)
-    assert _cache.save_entry("base", key, _base_cache._to_data(foreign, content))
-    m3 = _fresh(PLANAR2)
-    np.testing.assert_array_equal(m3.base_parameters().base_matrix, good.base_matrix)
-    assert not m3.base_from_cache
-    assert not _base_cache.verify_base(m3, foreign)
-    assert _base_cache.verify_base(m3, good)
-
-
-# ------------------------------------------------------------------------------ the mixin
+# ------------------------------------------------------------------------------ the settings interface
 def test_idim_estimator_uses_the_shared_mixin(planar, clean):
     est = IDIMEstimator(planar, "iv", kp=KP, kd=KD, decimate=5, max_iter=3)
     assert isinstance(est, EstimatorMixin)
@@ -278,3 +192,27 @@ def test_consistent_estimate_of_noise_free_data_is_the_unconstrained_one(planar,
     np.testing.assert_allclose(base, est.result_.beta_vector(), rtol=1e-4)
     assert c.at_boundary == ()
     assert "Newton steps" in c.message
+
+
+# --------------------------------------------------------- the documented recipe for held-out rows
+def test_identifying_a_robot_doc_recipe_gives_the_fit_rows():
+    # docs/identifying-a-robot.md §5 used to say idim_rows(model, held_out), whose "auto"
+    # settings are recomputed on the held-out record (other filters than the fit's).
+    from physid.estimators.idim import idim_rows
+
+    doc = (Path(__file__).parents[1] / "docs" / "identifying-a-robot.md").read_text()
+    assert "cutoff=result.cutoff, half_width=result.half_width, decimate=result.decimate" in doc
+    model = physid.load_model(PLANAR2)
+    result = IDIMEstimator(model, "ols").fit(_run(model)).result_
+    held = _run(model, phase=0.7, duration=3.0)
+    rows = idim_rows(
+        model,
+        held,
+        differentiation=result.differentiation,
+        cutoff=result.cutoff,
+        half_width=result.half_width,
+        decimate=result.decimate,
+    )
+    pred = result.predict(held, measured=True)
+    np.testing.assert_array_equal(result.predict_rows(rows), pred.select(["tau1", "tau2"]))
+    np.testing.assert_array_equal(rows.tau, pred.select(["tau1_measured", "tau2_measured"]))

@@ -1,46 +1,19 @@
-"""Room inputerr, wave 3: the input-error package keeps its names; it works on rigid-body models
-over their base parameters."""
+"""Input-error identification of a rigid-body arm over its base parameters (the planar two-link
+URDF arm, an analytic motion and its exact torque): the estimates, their names and intervals, the
+saved result, and the refusals where base parameters do not apply."""
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
-import physid.estimators.input_error as ie
+import numpy as np
+import pytest
 
-PACKAGE = Path(ie.__file__).resolve().parent
-
-#: Every module-level public name the single-file module had (issue 12 item 9 split).
-OLD_NAMES = (
-    "InputErrorEstimator InputErrorResult FilterWarning BoundWarning quality_factor "
-    "linear_least_squares iid_covariance sandwich_covariance hac_lags RESIDUAL_WARN "
-    "DEFAULT_HALF_WIDTH MIN_AUTO_HALF_WIDTH BOUND_RTOL STDERR_METHODS NOISE_METHODS "
-    "ENERGY_FRACTION_WARN PASSBAND_TOL FilterBandCheck FilterChoice choose_filter "
-    "filter_band_check noise_floor white_floor"
-).split()
-
-
-def test_split_keeps_every_name_and_files_stay_small():
-    missing = [n for n in OLD_NAMES if not hasattr(ie, n)]
-    assert not missing
-    from physid.estimators import InputErrorEstimator, InputErrorResult
-
-    assert InputErrorEstimator is ie.InputErrorEstimator
-    assert InputErrorResult is ie.InputErrorResult
-    sizes = {p.name: len(p.read_text(encoding="utf-8").splitlines()) for p in PACKAGE.glob("*.py")}
-    assert len(sizes) >= 6
-    assert max(sizes.values()) < 700, sizes
-
-
-# ---------------------------------------------------------------------- base parameters
-import warnings  # noqa: E402
-
-import numpy as np  # noqa: E402
-import pytest  # noqa: E402
-
-import physid  # noqa: E402
-from physid.errors import InputError  # noqa: E402
-from physid.estimators.input_error import InputErrorEstimator  # noqa: E402
-from physid.signals import Recording  # noqa: E402
+import physid
+from physid.errors import InputError
+from physid.estimators.input_error import InputErrorEstimator
+from physid.signals import Recording
 
 PLANAR2 = Path(__file__).parent / "data" / "planar2.urdf"
 
@@ -150,9 +123,9 @@ def test_a_saved_base_result_validates_with_the_fitted_torque(tmp_path):
 
 
 def test_base_names_are_refused_as_model_parameters_and_model_parameters_predict():
-    """Review R6 for input-error: base values keyed like standard parameters (mcx1) were
-    silently taken as standard ones by ``params=`` (the other columns at nominal values): a
-    wrong torque without a word. Now they are named as IDIM names them (mcx1R) and refused."""
+    """Base values keyed like standard parameters (mcx1) would be silently taken as standard
+    ones by ``params=`` (the other columns at nominal values): a wrong torque without a word. They
+    are named as IDIM names them (mcx1R) and refused."""
     model, rec, (q, qd, qdd, _tau) = _planar2_record(duration=4.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -172,31 +145,6 @@ def test_base_names_are_refused_as_model_parameters_and_model_parameters_predict
     old = {c: r.parameters[n] for n, c in zip(r.names, r.columns, strict=True)}
     tau_old = model.inverse_dynamics(q, qd, qdd, old)
     assert np.abs(tau_old - tau_true).max() > 0.05 * np.abs(tau_true).max()
-
-
-def test_default_on_the_papers_noisy_arm_is_the_compensated_fit_bit_for_bit():
-    """Issue 15's decision: the default (noise='auto') compensates noisy q. On the coverage
-    benchmark's data (the paper's arm, σ_q = 1e-4 rad) it runs exactly noise='compensate', so
-    its coverage is that setting's (95.07 % over 400 trials, bench_coverage_input_error.py)."""
-    from physid.signals.noise import add_white_noise
-    from physid.simulate.closed_loop import paper_manipulator_experiment
-
-    model = physid.load_model("manipulator", kinetic="paper")
-    rec = paper_manipulator_experiment(kinetic="paper", model=model)
-    q = rec.channels("q")
-    noisy_q, _ = add_white_noise(rec.select(q), std=1e-4, rng=10_000)  # the bench's first seed
-    noisy = rec.with_channels(dict(zip(q, noisy_q.T, strict=True)))
-    common = {"start": "linear", "fixed": {"l1": 0.4}}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        default = InputErrorEstimator(model, **common).fit(noisy).result_
-        comp = InputErrorEstimator(model, **common, noise="compensate").fit(noisy).result_
-        clean = InputErrorEstimator(model, **common).fit(rec).result_
-    assert default.noise == "compensate"
-    assert default.parameters == comp.parameters
-    se = [[r.stderr[n] for n in model.parameter_names] for r in (default, comp)]
-    assert np.array_equal(*se, equal_nan=True)  # l1 is held: NaN in both
-    assert clean.noise == "ignore"  # the paper's noise-free record: nothing to compensate
 
 
 def test_base_parameters_refused_where_they_do_not_apply():

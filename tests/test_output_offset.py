@@ -1,4 +1,4 @@
-"""Wave 4: a held output offset (``identify = false``) is removed at its value by the linear-ODE
+"""A held output offset (``identify = false``) is removed at its value by the linear-ODE
 estimators, where it used to be ignored (a silent 9 % error in θ2 on this record)."""
 
 from __future__ import annotations
@@ -64,30 +64,6 @@ def test_validate_uses_a_held_offset(tmp_path):
     assert report.relative_error["overall"] < 0.01  # a0·y sees the 1 cm offset otherwise
     assert report.fit_percent["x"] > 99.0
     assert any("held output offset offset = 0.01" in n for n in report.notes)
-
-
-def test_physical_parameters_from_a_result_with_an_estimated_offset(tmp_path):
-    """A model in physical terms with an estimated offset: the result's parameters (offset
-    included) and full covariance go to physical_from_coefficients as they are."""
-    t = np.arange(6000) * 1e-3
-    force = 20 * np.sin(10 * t) + 10 * np.sin(23 * t)
-    x = signal.lsim(([1 / 2.5], [1.0, 3 / 2.5, 900 / 2.5]), force, t)[1]
-    rec = Recording(t, np.c_[force, x + 0.01], ["u", "x"], units=["N", "m"])
-    path = tmp_path / "phys.toml"
-    path.write_text(
-        'name = "mck"\nkind = "linear_ode"\n[parameters]\nm = { value = 2.0, unit = "kg" }\n'
-        'c = { value = 2.0, unit = "N*s/m" }\nk = { value = 800.0, unit = "N/m" }\n'
-        'offset = { value = 0.0, unit = "m" }\n[ode]\na = ["k/m", "c/m"]\nb = ["1/m"]\n'
-        'input_unit = "N"\noutput_offset = "offset"\n',
-        encoding="utf-8",
-    )
-    model = physid.load_model(path)
-    res = RecursiveLeastSquares(model).fit(rec).result_
-    assert "offset" in res.parameters
-    phys = model.physical_from_coefficients(res.parameters, covariance=res.final_covariance)
-    assert phys.values["m"] == pytest.approx(2.5, rel=1e-3)
-    assert phys.values["k"] == pytest.approx(900.0, rel=1e-3)
-    assert phys.stderr["m"] == pytest.approx(res.derived_stderr["m"], rel=1e-9)
 
 
 def test_the_plain_function_and_the_stream_remove_a_held_offset_too(tmp_path):

@@ -1,27 +1,21 @@
-"""Wave 3 (room excite): the SLSQP excitation design, its limits, its two random baselines and
-the condition-number definition, on the 2-link planar URDF (fixed seeds, numbers asserted)."""
+"""The optimised excitation design (SLSQP) on the 2-link planar URDF: its limits, its two random
+baselines and the condition-number definition (fixed seeds, numbers asserted)."""
 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import physid
+from _helpers import DATA
 from physid.analysis import excitation as ex
 from physid.analysis.excitation import design_excitation, fourier_trajectory
 from physid.cli import main
 from physid.estimators.idim import base_regressor_info, condition_number
 
-DATA = Path(__file__).parent / "data"
 V, A = 2.0, 8.0  # rad/s, rad/s²
-
-
-@pytest.fixture(scope="module")
-def planar():
-    return physid.load_model(str(DATA / "planar2.urdf"))
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +38,7 @@ def test_designed_trajectory_respects_every_limit_and_rests_at_both_ends(planar,
         np.testing.assert_allclose(qdd[row], 0.0, atol=1e-9)
     np.testing.assert_allclose(q[-1], q[0], atol=1e-9)
     np.testing.assert_allclose(q[0], design.q_start, atol=1e-12)
-    # the design uses the room it has: the velocity limit binds on both joints (within 3 %)
+    # the design uses the range it has: the velocity limit binds on both joints (within 3 %)
     assert np.all(design.peak["velocity"] >= 0.95 * V)
     np.testing.assert_allclose(design.peak["velocity"], np.abs(qd).max(axis=0), rtol=1e-3)
 

@@ -1,4 +1,4 @@
-"""Hostile input, room `arch` (issue 16): the sweep's interrupts, resources and messages.
+"""Hostile input to ``physid sweep``: its interrupts, resources and messages.
 
 One row per case: ``(case_id, argv, expected_exit, message_regex)``, run by the shared framework
 (tests/hostile/_cases.py; ``{tmp}`` is a fresh folder). The SIGTERM case needs a real process and
@@ -61,5 +61,5 @@ CASES = [
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_arch(case_id, argv, expected_exit, message_regex, hostile):
+def test_sweep_input(case_id, argv, expected_exit, message_regex, hostile):
     check_case(hostile, argv, expected_exit, message_regex)

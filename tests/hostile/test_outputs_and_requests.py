@@ -1,4 +1,4 @@
-"""Hostile inputs of room `hostile` (issue 16): outputs that would destroy an input or name a
+"""Hostile command lines: outputs that would destroy an input or name a
 temporary file, SNRs that overflow, requests too large to allocate, figure paths that are not
 images, filters that leave nothing, list options with holes, model files that carry code, and
 runs that must repeat bit for bit."""
@@ -104,7 +104,7 @@ CASES = [
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_hostile(case_id, argv, expected_exit, message_regex, hostile):
+def test_refused_command(case_id, argv, expected_exit, message_regex, hostile):
     check_case(hostile, argv, expected_exit, message_regex)
 
 
@@ -133,7 +133,7 @@ def test_a_read_only_folder_names_the_users_path(hostile, monkeypatch):
 
 @pytest.mark.parametrize("payload_kind", ["string-argument", "quoted-string"])
 def test_a_model_file_carrying_code_runs_nothing(hostile, payload_kind):
-    """The two exploits of issue 16, through the CLI: exit 2, the construct named, no file."""
+    """Two code-injection payloads in a model file's expressions, through the CLI: exit 2, the construct named, no file."""
     marker = hostile.tmp / "pwned"
     code = f"__import__('pathlib').Path({str(marker)!r}).touch()"
     expr = f'foo("{code}")' if payload_kind == "string-argument" else repr(code + " or 1")

@@ -1,4 +1,4 @@
-"""Hostile input for the IDIM methods and excitation design (room idim).
+"""Hostile input for the IDIM methods and excitation design.
 
 Each row: (case_id, argv, expected_exit, message_regex). ``{...}`` placeholders are files built
 once per module by the fixture below (short closed-loop runs of the built-in 4-joint arm).
@@ -163,7 +163,7 @@ def files(tmp_path_factory):
 @pytest.mark.parametrize(
     ("case_id", "argv", "expected_exit", "message_regex"), CASES, ids=case_ids(CASES)
 )
-def test_idim(case_id, argv, expected_exit, message_regex, files, hostile):
+def test_idim_input(case_id, argv, expected_exit, message_regex, files, hostile):
     for name, path in files.items():
         hostile.add_file(name, path)
     check_case(hostile, argv, expected_exit, message_regex)

@@ -1,4 +1,4 @@
-"""Wave 4 (issue 15): linear-ODE models in physical terms give m, c, k with standard errors.
+"""Linear-ODE models in physical terms give m, c, k with standard errors.
 
 A model file with ``a = ["k/m", "c/m"]``, ``b = ["1/m"]`` and a force input: the algebraic and
 RLS results carry m, c, k in ``derived`` with units and delta-method standard errors
@@ -13,7 +13,9 @@ import json
 
 import numpy as np
 import pytest
+from scipy import signal
 
+import physid
 from physid.cli import main
 from physid.errors import InputError
 from physid.estimators._linear import derived_with_stderr
@@ -278,7 +280,7 @@ def test_model_info_shows_physical_parameters(files, capsys):
 
 
 def test_an_input_gain_without_a_declared_unit_takes_y_over_u_s_to_the_k():
-    # review: the time exponent rose with k (b0 of an m/N model read s^4/kg)
+    # the time exponent used to rise with k (b0 of an m/N model read s^4/kg)
     from physid.estimators._linear import coefficient_units
     from physid.models.linear_ode import LinearODEModel
 
@@ -291,7 +293,7 @@ def test_an_input_gain_without_a_declared_unit_takes_y_over_u_s_to_the_k():
 
 
 def test_plain_msd_with_a_fitted_b0_gives_mass_stderr_by_the_delta_method():
-    # review: mass, damping, stiffness of the plain msd with b0 fitted had NaN errors
+    # mass, damping, stiffness of the plain msd with b0 fitted used to have NaN errors
     from physid.models import msd_model
 
     model = msd_model()
@@ -314,3 +316,28 @@ def test_a_negative_input_gain_gives_no_mass():
             model, {"theta2": 4.0, "theta1": 0.2, "b0": b0}, ["theta2", "theta1", "b0"]
         )
         assert "mass" not in derived and "stiffness" not in derived
+
+
+# ------------------------------------------------------------------ an estimated output offset
+def test_physical_parameters_from_a_result_with_an_estimated_offset(tmp_path):
+    """A model in physical terms with an estimated offset: the result's parameters (offset
+    included) and full covariance go to physical_from_coefficients as they are."""
+    t = np.arange(6000) * 1e-3
+    force = 20 * np.sin(10 * t) + 10 * np.sin(23 * t)
+    x = signal.lsim(([1 / 2.5], [1.0, 3 / 2.5, 900 / 2.5]), force, t)[1]
+    rec = Recording(t, np.c_[force, x + 0.01], ["u", "x"], units=["N", "m"])
+    path = tmp_path / "phys.toml"
+    path.write_text(
+        'name = "mck"\nkind = "linear_ode"\n[parameters]\nm = { value = 2.0, unit = "kg" }\n'
+        'c = { value = 2.0, unit = "N*s/m" }\nk = { value = 800.0, unit = "N/m" }\n'
+        'offset = { value = 0.0, unit = "m" }\n[ode]\na = ["k/m", "c/m"]\nb = ["1/m"]\n'
+        'input_unit = "N"\noutput_offset = "offset"\n',
+        encoding="utf-8",
+    )
+    model = physid.load_model(path)
+    res = RecursiveLeastSquares(model).fit(rec).result_
+    assert "offset" in res.parameters
+    phys = model.physical_from_coefficients(res.parameters, covariance=res.final_covariance)
+    assert phys.values["m"] == pytest.approx(2.5, rel=1e-3)
+    assert phys.values["k"] == pytest.approx(900.0, rel=1e-3)
+    assert phys.stderr["m"] == pytest.approx(res.derived_stderr["m"], rel=1e-9)
