@@ -73,7 +73,7 @@ def test_idim_json_holds_the_issue_fields(files, capsys, method):
     assert code == 0
     assert out["method"] == method
     assert out["n_recordings"] == 2
-    for key in ("condition_number", "relative_error", "stderr", "iterations", "expressions"):
+    for key in ("condition_number", "relative_error", "stderr", "iterations", "base_expressions"):
         assert key in out
     assert set(out["relative_error"]) == {"overall", "tau1", "tau2", "tau3", "tau4"}
     rows = {b["name"]: b for b in out["base_parameters"]}

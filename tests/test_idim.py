@@ -95,7 +95,7 @@ def test_result_schema_and_json(arm, clean):
     for key in (
         "names",
         "parameters",
-        "expressions",
+        "base_expressions",
         "stderr",
         "condition_number",
         "relative_error",
@@ -105,7 +105,7 @@ def test_result_schema_and_json(arm, clean):
     ):
         assert key in d
     assert "history" not in d and "residuals" not in d
-    assert d["expressions"]["m3*l3"] == "m3*l3 + m4*l3"
+    assert d["base_expressions"]["m3*l3"] == "m3*l3 + m4*l3"
     assert "condition number" in r.summary()
 
 

@@ -230,7 +230,7 @@ def test_results_are_keyed_by_base_parameter_names(arm, run1, run2, tmp_path):
     assert r.names == tuple(bp.base_names) == ("mcx1R", "mcz1", "YY1R", "mcx2", "mcz2", "YY2")
     assert r.columns == tuple(bp.independent) == ("mcx1", "mcz1", "YY1", "mcx2", "mcz2", "YY2")
     assert r.units["mcx1R"] == "kg*m" and r.units["YY1R"] == "kg*m**2"
-    assert r.expressions["mcx1R"] == bp.expressions[0]
+    assert r.base_expressions["mcx1R"] == bp.expressions[0]
     # mcx1R = mcx1 + 0.45 m2 = 1.001 (the standard mcx1 is 0.506): no longer taken for mcx1
     assert r.parameters["mcx1R"] == pytest.approx(1.001, rel=2e-3)
     q = run2.select(["q1", "q2"])

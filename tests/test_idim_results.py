@@ -216,3 +216,41 @@ def test_identifying_a_robot_doc_recipe_gives_the_fit_rows():
     pred = result.predict(held, measured=True)
     np.testing.assert_array_equal(result.predict_rows(rows), pred.select(["tau1", "tau2"]))
     np.testing.assert_array_equal(rows.tau, pred.select(["tau1_measured", "tau2_measured"]))
+
+
+# ------------------------------------------------------------------------------ one name each
+def test_base_expressions_is_the_one_key_and_old_files_still_load(planar, fitted, tmp_path):
+    import json
+    import warnings
+
+    from physid.analysis.validation import load_result
+    from physid.estimators.results import save_result
+
+    r = fitted.result_
+    info = base_regressor_info(planar)
+    assert r.base_expressions == dict(zip(info.names, info.expressions, strict=True))
+    d = r.to_dict()
+    assert "base_expressions" in d and "expressions" not in d
+    with pytest.warns(DeprecationWarning, match="read result.base_expressions"):
+        assert r.expressions == r.base_expressions
+    # a file written with the former key reads back under the current one, value for value
+    path = tmp_path / "fit.json"
+    save_result(r, path, model=str(PLANAR2))
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data["expressions"] = data.pop("base_expressions")
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(data), encoding="utf-8")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        loaded = load_result(old, model=planar)
+    assert loaded.data["base_expressions"] == r.base_expressions
+    assert "expressions" not in loaded.data
+
+
+@pytest.mark.parametrize("method", ["ols", "wls"])
+def test_message_and_summary_quote_the_one_condition_number(planar, clean, method):
+    r = IDIMEstimator(planar, method).fit(clean).result_
+    quoted = f"condition number {r.condition_number:.4g}"
+    assert quoted in r.message
+    assert quoted in r.summary()
+    assert r.message.count("condition number") == 1
