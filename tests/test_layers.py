@@ -2,7 +2,9 @@
 
 `make test` runs ``lint-imports`` (the contracts in pyproject.toml); this file runs the same
 contracts under plain pytest and checks what import-linter cannot: that each upward import it
-is told to ignore stays lazy, inside a function (a result's ``plot()``).
+is told to ignore stays lazy, inside a function (a result's ``plot()``), and that no two modules
+import each other through any path (function-level imports and a package's ``__init__``
+included).
 """
 
 from __future__ import annotations
@@ -65,3 +67,81 @@ def test_upward_imports_of_report_are_lazy():
 
 def test_import_layer_contracts_hold():
     assert lint_imports(config_filename=str(ROOT / "pyproject.toml"), no_cache=True) == 0
+
+
+def _strongly_connected(graph):
+    """Tarjan's strongly connected components of ``graph`` (module -> imported modules)."""
+    index, low, stack, on_stack, components = {}, {}, [], set(), []
+
+    def visit(start):
+        # iterative depth-first search: (node, iterator over its successors)
+        index[start] = low[start] = len(index)
+        stack.append(start)
+        on_stack.add(start)
+        work = [(start, iter(sorted(graph[start])))]
+        while work:
+            node, successors = work[-1]
+            for nxt in successors:
+                if nxt not in index:
+                    index[nxt] = low[nxt] = len(index)
+                    stack.append(nxt)
+                    on_stack.add(nxt)
+                    work.append((nxt, iter(sorted(graph[nxt]))))
+                    break
+                if nxt in on_stack:
+                    low[node] = min(low[node], index[nxt])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = set()
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.add(member)
+                        if member == node:
+                            break
+                    components.append(component)
+
+    for module in sorted(graph):
+        if module not in index:
+            visit(module)
+    return components
+
+
+def test_no_import_cycle_between_modules():
+    # Every import counts: function-level ones and a package's __init__ (a submodule importing
+    # its own package while the package imports it back is a cycle). The lazy plot() imports of
+    # report are the layers contract's sanctioned exceptions and are left out here too.
+    import grimp
+
+    built = grimp.build_graph("physid", cache_dir=None)
+    sanctioned = {tuple(line.split(" -> ")) for line in _pyproject_ignore_imports()}
+    graph = {
+        module: {
+            imported
+            for imported in built.find_modules_directly_imported_by(module)
+            if (module, imported) not in sanctioned
+        }
+        for module in built.modules
+    }
+    cycles = [sorted(c) for c in _strongly_connected(graph) if len(c) > 1]
+    assert cycles == [], f"import cycles between modules of physid: {cycles}"
+
+
+def test_cycle_check_finds_a_planted_cycle():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}, "e": set()}
+    assert [sorted(c) for c in _strongly_connected(graph) if len(c) > 1] == [["a", "b", "c"]]
+
+
+def _pyproject_ignore_imports():
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    lines = []
+    for contract in config["tool"]["importlinter"]["contracts"]:
+        lines.extend(contract.get("ignore_imports", []))
+    return lines
