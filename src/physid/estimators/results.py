@@ -65,7 +65,8 @@ RESULT_FORMAT_VERSION = 1
 #: expressions as ``expressions``, the key input-error's results call ``base_expressions``.
 RENAMED_KEYS = {"expressions": "base_expressions"}
 
-#: The keys every result's ``to_dict()`` carries (the contract every estimator, the CLI and the result files share).
+#: The keys every result's ``to_dict()`` carries (the contract every estimator, the CLI and the
+#: result files share).
 SCHEMA_KEYS = (
     "names",
     "parameters",
