@@ -13,7 +13,8 @@ judged on physid's default (`physid identify`'s IDIM-OLS): at most the recipe's 
 success verdict that agrees (no success above 2× the recipe, no failure at or below it). A
 self-check row: the recipe on the noise-free record recovers the truth.
 
-Quick mode: the short case (a) only, IDIM-OLS and WLS, no goal judged.
+Quick mode: the short case (a) only, IDIM-OLS, WLS and OLS without the stiction rule; no goal
+judged but the self-check, whose failure raises (a broken recipe must not pass silently).
 Full table (markdown, with per-joint errors and messages): python -m benchmarks.zoo
 """
 
@@ -29,10 +30,12 @@ def run(quick: bool) -> list[dict]:
     rows = []
     for out, f in zip(outcomes, facts, strict=True):
         rows += compare.bench_rows(out, f)
-    if quick:
-        for r in rows:
-            if r.get("goal"):
-                r["met"] = None
+    for r in rows:
+        if "self-check" in r["case"]:
+            if not r["met"]:  # the measuring stick itself is broken: fail loudly
+                raise RuntimeError(f"zoo self-check failed: {r['case']}: {r['value']:.3g}")
+        elif quick and r.get("goal"):
+            r["met"] = None
     return rows
 
 

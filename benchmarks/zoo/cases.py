@@ -28,7 +28,7 @@ Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never
 (aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
 
 Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
-``$PHYSID_REAL_ROBOTS``), never copied here; a case whose folder is absent is skipped with a note:
+the main checkout of a git worktree, or ``$PHYSID_REAL_ROBOTS``), never copied here; a case whose folder is absent is skipped with a note:
 
 (e1) Franka Emika Panda, Gaz et al., "Dynamic Identification of the Franka Emika Panda Robot With
      Retrieval of Feasible Parameters Using Penalty-Based Optimization", IEEE RA-L 4(4), 2019;
@@ -54,6 +54,7 @@ same friction columns the recipe uses.
 from __future__ import annotations
 
 import os
+import subprocess
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -82,9 +83,26 @@ DT_SIM = 5e-4  # s, simulator step (the controller's period too)
 
 
 def real_robots_dir() -> Path:
-    """Folder of the real logs: ``$PHYSID_REAL_ROBOTS`` or ``<repo>/../shared/data/real-robots``."""
+    """Folder of the real logs: ``$PHYSID_REAL_ROBOTS``, else ``shared/data/real-robots`` next
+    to the repository (for a git worktree: next to the main checkout too), the first that exists."""
     env = os.environ.get("PHYSID_REAL_ROBOTS")
-    return Path(env) if env else ROOT.parent / "shared" / "data" / "real-robots"
+    if env:
+        return Path(env)
+    tail = Path("shared") / "data" / "real-robots"
+    candidates = [ROOT.parent / tail, ROOT / tail]
+    try:  # a worktree: the main checkout is the parent of the common .git folder
+        common = subprocess.run(
+            ["git", "rev-parse", "--path-format=absolute", "--git-common-dir"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
+        if common:
+            candidates.append(Path(common).parent.parent / tail)
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return next((c for c in candidates if c.is_dir()), candidates[0])
 
 
 @dataclass
@@ -374,7 +392,7 @@ def case_b() -> Case:
         test_tau_true=tau_true,
         train_clean=clean,
         truth=truth_of(pinocchio_arm(), ARMATURE, VISCOUS, COULOMB),
-        bandwidth_hz=5 / 8.0,
+        bandwidth_hz=2.0,  # the 1-2 s minimum-jerk moves, not the Fourier segment's 0.625 Hz
         armature=True,
         note=f"Coulomb smoothed: Fc·tanh(q̇/{COULOMB_SMOOTHING:g} rad/s)",
     )

@@ -46,7 +46,7 @@ from . import cases as zoo_cases
 from .recipe import Recipe, parameter_error, relative_error, well_excited
 
 DEFAULT_METHOD = "idim-ols"  # `physid identify`'s choice for a model linear in its parameters
-METHODS = ("idim-ols", "idim-wls", "idim-iv")
+METHODS = ("idim-ols", "idim-wls", "idim-iv", "idim-ols:stick_threshold=0")
 GOAL = "physid default <= 1.0x recipe held out; no success when > 2x the recipe; no failure when <= the recipe"
 
 
@@ -73,6 +73,19 @@ class Outcome:
         return self.method == DEFAULT_METHOD
 
 
+def parse_method(spec: str):
+    """``"idim-ols:stick_threshold=0,decimate=10"`` -> ("idim-ols", {...}) (numbers parsed)."""
+    name, _, rest = spec.partition(":")
+    settings = {}
+    for item in filter(None, (x.strip() for x in rest.split(","))):
+        key, _, value = item.partition("=")
+        try:
+            settings[key.strip()] = float(value) if "." in value or "e" in value else int(value)
+        except ValueError:
+            settings[key.strip()] = value.strip()
+    return name, settings
+
+
 def _first_line(text: str) -> str:
     return (text or "").strip().splitlines()[0] if (text or "").strip() else ""
 
@@ -97,6 +110,29 @@ def _physid_in_recipe_base(model, result, recipe):
     return recipe.from_torque_model(torque)
 
 
+def _recipe_outcome(case, recipe, cut, label):
+    """Fit the recipe, predict the held-out record; the outcome and the fit."""
+    t0 = time.perf_counter()
+    rfit = recipe.fit(case.train, cut)
+    secs = time.perf_counter() - t0
+    t_rows, tau_hat, tau_f = recipe.predict(rfit, case.test)
+    err, per = relative_error(tau_hat, _target_at(case, cut, recipe, t_rows))
+    own, _ = relative_error(tau_hat, tau_f)
+    note = f"{rfit.n_rows} rows, decimate {rfit.decimate}, cond {rfit.condition_number:.3g}"
+    o = Outcome(
+        case.key,
+        label,
+        err,
+        own,
+        per.tolist(),
+        seconds=secs,
+        cutoff=f"{cut:.3g} Hz",
+        n_base=recipe.n_base,
+        note=note,
+    )
+    return o, rfit
+
+
 def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcome], dict]:
     """All outcomes of one case, and facts about it (recipe cut-off, well-excited count ...)."""
     log = log or (lambda *_: None)
@@ -114,32 +150,16 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
     )
     out = []
 
-    # -- the recipe
-    t0 = time.perf_counter()
-    rfit = recipe.fit(case.train, cut)
-    secs = time.perf_counter() - t0
-    t_rows, tau_hat, tau_f = recipe.predict(rfit, case.test)
-    target = _target_at(case, cut, recipe, t_rows)
-    err, per = relative_error(tau_hat, target)
-    own, _ = relative_error(tau_hat, tau_f)
-    rec_out = Outcome(
-        case.key,
-        "recipe",
-        err,
-        own,
-        per.tolist(),
-        seconds=secs,
-        cutoff=f"{cut:.3g} Hz",
-        n_base=recipe.n_base,
-        note=f"{rfit.n_rows} rows, decimate {rfit.decimate}, cond {rfit.condition_number:.3g}",
-    )
+    # -- the recipe (the baseline), then its parallel-filtered variant (for information)
+    rec_out, rfit = _recipe_outcome(case, recipe, cut, "recipe")
     truth_base = well = None
     if case.truth is not None:
         truth_base = recipe.truth(case.truth)
         well = well_excited(rfit, truth_base)
+        facts["well_excited"] = [recipe.base_names[k] for k in np.flatnonzero(well)]
         rec_out.param_error = parameter_error(rfit.beta, truth_base, well)
         rec_out.n_well = int(well.sum())
-        facts["well_excited"] = [recipe.base_names[k] for k in np.flatnonzero(well)]
+        facts["frictionless"] = not np.any(case.truth.coulomb) and not np.any(case.truth.viscous)
         if case.train_clean is not None:  # the self-check: noise-free data, same recipe
             cfit = recipe.fit(case.train_clean, cut)
             ct, ch, _ = recipe.predict(cfit, case.test)
@@ -148,17 +168,29 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
                 ch, _target_at(case, cut, recipe, ct)
             )[0]
     out.append(rec_out)
-    log(f"  recipe: held-out {err:.4g}, {secs:.1f} s")
+    log(f"  recipe: held-out {rec_out.heldout:.4g}, {rec_out.seconds:.1f} s")
+    pf = Recipe(case.urdf, armature=case.armature, parallel=True)
+    pf_out, pf_fit = _recipe_outcome(case, pf, cut, "recipe+pf")
+    if truth_base is not None:
+        pf_out.param_error = parameter_error(pf_fit.beta, truth_base, well)
+        pf_out.n_well = int(well.sum())
+    out.append(pf_out)
+    log(f"  recipe+pf: held-out {pf_out.heldout:.4g}, {pf_out.seconds:.1f} s")
 
     # -- physid
     model = physid.load_model(case.physid_model)
     for method in methods:
         o = Outcome(case.key, method)
+        if method == "idim-iv" and "r1" not in case.train:
+            o.error = "n/a: the log has no reference r1..rn and no PD gains (IV simulates the loop)"
+            out.append(o)
+            continue
         t0 = time.perf_counter()
         try:
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                res = make(method, model).fit(case.train).result_
+                name, settings = parse_method(method)
+                res = make(name, model, **settings).fit(case.train).result_
             o.seconds = time.perf_counter() - t0
             o.warnings = sorted({_first_line(str(w.message)) for w in caught})
             o.success, o.message = bool(res.success), _first_line(res.message)
@@ -181,7 +213,9 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             o.seconds = time.perf_counter() - t0
             o.error = f"{type(exc).__name__}: {_first_line(str(exc))}"
             tb = traceback.format_exc().strip().splitlines()
-            facts.setdefault("tracebacks", {})[method] = "\n".join(tb[-6:])
+            shown = facts.setdefault("tracebacks", {})
+            if o.error not in {e for e, _ in shown.values()}:
+                shown[method] = (o.error, "\n".join(tb[-6:]))
         out.append(o)
         log(
             f"  {method}: held-out {o.heldout:.4g}, success {o.success}, {o.seconds:.1f} s"
@@ -261,6 +295,21 @@ def bench_rows(outcomes, facts) -> list[dict]:
     for o in outcomes:
         if o.method == "recipe":
             continue
+        if o.method.startswith("recipe"):
+            rows.append(
+                {
+                    "benchmark": "zoo",
+                    "case": f"({o.case}) {facts['title']}: held-out τ error, {o.method} "
+                    "(parallel-filtered regressor, for information)",
+                    "value": o.heldout,
+                    "unit": "",
+                    "baseline": "recipe",
+                    "baseline_value": rec.heldout,
+                    "ratio": rec.heldout / o.heldout if o.heldout > 0 else math.nan,
+                    "param_error": o.param_error,
+                }
+            )
+            continue
         ratio = rec.heldout / o.heldout if o.heldout > 0 else math.nan
         v = verdict(o, rec.heldout)
         row = {
@@ -287,7 +336,7 @@ def bench_rows(outcomes, facts) -> list[dict]:
             "seconds": o.seconds,
         }
         rows.append(row)
-    if "recipe_noise_free_param_error" in facts:
+    if "recipe_noise_free_param_error" in facts and facts.get("frictionless"):
         pe = facts["recipe_noise_free_param_error"]
         he = facts["recipe_noise_free_heldout"]
         rows.append(
@@ -341,7 +390,7 @@ def markdown(all_outcomes, all_facts) -> str:
                 + (" ".join(_f(x, 2) for x in o.per_joint) or "-")
                 + f" | {_f(o.param_error)} ({o.n_well}) | "
                 + ("-" if o.success is None else ("yes" if o.success else "no"))
-                + f" | {verdict(o, rec.heldout) if o.method != 'recipe' else '-'} | "
+                + f" | {'-' if o.method.startswith('recipe') else verdict(o, rec.heldout)} | "
                 f"{_f(o.seconds, 2)} | {o.cutoff} | {_short(msg) if msg else (o.note or '')} |"
             )
     lines.append("")
@@ -357,7 +406,7 @@ def markdown(all_outcomes, all_facts) -> str:
                 f"recipe cut-off {facts['recipe_cutoff_hz']:.3g} Hz, "
                 f"{facts['n_base_recipe']} base parameters"
             )
-            if "recipe_noise_free_param_error" in facts:
+            if "recipe_noise_free_param_error" in facts and facts.get("frictionless"):
                 parts.append(
                     f"recipe on the noise-free record: base-parameter error "
                     f"{facts['recipe_noise_free_param_error']:.2g}, held-out "
@@ -372,7 +421,7 @@ def markdown(all_outcomes, all_facts) -> str:
                     parts.append(
                         f"{o.method} warned: " + " / ".join(_short(w, 200) for w in o.warnings)
                     )
-            for m, tb in facts.get("tracebacks", {}).items():
+            for m, (_, tb) in facts.get("tracebacks", {}).items():
                 parts.append(f"{m} raised:\n\n```\n{tb}\n```\n")
         lines.append(f"{'; '.join(parts)} [{key}]")
     return "\n".join(lines)
@@ -381,7 +430,9 @@ def markdown(all_outcomes, all_facts) -> str:
 def run(quick=False, keys=None, methods=None, cli=None, log=None):
     """Build the cases, fit them, return (outcomes per case, facts per case)."""
     log = log or (lambda *_: None)
-    methods = methods or (("idim-ols", "idim-wls") if quick else METHODS)
+    methods = methods or (
+        ("idim-ols", "idim-wls", "idim-ols:stick_threshold=0") if quick else METHODS
+    )
     cli = (not quick) if cli is None else cli
     all_out, all_facts = [], []
     keys = keys or list(zoo_cases.BUILDERS)

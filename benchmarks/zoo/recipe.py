@@ -17,6 +17,10 @@ What practitioners do (Gautier, Swevers, Gaz et al.; the usual tutorial pipeline
    σ̂² (WᵀW)⁻¹ with σ̂² = RSS / (N − p) (white-noise form, used only to flag well-excited
    parameters);
 7. prediction τ̂ = W β̂ on another record built the same way.
+
+``parallel=True`` is the variant with parallel filtering (Gautier): the regressor is computed at
+every sample and its columns go through the same Butterworth as τ before the decimation, so that
+the nonlinear columns (sign q̇ of Coulomb friction) are filtered like the torque they explain.
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ class Rows:
     qd: np.ndarray
     qdd: np.ndarray
     tau: np.ndarray  # the measured torque through the same filter
+    W: np.ndarray  # the base regressor at the kept samples (n, nj, n_base)
 
 
 @dataclass
@@ -55,7 +60,8 @@ class RecipeFit:
 class Recipe:
     """The recipe for one robot (URDF), with or without a rotor-inertia column per joint."""
 
-    def __init__(self, urdf, *, armature=False, n_random=300, seed=0):
+    def __init__(self, urdf, *, armature=False, parallel=False, n_random=300, seed=0):
+        self.parallel = parallel
         self.model = pin.buildModelFromUrdf(str(urdf))
         self.data = self.model.createData()
         self.nj = nj = self.model.nv
@@ -136,7 +142,11 @@ class Recipe:
         edge = int(np.ceil(3.0 / cutoff_hz / dt))
         sel = np.arange(edge, t.size - edge, nd)
         self.decimate_ = nd
-        return Rows(t[sel], qf[sel], qd[sel], qdd[sel], tf[sel])
+        if self.parallel:  # the regressor at every sample through the same filter
+            W = filtfilt(b, a, self.base_regressor(qf, qd, qdd), axis=0)[sel]
+        else:
+            W = self.base_regressor(qf[sel], qd[sel], qdd[sel])
+        return Rows(t[sel], qf[sel], qd[sel], qdd[sel], tf[sel], W)
 
     def filtered_torque(self, rec, cutoff_hz) -> np.ndarray:
         """The measured torque of a whole record through the recipe's filter."""
@@ -148,7 +158,7 @@ class Recipe:
 
     def fit(self, rec, cutoff_hz) -> RecipeFit:
         r = self.rows(rec, cutoff_hz)
-        W = self.base_regressor(r.q, r.qd, r.qdd).reshape(-1, self.n_base)
+        W = r.W.reshape(-1, self.n_base)
         y = r.tau.ravel()
         beta, *_ = np.linalg.lstsq(W, y, rcond=None)
         dof = max(1, W.shape[0] - W.shape[1])
@@ -161,7 +171,7 @@ class Recipe:
     def predict(self, fit: RecipeFit, rec):
         """τ̂ on the held-out record's rows: (t, τ̂, τ filtered) at the kept samples."""
         r = self.rows(rec, fit.cutoff_hz)
-        tau_hat = self.base_regressor(r.q, r.qd, r.qdd) @ fit.beta
+        tau_hat = r.W @ fit.beta
         return r.t, tau_hat, r.tau
 
     # ------------------------------------------------------------------ other estimates
