@@ -253,7 +253,15 @@ def _cli_check(case, outcome) -> str:
     try:
         d = json.loads(p.stdout)
     except json.JSONDecodeError:
-        return f"physid identify exited {p.returncode}: {_first_line(p.stderr[-400:])}"
+        err = next(
+            (ln for ln in p.stderr.splitlines() if ln.startswith("physid: error")),
+            _first_line(p.stderr[-400:]),
+        )
+        same = bool(outcome.error) and outcome.error.split(": ", 1)[-1][:60] in err
+        return (
+            f"physid identify exited {p.returncode} ({'the same error' if same else 'DIFFERENT'}"
+            f" as the Python call): {_short(err, 160)}"
+        )
     same = (
         d.get("method") == DEFAULT_METHOD
         and bool(d.get("success")) == outcome.success
