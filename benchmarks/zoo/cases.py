@@ -1,0 +1,560 @@
+"""The zoo's records: robots simulated by other simulators, and real logs.
+
+Every case gives an identification record and a *different* held-out record (physid
+`Recording`s with ``t``, ``q1..qn`` [rad], ``tau1..taun`` [N·m]; simulated ones also carry the
+PD reference ``r1..rn`` and the gains in ``metadata["kp"]``/``["kd"]``, which IDIM-IV needs), the
+URDF the recipe reads, the model physid reads, the trajectory bandwidth a practitioner would know,
+and the truth where there is one.
+
+Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never from physid):
+
+(a) ``arm6`` (physid's UR5-like URDF, ``src/physid/models/data/arm6.urdf``, with the reflected
+    rotor inertias of its sidecar as pinocchio ``armature``) under the PD law
+    ``τ = Kp (r − q) − Kd q̇`` (the law of physid's docs, so that IDIM-IV models the loop
+    exactly), reference a windowed 5-harmonic Fourier series, fixed-step RK4 on
+    ``pinocchio.aba`` at 2 kHz with the torque held over each step, logged at 1 kHz;
+    σ_q = 1e-4 rad encoder noise, white torque noise of 5 % of each joint's rms; no friction.
+(b) The same arm with viscous and Coulomb friction (Coulomb smoothed as Fc·tanh(q̇/0.01 rad/s),
+    which creeps instead of sticking), trained on a Fourier segment followed by point-to-point
+    minimum-jerk moves with rests of 0.5–2 s, held out on other moves and another Fourier segment.
+(c) The same URDF loaded by MuJoCo (its own URDF parser and dynamics; checked against pinocchio's
+    inverse dynamics to 1e-9), joint ``armature``, ``damping`` (viscous) and ``frictionloss``
+    (Coulomb friction as a constraint: joints truly stick at rest), ``implicitfast`` integrator at
+    2 kHz, PD applied through ``qfrc_applied``; σ_q = 1e-4 rad, 5 % torque noise. Only when
+    ``import mujoco`` works (``pip install mujoco``).
+(d) A slow sweep: the arm of (b), a 5-harmonic Fourier reference with a 0.05 Hz fundamental
+    (20 s period), logged at 250 Hz with positions quantised by a 2^16 counts/turn encoder (no
+    other position noise), 5 % torque noise.
+(aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
+
+Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
+the main checkout of a git worktree, or ``$PHYSID_REAL_ROBOTS``), never copied here; a case whose folder is absent is skipped with a note:
+
+(e1) Franka Emika Panda, Gaz et al., "Dynamic Identification of the Franka Emika Panda Robot With
+     Retrieval of Feasible Parameters Using Penalty-Based Optimization", IEEE RA-L 4(4), 2019;
+     data from github.com/marcocognetti/FrankaEmikaPandaDynModel,
+     ``matlab/data/Exciting_Traj/Trajectory_1/``, added in commit
+     44f1ec8a615555eb3469ca9b0abd31ef863872b5 (unchanged at 24d85ce4e648e2e894c832bfeee9b16711eb1a1a),
+     licence GPL-3.0. Converted CSV ``panda_gaz2019/exciting_traj_1.csv``, read with the
+     reconstructed robot clock ``t_tick`` and resampled to a uniform grid; identification on the
+     first half, held out on the second (which partly retraces the first: period 13.3 s).
+(e2) KUKA LWR4+, FloBaRoID by Stefan Bethge, github.com/kjyv/FloBaRoID,
+     ``data/KUKA/HW/measurements_{1,2,3}.npz`` as added in commit
+     4e2e5a2992f2175aa4e494c0d827590435a969a8 (same blobs as the LFS pointers at head
+     9c0680445e874947bac4056cd86ff9e26bdd7fcb), licence LGPL-3.0. Converted CSVs
+     ``kuka_lwr4_flobaroid/measurements_{1,3}.csv`` (already low-passed by the source: positions
+     3 Hz, torques 2 Hz), resampled to a uniform grid; identification on run 1, held out on run 3
+     (another trajectory).
+
+The real logs have no truth. physid reads their URDFs through a sidecar written to a temporary
+folder that adds viscous and Coulomb friction per joint (the URDFs have no ``<dynamics>``), the
+same friction columns the recipe uses.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+import physid
+
+ROOT = Path(__file__).resolve().parents[2]
+ARM6_URDF = ROOT / "src" / "physid" / "models" / "data" / "arm6.urdf"
+
+# arm6: PD gains (τ = Kp (r − q) − Kd q̇), rotor inertia reflected to the joint [kg·m²],
+# viscous [N·m·s/rad] and Coulomb [N·m] friction (the values of physid's arm6 sidecar, which a
+# robot of this class has; the simulators are told them, the estimators are not).
+KP = np.array([400.0, 400.0, 200.0, 50.0, 50.0, 20.0])
+KD = 0.1 * KP
+ARMATURE = np.array([0.40, 0.40, 0.20, 0.05, 0.05, 0.05])
+VISCOUS = np.array([2.0, 2.0, 1.2, 0.4, 0.4, 0.3])
+COULOMB = np.array([3.0, 3.5, 2.0, 0.8, 0.8, 0.6])
+Q0 = np.array([0.0, -1.2, 1.2, -1.5, -1.5, 0.0])  # rest pose: elbow bent, wrist away from singular
+SIGMA_Q = 1e-4  # rad
+TORQUE_NOISE = 0.05  # of each joint's rms
+COULOMB_SMOOTHING = 0.01  # rad/s (case b, d)
+DT_SIM = 5e-4  # s, simulator step (the controller's period too)
+
+
+def real_robots_dir() -> Path:
+    """Folder of the real logs: ``$PHYSID_REAL_ROBOTS``, else ``shared/data/real-robots`` next
+    to the repository (for a git worktree: next to the main checkout too), the first that exists."""
+    env = os.environ.get("PHYSID_REAL_ROBOTS")
+    if env:
+        return Path(env)
+    tail = Path("shared") / "data" / "real-robots"
+    candidates = [ROOT.parent / tail, ROOT / tail]
+    try:  # a worktree: the main checkout is the parent of the common .git folder
+        common = subprocess.run(
+            ["git", "rev-parse", "--path-format=absolute", "--git-common-dir"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        ).stdout.strip()
+        if common:
+            candidates.append(Path(common).parent.parent / tail)
+    except (OSError, subprocess.SubprocessError):
+        pass
+    return next((c for c in candidates if c.is_dir()), candidates[0])
+
+
+@dataclass
+class Truth:
+    """The simulated robot, in the recipe's layout: per joint the 10 standard parameters of
+    the link in pinocchio's order (m, mc, I about the joint frame's origin), and the drive terms."""
+
+    standard: np.ndarray  # (n_joints, 10)
+    armature: np.ndarray
+    viscous: np.ndarray
+    coulomb: np.ndarray
+
+
+@dataclass
+class Case:
+    key: str
+    title: str
+    urdf: Path  # what the recipe (pinocchio) reads
+    physid_model: str  # what physid.load_model reads
+    train: physid.Recording | None = None
+    test: physid.Recording | None = None
+    test_tau_true: np.ndarray | None = None  # noise-free torque of the held-out record
+    train_clean: physid.Recording | None = None  # the identification record without noise
+    truth: Truth | None = None
+    bandwidth_hz: float = 1.0  # of the trajectory, as a practitioner knows it
+    armature: bool = False  # the recipe adds a rotor-inertia column per joint
+    skipped: str = ""  # why the case could not be built
+    note: str = ""
+    info: dict = field(default_factory=dict)
+
+
+# ----------------------------------------------------------------------------- references
+def _smoothstep(x):
+    x = np.clip(x, 0.0, 1.0)
+    return x**3 * (10 - 15 * x + 6 * x**2)
+
+
+def fourier_reference(
+    t, q_start, rng, *, period, harmonics=5, position=0.8, velocity=1.0, acceleration=4.0, ramp=1.0
+):
+    """q_start + w(t)·(F(t) − F(0)), F a random Fourier series (Swevers form) scaled per joint
+    to the position amplitude, velocity and acceleration given, w a 5th-order ramp over
+    ``ramp`` s at both ends (the segment starts and ends at rest at q_start)."""
+    nj = q_start.size
+    w = 2 * np.pi / period
+    a, b = rng.normal(size=(2, harmonics, nj))
+    ls = np.arange(1, harmonics + 1)[:, None]
+    tt = t[:, None, None]
+    lw = ls[None] * w
+    F = np.sum(a / lw * np.sin(lw * tt) - b / lw * np.cos(lw * tt), axis=1)
+    Fd = np.sum(a * np.cos(lw * tt) + b * np.sin(lw * tt), axis=1)
+    Fdd = np.sum(lw * (-a * np.sin(lw * tt) + b * np.cos(lw * tt)), axis=1)
+    dF = F - F[0]
+    scale = np.min(
+        [
+            position / np.abs(dF).max(0),
+            velocity / np.abs(Fd).max(0),
+            acceleration / np.abs(Fdd).max(0),
+        ],
+        axis=0,
+    )
+    win = _smoothstep(t / ramp) * _smoothstep((t[-1] - t) / ramp)
+    return q_start + win[:, None] * dF * scale
+
+
+def p2p_reference(t, q_start, rng, *, position=0.8, velocity=1.0, rest=(0.5, 2.0)):
+    """Minimum-jerk moves of all joints to random targets within ±position of q_start, each
+    followed by a rest of ``rest`` s; starts with a rest at q_start and ends at rest."""
+    nj = q_start.size
+    r = np.empty((t.size, nj))
+    q = q_start.copy()
+    t0 = 0.0
+    hold = rng.uniform(*rest)
+    segments = []
+    while t0 + hold < t[-1]:
+        segments.append((t0, t0 + hold, q.copy(), q.copy()))
+        t0 += hold
+        target = q_start + rng.uniform(-position, position, nj)
+        move = max(1.0, 1.875 * np.abs(target - q).max() / velocity)
+        segments.append((t0, t0 + move, q.copy(), target.copy()))
+        q = target
+        t0 += move
+        hold = rng.uniform(*rest)
+    segments.append((t0, np.inf, q.copy(), q.copy()))
+    for s0, s1, qa, qb in segments:
+        m = (t >= s0) & (t < s1)
+        if np.isfinite(s1):
+            s = _smoothstep((t[m] - s0) / (s1 - s0))[:, None]
+        else:
+            s = np.zeros((m.sum(), 1))
+        r[m] = qa + s * (qb - qa)
+    return r
+
+
+# ----------------------------------------------------------------------------- simulators
+def pinocchio_arm(armature=ARMATURE):
+    model = pin.buildModelFromUrdf(str(ARM6_URDF))
+    model.armature[:] = armature
+    return model
+
+
+def truth_of(model, armature, viscous, coulomb) -> Truth:
+    std = np.array([model.inertias[j + 1].toDynamicParameters() for j in range(model.nv)])
+    return Truth(
+        std, np.asarray(armature, float), np.asarray(viscous, float), np.asarray(coulomb, float)
+    )
+
+
+def simulate_pinocchio(model, r, dt, kp, kd, viscous, coulomb, smoothing, settle=1.0):
+    """Closed loop τ = Kp (r − q) − Kd q̇ held over each step, RK4 on pinocchio.aba with
+    friction τ_f = Fv q̇ + Fc tanh(q̇ / smoothing). r: (n_steps, n) on the step grid.
+    Starts at rest at r[0] and holds r[0] for ``settle`` s first (gravity sag settles).
+    Returns q, q̇, τ (n_steps, n) at the steps."""
+    data = model.createData()
+    fv, fc = np.asarray(viscous, float), np.asarray(coulomb, float)
+    has_fc = bool(np.any(fc))
+
+    def acc(q, v, tau):
+        f = tau - fv * v
+        if has_fc:
+            f = f - fc * np.tanh(v / smoothing)
+        return pin.aba(model, data, q, v, f)
+
+    n_settle = int(round(settle / dt))
+    n = r.shape[0]
+    q = r[0].copy()
+    v = np.zeros_like(q)
+    Q, V, T = np.empty_like(r), np.empty_like(r), np.empty_like(r)
+    for k in range(-n_settle, n):
+        rk = r[max(k, 0)]
+        tau = kp * (rk - q) - kd * v
+        if k >= 0:
+            Q[k], V[k], T[k] = q, v, tau
+        a1 = acc(q, v, tau)
+        q2, v2 = q + 0.5 * dt * v, v + 0.5 * dt * a1
+        a2 = acc(q2, v2, tau)
+        q3, v3 = q + 0.5 * dt * v2, v + 0.5 * dt * a2
+        a3 = acc(q3, v3, tau)
+        q4, v4 = q + dt * v3, v + dt * a3
+        a4 = acc(q4, v4, tau)
+        q = q + dt / 6 * (v + 2 * v2 + 2 * v3 + v4)
+        v = v + dt / 6 * (a1 + 2 * a2 + 2 * a3 + a4)
+    return Q, V, T
+
+
+def mujoco_available() -> str:
+    """'' when mujoco imports, else why not."""
+    try:
+        import mujoco  # noqa: F401
+    except Exception as exc:  # ImportError, or a broken binary wheel
+        return f"mujoco not importable ({type(exc).__name__}: {exc}); pip install mujoco"
+    return ""
+
+
+def simulate_mujoco(r, dt, kp, kd, armature, damping, frictionloss, settle=1.0):
+    """arm6.urdf in MuJoCo: armature, damping, frictionloss per joint, no contacts,
+    implicitfast at dt, PD law through qfrc_applied. Returns q, q̇, τ at the steps."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(ARM6_URDF))
+    m.opt.timestep = dt
+    m.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    m.dof_armature[:] = armature
+    m.dof_damping[:] = damping
+    m.dof_frictionloss[:] = frictionloss
+    d = mujoco.MjData(m)
+    d.qpos[:] = r[0]
+    n_settle = int(round(settle / dt))
+    Q, V, T = np.empty_like(r), np.empty_like(r), np.empty_like(r)
+    for k in range(-n_settle, r.shape[0]):
+        q, v = d.qpos.copy(), d.qvel.copy()
+        tau = kp * (r[max(k, 0)] - q) - kd * v
+        if k >= 0:
+            Q[k], V[k], T[k] = q, v, tau
+        d.qfrc_applied[:] = tau
+        mujoco.mj_step(m, d)
+    return Q, V, T
+
+
+def mujoco_matches_pinocchio(n=20, seed=3) -> float:
+    """Largest |τ_MuJoCo − τ_pinocchio| of the rigid-body inverse dynamics at random states."""
+    import mujoco
+
+    m = mujoco.MjModel.from_xml_path(str(ARM6_URDF))
+    d = mujoco.MjData(m)
+    pm = pin.buildModelFromUrdf(str(ARM6_URDF))
+    pd = pm.createData()
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(n):
+        q, v, a = rng.uniform(-2, 2, 6), rng.normal(size=6), rng.normal(size=6)
+        d.qpos[:], d.qvel[:], d.qacc[:] = q, v, a
+        mujoco.mj_inverse(m, d)
+        worst = max(worst, float(np.abs(d.qfrc_inverse - pin.rnea(pm, pd, q, v, a)).max()))
+    return worst
+
+
+# ----------------------------------------------------------------------------- records
+def _record(
+    t, q, tau, r, rng, *, sigma_q=SIGMA_Q, torque_noise=TORQUE_NOISE, counts=None, source=""
+):
+    """The measured record: q + noise (or quantised), τ + white noise of a fraction of its rms."""
+    qm = q + sigma_q * rng.standard_normal(q.shape) if sigma_q else q.copy()
+    if counts:
+        step = 2 * np.pi / counts
+        qm = np.round(qm / step) * step
+    rms = np.sqrt(np.mean(tau**2, axis=0))
+    taum = tau + torque_noise * rms * rng.standard_normal(tau.shape)
+    meta = {"kp": KP.tolist(), "kd": KD.tolist(), "source": source}
+    units = {"q": "rad", "tau": "N·m", "r": "rad"}
+    return physid.Recording.from_columns(t, {"q": qm, "tau": taum, "r": r}, units, meta)
+
+
+def _simulate(kind, r, every, rng, *, friction, counts=None, sigma_q=SIGMA_Q, source=""):
+    """Run a simulator on the reference r (on the DT_SIM grid), keep every ``every``-th step,
+    add measurement noise. Returns the measured Recording, the noise-free τ and the noise-free
+    Recording."""
+    fv = VISCOUS if friction else np.zeros(6)
+    fc = COULOMB if friction else np.zeros(6)
+    if kind == "pinocchio":
+        Q, _, T = simulate_pinocchio(pinocchio_arm(), r, DT_SIM, KP, KD, fv, fc, COULOMB_SMOOTHING)
+    else:
+        Q, _, T = simulate_mujoco(r, DT_SIM, KP, KD, ARMATURE, fv, fc)
+    keep = slice(None, None, every)
+    t = np.arange(r.shape[0])[keep] * DT_SIM
+    rec = _record(t, Q[keep], T[keep], r[keep], rng, counts=counts, sigma_q=sigma_q, source=source)
+    clean = _record(t, Q[keep], T[keep], r[keep], rng, sigma_q=0.0, torque_noise=0.0, source=source)
+    return rec, T[keep], clean
+
+
+def _grid(duration):
+    return np.arange(int(round(duration / DT_SIM))) * DT_SIM
+
+
+def case_a(quick=False) -> Case:
+    """(a) pinocchio, Fourier reference, no friction."""
+    dur, test_dur, period = (8.0, 6.0, 8.0) if quick else (16.0, 10.0, 8.0)
+    rng = np.random.default_rng(11)
+    t = _grid(dur)
+    r = fourier_reference(t, Q0, rng, period=period)
+    train, _, clean = _simulate("pinocchio", r, 2, rng, friction=False, source="pinocchio aba, RK4")
+    th = _grid(test_dur)
+    rh = fourier_reference(th, Q0, np.random.default_rng(12), period=period)
+    test, tau_true, _ = _simulate(
+        "pinocchio", rh, 2, rng, friction=False, source="pinocchio aba, RK4"
+    )
+    return Case(
+        key="aq" if quick else "a",
+        title=f"arm6 pinocchio PD Fourier 1 kHz, no friction ({dur:g} s / {test_dur:g} s)",
+        urdf=ARM6_URDF,
+        physid_model="arm6",
+        train=train,
+        test=test,
+        test_tau_true=tau_true,
+        train_clean=clean,
+        truth=truth_of(pinocchio_arm(), ARMATURE, np.zeros(6), np.zeros(6)),
+        bandwidth_hz=5 / period,
+        armature=True,
+    )
+
+
+def case_b() -> Case:
+    """(b) pinocchio, viscous + smoothed Coulomb friction, Fourier + point-to-point with rests."""
+    rng = np.random.default_rng(21)
+
+    def reference(seed, fourier_s, p2p_s, fourier_first):
+        g = np.random.default_rng(seed)
+        tf, tp = _grid(fourier_s), _grid(p2p_s)
+        rf = fourier_reference(tf, Q0, g, period=8.0)
+        rp = p2p_reference(tp, Q0, g)
+        return np.vstack([rf, rp] if fourier_first else [rp, rf])
+
+    r = reference(22, 8.0, 14.0, True)
+    train, _, clean = _simulate("pinocchio", r, 2, rng, friction=True, source="pinocchio aba, RK4")
+    rh = reference(23, 8.0, 8.0, False)
+    test, tau_true, _ = _simulate(
+        "pinocchio", rh, 2, rng, friction=True, source="pinocchio aba, RK4"
+    )
+    return Case(
+        key="b",
+        title="arm6 pinocchio, viscous+Coulomb (tanh), Fourier + point-to-point with rests",
+        urdf=ARM6_URDF,
+        physid_model="arm6",
+        train=train,
+        test=test,
+        test_tau_true=tau_true,
+        train_clean=clean,
+        truth=truth_of(pinocchio_arm(), ARMATURE, VISCOUS, COULOMB),
+        bandwidth_hz=2.0,  # the 1-2 s minimum-jerk moves, not the Fourier segment's 0.625 Hz
+        armature=True,
+        note=f"Coulomb smoothed: Fc·tanh(q̇/{COULOMB_SMOOTHING:g} rad/s)",
+    )
+
+
+def case_c() -> Case:
+    """(c) MuJoCo: armature, damping, frictionloss (sticking), Fourier reference."""
+    why = mujoco_available()
+    title = "arm6 MuJoCo, armature+damping+frictionloss (sticks), Fourier"
+    if why:
+        return Case("c", title, ARM6_URDF, "arm6", skipped=why)
+    mismatch = mujoco_matches_pinocchio()
+    rng = np.random.default_rng(31)
+    period = 10.0
+    r = fourier_reference(_grid(20.0), Q0, np.random.default_rng(32), period=period, velocity=0.8)
+    train, _, clean = _simulate("mujoco", r, 2, rng, friction=True, source="MuJoCo implicitfast")
+    rh = fourier_reference(_grid(10.0), Q0, np.random.default_rng(33), period=period, velocity=0.8)
+    test, tau_true, _ = _simulate("mujoco", rh, 2, rng, friction=True, source="MuJoCo implicitfast")
+    return Case(
+        key="c",
+        title=title,
+        urdf=ARM6_URDF,
+        physid_model="arm6",
+        train=train,
+        test=test,
+        test_tau_true=tau_true,
+        train_clean=clean,
+        truth=truth_of(pinocchio_arm(), ARMATURE, VISCOUS, COULOMB),
+        bandwidth_hz=5 / period,
+        armature=True,
+        note=f"MuJoCo vs pinocchio inverse dynamics: max |Δτ| {mismatch:.1e} N·m",
+        info={"mujoco_vs_pinocchio": mismatch},
+    )
+
+
+def case_d() -> Case:
+    """(d) Slow sweep: 0.05 Hz fundamental, 250 Hz log, 2^16 counts/turn, friction."""
+    rng = np.random.default_rng(41)
+    period = 20.0
+    kw = {"period": period, "velocity": 0.6, "acceleration": 1.0, "position": 1.0, "ramp": 2.0}
+    r = fourier_reference(_grid(period), Q0, np.random.default_rng(42), **kw)
+    train, _, clean = _simulate(
+        "pinocchio",
+        r,
+        8,
+        rng,
+        friction=True,
+        counts=2**16,
+        sigma_q=0.0,
+        source="pinocchio aba, RK4, 250 Hz, 2^16 counts/turn",
+    )
+    rh = fourier_reference(_grid(period), Q0, np.random.default_rng(43), **kw)
+    test, tau_true, _ = _simulate(
+        "pinocchio",
+        rh,
+        8,
+        rng,
+        friction=True,
+        counts=2**16,
+        sigma_q=0.0,
+        source="pinocchio aba, RK4, 250 Hz, 2^16 counts/turn",
+    )
+    return Case(
+        key="d",
+        title="arm6 pinocchio slow sweep 0.05 Hz, 250 Hz, 2^16 counts/turn, friction",
+        urdf=ARM6_URDF,
+        physid_model="arm6",
+        train=train,
+        test=test,
+        test_tau_true=tau_true,
+        train_clean=clean,
+        truth=truth_of(pinocchio_arm(), ARMATURE, VISCOUS, COULOMB),
+        bandwidth_hz=5 / period,
+        armature=True,
+        note=f"encoder step {2 * np.pi / 2**16:.2e} rad",
+    )
+
+
+_SIDECARS = {}
+
+
+def friction_sidecar(urdf: Path, joint_names) -> str:
+    """A sidecar TOML (in a temporary folder) that adds viscous and Coulomb friction columns."""
+    key = str(urdf)
+    if key not in _SIDECARS:
+        folder = Path(tempfile.mkdtemp(prefix="physid-zoo-"))
+        lines = [f'name = "{urdf.stem}_friction"', f'extends = "{urdf.as_posix()}"', ""]
+        for j in joint_names:
+            lines += [f"[joints.{j}]", "viscous = 0.0", "coulomb = 0.0", ""]
+        path = folder / f"{urdf.stem}_friction.toml"
+        path.write_text("\n".join(lines), encoding="utf-8")
+        _SIDECARS[key] = str(path)
+    return _SIDECARS[key]
+
+
+def _joint_names(urdf: Path):
+    m = pin.buildModelFromUrdf(str(urdf))
+    return list(m.names)[1:]
+
+
+def case_panda() -> Case:
+    folder = real_robots_dir() / "panda_gaz2019"
+    title = "Franka Panda, real (Gaz 2019), 1st half -> 2nd half"
+    urdf = folder / "panda_arm.urdf"
+    csv = folder / "exciting_traj_1.csv"
+    if not csv.exists():
+        return Case("e1", title, urdf, "", skipped=f"real data not found at {folder}")
+    rec = physid.load_recording(str(csv), channels={"t": "t_tick"}, resample=True)
+    rec = _only_q_tau(rec)
+    half = rec.t[0] + 0.5 * (rec.t[-1] - rec.t[0])
+    return Case(
+        key="e1",
+        title=title,
+        urdf=urdf,
+        physid_model=friction_sidecar(urdf, _joint_names(urdf)),
+        train=rec.slice_time(None, half),
+        test=rec.slice_time(half, None),
+        bandwidth_hz=1.0,
+        note="t_tick, resampled; held-out half partly retraces the first",
+    )
+
+
+def _only_q_tau(rec):
+    """Keep t, q1..qn, tau1..taun (drop the robot's own velocity estimate)."""
+    names = [n for n in rec.names if n.startswith(("q", "tau")) and not n.startswith("qd")]
+    return physid.Recording(
+        rec.t, rec.select(names), names, [rec.unit(n) for n in names], dict(rec.metadata)
+    )
+
+
+def case_kuka() -> Case:
+    folder = real_robots_dir() / "kuka_lwr4_flobaroid"
+    title = "KUKA LWR4+, real (FloBaRoID), run 1 -> run 3"
+    urdf = folder / "kuka_lwr4.urdf"
+    files = [folder / f"measurements_{k}.csv" for k in (1, 3)]
+    if not all(f.exists() for f in files):
+        return Case("e2", title, urdf, "", skipped=f"real data not found at {folder}")
+    train, test = (_only_q_tau(physid.load_recording(str(f), resample=True)) for f in files)
+    return Case(
+        key="e2",
+        title=title,
+        urdf=urdf,
+        physid_model=friction_sidecar(urdf, _joint_names(urdf)),
+        train=train,
+        test=test,
+        bandwidth_hz=0.8,
+        note="logged already low-passed (q 3 Hz, τ 2 Hz); resampled to a uniform grid",
+    )
+
+
+BUILDERS = {
+    "a": case_a,
+    "b": case_b,
+    "c": case_c,
+    "d": case_d,
+    "e1": case_panda,
+    "e2": case_kuka,
+}
+
+
+def build(keys=None, quick=False):
+    """The cases (quick: case (a) shortened only)."""
+    if quick:
+        return [case_a(quick=True)]
+    return [BUILDERS[k]() for k in (keys or BUILDERS)]
