@@ -9,6 +9,10 @@ bytes, mode 0600, created atomically on first use), so an entry is accepted only
 written by someone who can read that key. A folder or key file that breaks the rule is not used
 at all (`CacheWarning` names it and the fix); the work is then done in memory, or in a private
 temporary folder, every time.
+
+Outputs are written by `atomic_write` only: a temporary file in the destination's folder replaces
+the destination, which must be absent or a regular file (a device, FIFO, socket or symbolic link
+is refused, never replaced).
 """
 
 from __future__ import annotations
@@ -304,6 +308,10 @@ def atomic_write(
     ``write`` raises, the temporary file is removed, an existing ``path`` is left untouched, and the
     exception propagates. A reader never sees half a file.
 
+    The destination must be absent or a regular file: a symbolic link, a device, a FIFO or a
+    socket is refused (replacing it would destroy it instead of writing to it), checked before
+    writing and again just before the rename.
+
     Parameters
     ----------
     path : str or Path
@@ -322,8 +330,9 @@ def atomic_write(
     Raises
     ------
     OutputError
-        ``path`` is a folder, its folder cannot be created (a file is in the way) or written
-        (permissions, read-only file system, disk full); the message names ``path``.
+        ``path`` is a folder, a symbolic link, a device, FIFO or socket; its folder cannot be
+        created (a file is in the way) or written (permissions, read-only file system, disk
+        full); the message names ``path``.
     """
     path = Path(path)
     _check_writable(path)
@@ -341,6 +350,7 @@ def atomic_write(
         # mkstemp creates the file -rw------- ; give it the permissions open() would (0o666 less
         # the umask), so the outputs are as readable as any other file the user writes
         os.chmod(tmp, 0o666 & ~_current_umask() if mode is None else mode)
+        _check_not_special(path)  # again: it may have appeared while the data were written
         os.replace(tmp, path)
     except BaseException as exc:
         try:
@@ -370,13 +380,42 @@ def _output_error(path: Path, exc: OSError) -> OutputError:
     return OutputError(f"cannot write {str(path)!r}: {fix}.")
 
 
+_KINDS = (
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _check_not_special(path: Path) -> None:
+    """Refuse a destination that exists and is a symbolic link or not a regular file."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return  # absent (or its folder is not searchable: reported when writing)
+    if stat.S_ISLNK(st.st_mode):
+        raise OutputError(
+            f"cannot write {str(path)!r}: it is a symbolic link (to "
+            f"{os.path.realpath(path)!r}); give the target path, physid does not replace links."
+        )
+    if stat.S_ISDIR(st.st_mode) or stat.S_ISREG(st.st_mode):
+        return
+    kind = next((name for test, name in _KINDS if test(st.st_mode)), "a special file")
+    raise OutputError(
+        f"cannot write {str(path)!r}: it is {kind}, not a regular file; physid writes outputs "
+        "by replacing a regular file and would destroy it. Give the path of a regular file."
+    )
+
+
 def _check_writable(path: Path) -> None:
-    """Refuse an output path that is a folder, or whose folder cannot be made, naming it."""
-    if path.is_dir():
+    """Refuse a folder, link or special file as output, or one whose folder cannot be made."""
+    if path.is_dir() and not path.is_symlink():
         raise OutputError(
             f"cannot write {str(path)!r}: it is a folder; give a file name, e.g. "
             f"{str(path / 'out.csv')!r}."
         )
+    _check_not_special(path)
     parent = path.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
