@@ -206,6 +206,19 @@ def _jumps(text) -> list[tuple[float, float]] | None:
     return out
 
 
+def _grid(args) -> tuple[float, float]:
+    """``--duration`` and ``--dt`` of ``simulate msd``, at most 5e7 samples (the memory check of
+    `physid.simulate.simulate_msd` follows, with this machine's numbers)."""
+    duration = _number(args.duration, "--duration [s]", positive=True)
+    dt = _number(args.dt, "--dt [s]", positive=True)
+    if duration / dt > 5e7:
+        raise InputError(
+            f"--duration {duration:g} s at --dt {dt:g} s asks for {duration / dt:.3g} samples; "
+            "at most 5e7 (raise --dt, or shorten --duration)."
+        )
+    return duration, dt
+
+
 def run_manipulator(args) -> int:
     from ..signals import save_recording
     from ..simulate import paper_manipulator_experiment
@@ -274,13 +287,7 @@ def run_msd(args) -> int:
             "--seed only seeds the measurement noise; give --snr DB as well (the --disturbance "
             "sinusoid is deterministic), or drop --seed."
         )
-    duration = _number(args.duration, "--duration [s]", positive=True)
-    dt = _number(args.dt, "--dt [s]", positive=True)
-    if duration / dt > 5e7:  # the memory check (simulate_msd) follows, with the machine's numbers
-        raise InputError(
-            f"--duration {duration:g} s at --dt {dt:g} s asks for {duration / dt:.3g} samples; "
-            "at most 5e7 (raise --dt, or shorten --duration)."
-        )
+    duration, dt = _grid(args)
     x0 = (0.0, 0.0)
     if args.initial:
         x0 = tuple(float_list(args.initial, "--initial"))

@@ -207,6 +207,12 @@ def _check_size(t, duration, dt) -> float | None:
     return dt
 
 
+_SYSTEM_FIX = (
+    f"check {arg('stiffness')}, {arg('damping')} and {arg('mass')} (or "
+    f"{arg('natural_frequency')}), or lower {arg('dt')}"
+)
+
+
 def _check_rates(segment: MSDParameters, dt: float | None, where: str, fix: str) -> None:
     """Refuse a system whose ω0 or θ1 = c/m is not finite or turns > 1e6 rad per sample."""
     for name, unit, value in (
@@ -295,13 +301,7 @@ def simulate_msd(
     if t is None and duration is None and dt is None:
         duration, dt = PAPER_MSD["duration"], PAPER_MSD["dt"]
     step = _check_size(t, duration, dt)  # before anything of the grid's size is allocated
-    _check_rates(
-        params,
-        step,
-        "the system",
-        f"check {arg('stiffness')}, {arg('damping')} and {arg('mass')} (or "
-        f"{arg('natural_frequency')}), or lower {arg('dt')}",
-    )
+    _check_rates(params, step, "the system", _SYSTEM_FIX)
     w0 = params.natural_frequency
     given = [
         name
