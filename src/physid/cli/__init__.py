@@ -28,6 +28,7 @@ import signal
 import sys
 import threading
 import warnings
+from pathlib import Path
 
 from .. import __version__
 from ..errors import PhysidError
@@ -97,15 +98,17 @@ def argument_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
         ``ARGUMENT_FLAGS``; used with `physid.errors.PhysidError.render`.
     """
     flags: dict[str, str | None] = {}
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            verb_parser = action.choices.get(getattr(args, "verb", None))
-            if verb_parser is None:
-                break
-            for option in verb_parser._actions:
-                longs = [o for o in option.option_strings if o.startswith("--")]
-                if longs and option.dest not in ("help", argparse.SUPPRESS):
-                    flags.setdefault(option.dest, longs[0])
+    parsers = [parser]
+    while parsers:  # the verb's parser, and the sub-command's (``simulate msd``) within it
+        for action in parsers.pop()._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                chosen = action._name_parser_map.get(getattr(args, action.dest, None))
+                if chosen is not None:
+                    parsers.append(chosen)
+                continue
+            longs = [o for o in action.option_strings if o.startswith("--")]
+            if longs and action.dest not in ("help", "version", argparse.SUPPRESS):
+                flags.setdefault(action.dest, longs[0])
     module = sys.modules.get(getattr(getattr(args, "func", None), "__module__", "") or "")
     flags.update(getattr(module, "ARGUMENT_FLAGS", {}) or {})
     return flags
@@ -168,6 +171,76 @@ def _sigterm_as_exception():
         signal.signal(signal.SIGALRM, previous_alarm)
 
 
+#: Exit status after the reader of stdout went away (``physid ... | head``): 128 + SIGPIPE, what
+#: a shell reports for a command that the signal ended.
+BROKEN_PIPE_STATUS = 141
+
+
+def _reopen_closed_fds() -> None:
+    """A closed fd 0/1/2 (``2>&-``) is pointed at /dev/null, so that no file physid opens later
+    takes its number and receives what is written to that stream."""
+    import os
+
+    for fd in (0, 1, 2):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, os.O_RDWR)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+
+
+@contextlib.contextmanager
+def _output_streams():
+    """stdout and stderr as the command needs them, restored afterwards.
+
+    * A missing stream (the process started with it closed: Python sets it to None, and
+      ``print(file=None)`` would write to stdout) becomes /dev/null: progress never reaches
+      stdout.
+    * Characters the stream's encoding lacks (``PYTHONIOENCODING=ascii``: θ, ±, ·) are written as
+      backslash escapes instead of raising `UnicodeEncodeError`.
+    """
+    import io
+    import os
+
+    saved = {}
+    if sys.stdout is None or sys.stderr is None:
+        _reopen_closed_fds()
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        if stream is None:
+            saved[name] = (None, None)
+            setattr(sys, name, open(os.devnull, "w", encoding="utf-8"))  # noqa: SIM115
+        elif isinstance(stream, io.TextIOWrapper) and stream.errors == "strict":
+            saved[name] = (stream, stream.errors)
+            stream.reconfigure(errors="backslashreplace")
+    try:
+        yield
+    finally:
+        for name, (stream, errors) in saved.items():
+            if stream is None:
+                getattr(sys, name).close()
+                setattr(sys, name, None)
+            else:
+                with contextlib.suppress(ValueError, OSError):  # closed meanwhile
+                    stream.reconfigure(errors=errors)
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe: point stdout at /dev/null, so that the interpreter's final flush of
+    what is still buffered does not fail again ("Exception ignored ... BrokenPipeError")."""
+    import os
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, ValueError, OSError):
+        return  # not a file (a test's StringIO): nothing is flushed at exit
+    null = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(null, fd)
+    os.close(null)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``physid`` command.
 
@@ -180,8 +253,35 @@ def main(argv: list[str] | None = None) -> int:
     -------
     int
         The exit status: 0 success, 2 refused input (one ``physid: error:`` line on stderr),
-        130 interrupted (Ctrl-C), 143 terminated (SIGTERM).
+        130 interrupted (Ctrl-C), 141 the reader of stdout went away (``physid ... | head``;
+        quietly, as other Unix tools), 143 terminated (SIGTERM).
     """
+    with _output_streams():
+        try:
+            try:
+                return _main(argv)
+            finally:
+                sys.stdout.flush()  # a pipe buffers stdout: a closed reader shows up here
+        except BrokenPipeError:
+            _silence_stdout()
+            return BROKEN_PIPE_STATUS
+
+
+def _check_output_targets(args) -> None:
+    """Refuse, before the verb runs, an output that is a device, FIFO, socket or a symbolic link
+    to anything but a folder (`physid._paths.atomic_write` would refuse it after the work)."""
+    import os
+
+    from .._paths import _check_not_special
+    from ._common import OUTPUT_OPTIONS
+
+    for key in OUTPUT_OPTIONS:
+        value = getattr(args, key, None)
+        if isinstance(value, str) and value and not os.path.isdir(value):
+            _check_not_special(Path(value))
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -198,6 +298,7 @@ def main(argv: list[str] | None = None) -> int:
         with _sigterm_as_exception(), warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("default")
             check_outputs(args)  # no --out/--plot may name an input file (every verb)
+            _check_output_targets(args)  # ... nor a device, FIFO, socket or link to a file
             status = int(args.func(args) or 0)
         report_warnings(caught, flags)
         return status

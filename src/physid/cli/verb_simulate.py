@@ -206,6 +206,19 @@ def _jumps(text) -> list[tuple[float, float]] | None:
     return out
 
 
+def _grid(args) -> tuple[float, float]:
+    """``--duration`` and ``--dt`` of ``simulate msd``, at most 5e7 samples (the memory check of
+    `physid.simulate.simulate_msd` follows, with this machine's numbers)."""
+    duration = _number(args.duration, "--duration [s]", positive=True)
+    dt = _number(args.dt, "--dt [s]", positive=True)
+    if duration / dt > 5e7:
+        raise InputError(
+            f"--duration {duration:g} s at --dt {dt:g} s asks for {duration / dt:.3g} samples; "
+            "at most 5e7 (raise --dt, or shorten --duration)."
+        )
+    return duration, dt
+
+
 def run_manipulator(args) -> int:
     from ..signals import save_recording
     from ..simulate import paper_manipulator_experiment
@@ -274,6 +287,7 @@ def run_msd(args) -> int:
             "--seed only seeds the measurement noise; give --snr DB as well (the --disturbance "
             "sinusoid is deterministic), or drop --seed."
         )
+    duration, dt = _grid(args)
     x0 = (0.0, 0.0)
     if args.initial:
         x0 = tuple(float_list(args.initial, "--initial"))
@@ -282,8 +296,8 @@ def run_msd(args) -> int:
     rec = msd_paper_scenario(
         ratio=_number(args.ratio, "--ratio", positive=True, allow_zero=True),
         snr_db=_number(args.snr, "--snr [dB]"),
-        duration=_number(args.duration, "--duration [s]", positive=True),
-        dt=_number(args.dt, "--dt [s]", positive=True),
+        duration=duration,
+        dt=dt,
         amplitude=amplitude,
         force_amplitude=force,
         disturbance=disturbance,

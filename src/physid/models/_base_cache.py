@@ -13,7 +13,9 @@ An entry is used only after two checks: its stored content must equal the model'
 (a renamed or copied file from another model fails), and the cached base set must reproduce
 the model's regressor at a few fresh random states, ``Y ≈ Y[:, ind] K`` (a tampered or stale
 matrix fails). Anything else (unreadable, other format, failed check) is a miss: the base
-parameters are derived again and the entry is rewritten.
+parameters are derived again and the entry is rewritten. The entries are read and written
+through `physid.models._cache`, so its trust rule (a private folder, private entries, a keyed
+HMAC) applies to them as well.
 """
 
 from __future__ import annotations

@@ -12,12 +12,15 @@ unreadable, from another format, or with a mismatching key counts as a miss and 
 overwritten). A cache folder that cannot be written is not an error: the model is simply
 derived again next time.
 
-Integrity: the cached data are Python source that `physid.models.codegen.source_to_function`
-executes, so every entry stores the SHA-256 of its data's canonical JSON (`data_digest`) when it
-is written, and an entry whose data no longer hash to it (edited, truncated, tampered with) is a
-miss: the code is derived again and the entry overwritten, and the altered source never runs.
-(The hash detects changes made without recomputing it; someone who can rewrite the cache folder
-and the hash can also rewrite physid itself, so the folder must stay the user's own.)
+Trust: the cached data are Python source that `physid.models.codegen.source_to_function`
+executes, so an entry is used only from a trusted folder (`physid._paths.trusted_cache`: owned by
+the user, not writable by the group or others) and only if the entry file itself is a regular
+file with the same owner and no group/other write permission. Every entry stores an HMAC-SHA256
+of its kind, key and data (`entry_mac`), keyed with the folder's per-user secret; an entry whose
+MAC does not match (edited, truncated, written by an older physid with a plain SHA-256, or by
+someone who cannot read the key) is a miss: the code is derived again and the entry
+overwritten, and the altered source never runs. An untrusted folder is neither read nor
+written (one warning says why and how to fix it); the model is then derived in memory.
 """
 
 from __future__ import annotations
@@ -28,20 +31,21 @@ import json
 import sys
 from pathlib import Path
 
-from .._paths import atomic_write, cache_dir
+from .._paths import atomic_write, cache_dir, cache_mac, read_private, same_mac, trusted_cache
 
 __all__ = [
     "CACHE_FORMAT",
     "cache_dir",
     "content_key",
     "data_digest",
+    "entry_mac",
     "load_entry",
     "save_entry",
     "cached",
 ]
 
 #: Bump when the generated code or the metadata layout changes: old entries then miss.
-CACHE_FORMAT = "physid-models-10"
+CACHE_FORMAT = "physid-models-11"
 
 
 @functools.lru_cache(maxsize=1)
@@ -73,27 +77,62 @@ def content_key(content) -> str:
 
 
 def data_digest(data) -> str:
-    """SHA-256 (hex) of the canonical JSON of an entry's ``data`` (the integrity check).
+    """SHA-256 (hex) of the canonical JSON of an entry's ``data``.
 
     Canonical: sorted keys, no spaces, so the digest of the data as written equals the digest of
-    the same data read back from the file.
+    the same data read back from the file. Anyone can recompute it, so it is no integrity check:
+    entries are verified with the keyed `entry_mac`.
     """
+    return hashlib.sha256(_canonical(data).encode("utf-8")).hexdigest()
+
+
+def _canonical(data) -> str:
     normal = json.loads(json.dumps(data))  # as read back: tuples → lists, keys → str
-    text = json.dumps(normal, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+    return json.dumps(normal, sort_keys=True, separators=(",", ":"))
 
 
-def _path(kind: str, key: str) -> Path:
-    return cache_dir() / f"{kind}-{key}.json"
+def entry_mac(secret: bytes, kind: str, key: str, data) -> str:
+    """HMAC-SHA256 (hex) of an entry's kind, key and canonical ``data`` under the folder's key.
+
+    Parameters
+    ----------
+    secret : bytes
+        The cache folder's secret key (`physid._paths.trusted_cache`).
+    kind, key : str
+        The entry's name parts (a valid entry copied under another name does not verify).
+    data : JSON-compatible
+        The entry's data.
+
+    Returns
+    -------
+    str
+    """
+    return cache_mac(
+        secret, CACHE_FORMAT.encode(), kind.encode(), key.encode(), _canonical(data).encode()
+    )
+
+
+#: Entries this process derived but could not write (untrusted or unwritable folder): kept in
+#: memory, so that a second load in the same process does not derive them again.
+_MEMORY: dict[tuple[str, str], str] = {}
 
 
 def load_entry(kind: str, key: str) -> dict | None:
-    """Return the cached entry, or None on a miss (absent, unreadable, corrupt, stale)."""
-    path = _path(kind, key)
+    """Return the cached entry, or None on a miss (absent, unreadable, untrusted, stale)."""
+    trusted = trusted_cache()
+    data = None if trusted is None else _read_entry(*trusted, kind, key)
+    if data is None and (kind, key) in _MEMORY:  # as JSON text: every load gets its own copy
+        data = json.loads(_MEMORY[(kind, key)])
+    return data
+
+
+def _read_entry(folder: Path, secret: bytes, kind: str, key: str) -> dict | None:
+    raw = read_private(folder / f"{kind}-{key}.json")
+    if raw is None:
+        return None
     try:
-        with open(path, encoding="utf-8") as fh:
-            entry = json.load(fh)
-    except (OSError, ValueError, UnicodeDecodeError):
+        entry = json.loads(raw.decode("utf-8"))
+    except (ValueError, UnicodeDecodeError):
         return None
     if (
         not isinstance(entry, dict)
@@ -105,26 +144,37 @@ def load_entry(kind: str, key: str) -> dict | None:
     if not isinstance(data, dict):
         return None
     try:
-        digest = data_digest(data)
+        mac = entry_mac(secret, kind, key, data)
     except (TypeError, ValueError):
         return None
-    if entry.get("sha256") != digest:  # altered since it was written: never run it
+    if not same_mac(mac, entry.get("hmac")):  # altered, or not written by this user: never run
         return None
     return data
 
 
 def save_entry(kind: str, key: str, data: dict) -> bool:
-    """Write an entry atomically; return False (silently) if the folder is not writable."""
+    """Write an entry atomically (mode 0600); False if the folder is unwritable or untrusted.
+
+    An entry that is not written is kept in this process's memory instead.
+    """
     try:
-        digest = data_digest(data)
+        text = json.dumps(data)
     except (TypeError, ValueError):  # not JSON data: nothing to cache
         return False
-    entry = {"format": CACHE_FORMAT, "key": key, "sha256": digest, "data": data}
-    try:
-        atomic_write(_path(kind, key), lambda fh: json.dump(entry, fh))
-    except OSError:
-        return False
-    return True
+    trusted = trusted_cache(create=True)
+    if trusted is not None:
+        folder, secret = trusted
+        mac = entry_mac(secret, kind, key, data)
+        entry = {"format": CACHE_FORMAT, "key": key, "hmac": mac, "data": data}
+        try:
+            atomic_write(folder / f"{kind}-{key}.json", lambda fh: json.dump(entry, fh), mode=0o600)
+        except OSError:
+            pass
+        else:
+            _MEMORY.pop((kind, key), None)
+            return True
+    _MEMORY[(kind, key)] = text
+    return False
 
 
 def cached(kind: str, key: str, derive, *, enabled: bool = True, valid=None) -> tuple[dict, bool]:

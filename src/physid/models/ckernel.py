@@ -264,7 +264,7 @@ def load_kernel(chain: RigidChain) -> ChainKernel | None:
     if chain.n_joints > _MAXJ:
         return None
     if not _STATE["tried"]:
+        _STATE["lib"] = _library()  # an error (a relative PHYSID_CACHE_DIR) is raised each time
         _STATE["tried"] = True
-        _STATE["lib"] = _library()
     lib = _STATE["lib"]
     return None if lib is None else ChainKernel(lib, chain)

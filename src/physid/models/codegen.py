@@ -435,74 +435,131 @@ def build_shared_library(source, tag: str, *, key: str | None = None, cc="auto")
 
     Notes
     -----
-    Loading a library runs its code, so the SHA-256 of the built file is written beside it
-    (``tag-<hash>.so.sha256``) and checked before every load; a library that no longer matches
-    (or has no digest) is built again, never loaded.
+    Loading a library runs its code, so a cached library is loaded only from a trusted cache
+    folder (`physid._paths.trusted_cache`), only if the file is the user's own and not writable
+    by others, and only if its bytes match the HMAC-SHA256 written beside it
+    (``tag-<hash>.so.hmac``, keyed with the folder's per-user secret); otherwise it is built
+    again, never loaded. With an untrusted folder the library is built in a private temporary
+    folder, loaded from there and the folder removed.
     """
-    import ctypes
     import hashlib
-    import os
-    import subprocess
     import sys
-    import tempfile
-    from pathlib import Path
 
-    from .._paths import atomic_write, cache_dir
+    from .._paths import trusted_cache
 
     if key is None:
         text = source + sys.platform + str(sys.version_info[:2])
         key = hashlib.sha256(text.encode()).hexdigest()[:32]
-    folder = cache_dir()
-    lib_path = folder / f"{tag}-{key}.so"
-    digest_path = folder / f"{tag}-{key}.so.sha256"
-    if str(lib_path) in _LIBRARIES:
-        return _LIBRARIES[str(lib_path)]
+    trusted = trusted_cache(create=cc is not None)
+    memo = (str(trusted[0]) if trusted else None, tag, key)
+    if memo in _LIBRARIES:
+        return _LIBRARIES[memo]
+    if trusted is None:
+        lib = _build_private(source, tag, cc)
+    else:
+        lib = _load_cached(trusted, source, tag, key, cc)
+    if lib is not None:
+        _LIBRARIES[memo] = lib
+    return lib
 
-    def intact() -> bool:  # the library's bytes still hash to the digest written beside it
+
+def _library_mac(secret: bytes, name: str, data: bytes) -> str:
+    from .._paths import cache_mac
+
+    return cache_mac(secret, b"physid-shared-library-1", name.encode(), data)
+
+
+def _compile(source, tag: str, cc, folder):
+    """Compile into ``folder``; the path of the library, or None (no compiler, failed build)."""
+    import subprocess
+    from pathlib import Path
+
+    cc = compiler() if cc == "auto" else cc
+    if cc is None:
+        return None
+    if callable(source):
         try:
-            digest = hashlib.sha256(lib_path.read_bytes()).hexdigest()
-            return digest_path.read_text(encoding="ascii").strip() == digest
-        except OSError:
+            source = source()
+        except (AttributeError, TypeError, ValueError, NotImplementedError):
+            return None  # nothing printable as C
+    src = Path(folder) / f"{tag}.c"
+    src.write_text(source, encoding="utf-8")
+    out = Path(folder) / f"{tag}.so"
+    proc = subprocess.run(
+        # relative names, run in the build folder: the same bytes from every build
+        [cc, "-O3", "-shared", "-fPIC", "-o", out.name, src.name, "-lm"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    return out if proc.returncode == 0 else None
+
+
+def _load(path):
+    import ctypes
+
+    try:
+        return ctypes.CDLL(str(path))
+    except OSError:
+        return None
+
+
+def _build_private(source, tag: str, cc):
+    """Build in a private temporary folder (mode 0700), load, remove the folder."""
+    import shutil
+    import subprocess
+    import tempfile
+
+    if cc is None:
+        return None
+    folder = tempfile.mkdtemp(prefix="physid-build-")
+    try:
+        out = _compile(source, tag, cc, folder)
+        return None if out is None else _load(out)  # a loaded library outlives its file
+    except (OSError, subprocess.SubprocessError):
+        return None
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _load_cached(trusted, source, tag: str, key: str, cc):
+    """Load ``tag-key.so`` from the trusted cache if its HMAC verifies, else build it there."""
+    import os
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    from .._paths import atomic_write, read_private, same_mac
+
+    folder, secret = trusted
+    name = f"{tag}-{key}.so"
+    lib_path = folder / name
+    mac_path = folder / f"{name}.hmac"
+
+    def intact() -> bool:  # the library's bytes still match the MAC written beside it
+        data, mac = read_private(lib_path), read_private(mac_path)
+        if data is None or mac is None:
             return False
+        return same_mac(_library_mac(secret, name, data), mac.decode("ascii", "replace").strip())
 
     if not intact():  # absent, or altered since it was built: build it again, never load it
-        cc = compiler() if cc == "auto" else cc
         if cc is None:
             return None
-        if callable(source):
-            try:
-                source = source()
-            except (AttributeError, TypeError, ValueError, NotImplementedError):
-                return None  # nothing printable as C
         try:
-            folder.mkdir(parents=True, exist_ok=True)
             with tempfile.TemporaryDirectory(dir=folder) as tmp:
-                src = Path(tmp) / f"{tag}.c"
-                src.write_text(source, encoding="utf-8")
-                out = Path(tmp) / f"{tag}.so"
-                proc = subprocess.run(
-                    # relative names, run in the build folder: the same bytes from every build
-                    [cc, "-O3", "-shared", "-fPIC", "-o", out.name, src.name, "-lm"],
-                    cwd=tmp,
-                    capture_output=True,
-                    text=True,
-                    timeout=120,
-                )
-                if proc.returncode != 0:
+                out = _compile(source, tag, cc, tmp)
+                if out is None:
                     return None
-                digest = hashlib.sha256(out.read_bytes()).hexdigest()
+                os.chmod(out, 0o700)
+                mac = _library_mac(secret, name, Path(out).read_bytes())
                 os.replace(out, lib_path)  # atomic: a reader never sees half a library
-                atomic_write(digest_path, lambda fh: fh.write(digest + "\n"))
+                atomic_write(mac_path, lambda fh: fh.write(mac + "\n"), mode=0o600)
         except (OSError, subprocess.SubprocessError):
             return None
         if not intact():  # another process replaced it meanwhile: load nothing unverified
             return None
-    try:
-        lib = ctypes.CDLL(str(lib_path))
-    except OSError:
-        return None
-    _LIBRARIES[str(lib_path)] = lib
-    return lib
+    return _load(lib_path)
 
 
 def c_pd_rhs_source(eqs) -> str:

@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import os
+import stat
 from importlib import resources
 from pathlib import Path
 
@@ -134,6 +136,7 @@ def load_model(name_or_path, **options):
             f".urdf model file; got {type(name_or_path).__name__}."
         )
     path = Path(name_or_path)
+    _check_regular_file(path)
     if not path.exists():
         raise ModelFileError(
             f"{str(name_or_path)!r} is neither a built-in model {BUILTIN_MODELS} nor an existing "
@@ -143,6 +146,32 @@ def load_model(name_or_path, **options):
 
 
 # ---------------------------------------------------------------------------------------------
+
+_SPECIAL_FILES = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def _check_regular_file(path: Path) -> None:
+    """Refuse a model path that exists and is a FIFO, device or socket, before opening it.
+
+    Reading one would block (a FIFO waits for a writer) or never end (``/dev/zero``). Folders
+    and missing paths are left to the callers' own messages; a symbolic link is judged by its
+    target.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return
+    for test, kind in _SPECIAL_FILES:
+        if test(mode):
+            raise ModelFileError(
+                f"{str(path)!r} is {kind}, not a model file; give the path of a .toml or .urdf "
+                "model file."
+            )
 
 
 def load_model_file(path, **options):
@@ -166,6 +195,7 @@ def load_model_file(path, **options):
         Any problem in the file, naming its line and the fix.
     """
     strict = options.pop("strict", False)
+    _check_regular_file(Path(path))
     spec = read_model_file(path, strict=strict)
     return model_from_spec(spec, strict=strict, **options)
 
