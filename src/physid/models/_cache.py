@@ -53,7 +53,18 @@ def code_fingerprint() -> str:
     """Hash of the code-generating modules' source: any edit to them misses the cache."""
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for name in ("lagrange.py", "codegen.py", "chain.py", "spec.py"):
+    # every module whose code shapes what is derived and generated (the chain's derivation and
+    # symbolic description, the model-file reader that builds it)
+    for name in (
+        "lagrange.py",
+        "codegen.py",
+        "chain.py",
+        "chain_derive.py",
+        "chain_symbolic.py",
+        "spec.py",
+        "spec_types.py",
+        "spec_chain.py",
+    ):
         try:
             digest.update((here / name).read_bytes())
         except OSError:  # pragma: no cover - e.g. a zipped install; the format string still guards
