@@ -46,6 +46,10 @@ class _SystemOrModel(argparse._SubParsersAction):
 
 
 def register(subparsers) -> None:
+    """Add the ``simulate`` verb.
+
+    Long by design: a flat argparse declaration, one ``add_argument`` per option.
+    """
     parser = subparsers.add_parser(
         "simulate",
         help="simulate the papers' experiments and write a recording",
@@ -420,6 +424,59 @@ def _gains(text, option, n, default):
     return arr
 
 
+def _default_reference(model, t, duration):
+    """The default reference [rad or m]: slow sines of 0.3 rad (0.05 m) per joint, faded in over
+    the first second and centred in the joints' limits where they are narrow."""
+    import numpy as np
+
+    n = model.n_joints
+    types = getattr(model, "joint_types", ("revolute",) * n)
+    amp = np.array([0.05 if k == "prismatic" else 0.3 for k in types])
+    freq = 0.1 * (1.0 + 0.37 * np.arange(n))
+    env = 0.5 * (1 - np.cos(np.pi * np.clip(t / min(1.0, duration), 0, 1)))
+    reference = amp * env[:, None] * np.sin(2 * np.pi * freq * t[:, None])
+    limits = getattr(model, "limits", None)
+    if limits is not None:
+        lo, hi = limits["position"][:, 0], limits["position"][:, 1]
+        mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+        mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
+        reference = reference + mid
+    return reference
+
+
+def _file_reference(args, n, dt, duration, given_duration):
+    """The reference read from ``--reference FILE``: (r1..rn, the file's time grid, the
+    simulation's time grid); errors in CLI words."""
+    import numpy as np
+
+    # of the model file's [recording] table only t and r1..rn apply
+    rec = read_recording(
+        args,
+        args.reference,
+        table_channels=lambda c: c == "t" or re.fullmatch(r"r\d+", c) is not None,
+    )
+    names = [f"r{j + 1}" for j in range(n)]
+    missing = [c for c in names if c not in rec.names]
+    if missing:
+        raise InputError(
+            f"--reference {args.reference!r} has no channel(s) {missing}; it needs t and r1..r{n}."
+        )
+    span = float(rec.t[-1] - rec.t[0])
+    if given_duration and duration > span * (1 + 1e-9):
+        raise InputError(
+            f"--duration {duration:g} s is longer than the --reference file "
+            f"({span:g} s); give at most {span:g}, or leave --duration out."
+        )
+    span = duration if given_duration else span
+    if span / dt > 5e7:
+        raise InputError(
+            f"--reference {args.reference!r} at --dt {dt:g} asks for {span / dt:.3g} "
+            "samples; at most 5e7 (raise --dt, or give a shorter --duration)."
+        )
+    t = np.arange(int(round(span / dt)) + 1) * dt + rec.t[0]
+    return rec.select(names).data, rec.t, t
+
+
 def run_model(args) -> int:
     import numpy as np
 
@@ -448,7 +505,6 @@ def run_model(args) -> int:
     seed = _seed(args.seed)
     if seed is not None and noise is None:
         raise InputError("--seed only seeds the measurement noise; give --noise-std as well.")
-    types = getattr(model, "joint_types", ("revolute",) * n)
     M0 = model.mass_matrix(np.zeros((1, n)))[0]
     w = 2 * np.pi * 3.0
     kp = _gains(args.kp, "--kp", n, w**2 * np.diag(M0))
@@ -456,45 +512,9 @@ def run_model(args) -> int:
     t = np.arange(int(round(duration / dt)) + 1) * dt
     grid = None
     if args.reference is None:
-        amp = np.array([0.05 if k == "prismatic" else 0.3 for k in types])
-        freq = 0.1 * (1.0 + 0.37 * np.arange(n))
-        env = 0.5 * (1 - np.cos(np.pi * np.clip(t / min(1.0, duration), 0, 1)))
-        reference = amp * env[:, None] * np.sin(2 * np.pi * freq * t[:, None])
-        limits = getattr(model, "limits", None)
-        if limits is not None:
-            lo, hi = limits["position"][:, 0], limits["position"][:, 1]
-            mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
-            mid = np.where((mid > lo + amp) & (mid < hi - amp), 0.0, mid)
-            reference = reference + mid
+        reference = _default_reference(model, t, duration)
     elif reference_file:
-        # errors in CLI words; of the model file's [recording] table only t and r1..rn apply
-        rec = read_recording(
-            args,
-            args.reference,
-            table_channels=lambda c: c == "t" or re.fullmatch(r"r\d+", c) is not None,
-        )
-        names = [f"r{j + 1}" for j in range(n)]
-        missing = [c for c in names if c not in rec.names]
-        if missing:
-            raise InputError(
-                f"--reference {args.reference!r} has no channel(s) {missing}; it needs t and "
-                f"r1..r{n}."
-            )
-        span = float(rec.t[-1] - rec.t[0])
-        if given_duration and duration > span * (1 + 1e-9):
-            raise InputError(
-                f"--duration {duration:g} s is longer than the --reference file "
-                f"({span:g} s); give at most {span:g}, or leave --duration out."
-            )
-        span = duration if given_duration else span
-        if span / dt > 5e7:
-            raise InputError(
-                f"--reference {args.reference!r} at --dt {dt:g} asks for {span / dt:.3g} "
-                "samples; at most 5e7 (raise --dt, or give a shorter --duration)."
-            )
-        reference = rec.select(names).data
-        grid = rec.t
-        t = np.arange(int(round(span / dt)) + 1) * dt + rec.t[0]
+        reference, grid, t = _file_reference(args, n, dt, duration, given_duration)
     else:
         values = float_list(args.reference, "--reference")
         if len(values) != n:

@@ -565,6 +565,9 @@ def _load_cached(trusted, source, tag: str, key: str, cc):
 def c_pd_rhs_source(eqs) -> str:
     """C back end of the symbolic chains: ``void pd_rhs(double *ctx)`` from their equations.
 
+    Long by design: it prints one C function top to bottom (unpacking, spline, PD law, M and h,
+    Cholesky solve), and each block is a few lines of the template.
+
     The same common-subexpression-eliminated M (lower triangle) and h = c + G + F as the numpy
     back end, printed with `sympy.printing.c.ccode`, with the PD law τ = Kp (r − q) − Kd q̇,
     the reference's cubic spline (Horner) and a Cholesky solve of M q̈ = τ − h in one function.

@@ -302,6 +302,41 @@ def simulate_msd(
         duration, dt = PAPER_MSD["duration"], PAPER_MSD["dt"]
     step = _check_size(t, duration, dt)  # before anything of the grid's size is allocated
     _check_rates(params, step, "the system", _SYSTEM_FIX)
+    meta: dict[str, Any] = {"model": "msd", "equation": "x'' + theta1 x' + theta2 x = u, u = F/m"}
+    input = _msd_input(
+        params, step, meta, amplitude, force_amplitude, angular_frequency, ratio, phase, input
+    )
+    x0 = as_1d(x0, "x0")
+    segments, jump_list = _msd_segments(params, jumps, step)
+    model = ([params["theta2"], params["theta1"], 1.0], [params["b0"]])
+    meta.update(_msd_metadata(params, segments, jump_list))
+    return simulate_linear_ode(
+        model,
+        t,
+        duration=duration,
+        dt=dt,
+        input=input,
+        hold=hold,
+        x0=x0,
+        jumps=jump_list or None,
+        snr_db=snr_db,
+        noise_std=noise_std,
+        disturbance=disturbance,
+        rng=rng,
+        output_derivatives=output_derivatives,
+        units={"u": "m/s^2", "x": "m"},
+        metadata=meta,
+    )
+
+
+def _msd_input(
+    params, step, meta, amplitude, force_amplitude, angular_frequency, ratio, phase, input
+):
+    """The input u of `simulate_msd`: the built-in sinusoid from its settings, or ``input``.
+
+    Checks that exactly one input is given and that the sinusoid can be sampled at ``step``;
+    records the input's settings in ``meta`` (updated in place: it is the caller's new dict).
+    """
     w0 = params.natural_frequency
     given = [
         name
@@ -317,7 +352,6 @@ def simulate_msd(
             "give exactly one of amplitude (of u = F/m, m/s²), force_amplitude (N, with mass) and "
             f"input (any u); got {given or 'none'}."
         )
-    meta: dict[str, Any] = {"model": "msd", "equation": "x'' + theta1 x' + theta2 x = u, u = F/m"}
     if input is None:
         if (angular_frequency is None) == (ratio is None):
             raise InputError(
@@ -365,7 +399,13 @@ def simulate_msd(
     elif isinstance(input, (Sinusoid, Multisine)):
         meta["input"] = repr(input)
 
-    x0 = as_1d(x0, "x0")
+    return input
+
+
+def _msd_segments(params, jumps, step):
+    """The parameter segments of `simulate_msd` (the initial one, then one per jump, in time
+    order, each checked against the sample period) and the jumps as ``simulate_linear_ode``
+    takes them."""
     segments = [params]
     jump_list = []
     for item in sorted(jumps or (), key=lambda j: float(j[0])):
@@ -381,45 +421,31 @@ def simulate_msd(
         )
         segments.append(nxt)
         jump_list.append((float(when), ([nxt["theta2"], nxt["theta1"], 1.0], [1.0])))
-    model = ([params["theta2"], params["theta1"], 1.0], [params["b0"]])
-    meta.update(
-        {
-            "mass": params["mass"],
-            "theta1": params["theta1"],
-            "theta2": params["theta2"],
-            "natural_frequency": w0,
-            "damping_ratio": params.damping_ratio,
-            "jumps": [
-                {
-                    "time": when,
-                    "theta1": s["theta1"],
-                    "theta2": s["theta2"],
-                    "natural_frequency": s.natural_frequency,
-                }
-                for (when, _), s in zip(jump_list, segments[1:], strict=True)
-            ],
-        }
-    )
+    return segments, jump_list
+
+
+def _msd_metadata(params, segments, jump_list) -> dict[str, Any]:
+    """The physical parameters of `simulate_msd`'s run and of every jump, for the metadata."""
+    meta = {
+        "mass": params["mass"],
+        "theta1": params["theta1"],
+        "theta2": params["theta2"],
+        "natural_frequency": params.natural_frequency,
+        "damping_ratio": params.damping_ratio,
+        "jumps": [
+            {
+                "time": when,
+                "theta1": s["theta1"],
+                "theta2": s["theta2"],
+                "natural_frequency": s.natural_frequency,
+            }
+            for (when, _), s in zip(jump_list, segments[1:], strict=True)
+        ],
+    }
     if params["mass"] is not None:
         meta["damping"] = params["theta1"] * params["mass"]
         meta["stiffness"] = params["theta2"] * params["mass"]
-    return simulate_linear_ode(
-        model,
-        t,
-        duration=duration,
-        dt=dt,
-        input=input,
-        hold=hold,
-        x0=x0,
-        jumps=jump_list or None,
-        snr_db=snr_db,
-        noise_std=noise_std,
-        disturbance=disturbance,
-        rng=rng,
-        output_derivatives=output_derivatives,
-        units={"u": "m/s^2", "x": "m"},
-        metadata=meta,
-    )
+    return meta
 
 
 def msd_paper_scenario(
