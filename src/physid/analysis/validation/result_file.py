@@ -161,7 +161,7 @@ def _setting(*, number: bool = False, integer: bool = False, text: bool = True):
     allowed) a positive number or integer."""
     what = " or ".join(
         [
-            "a string",
+            *(["a string"] if text else []),
             *(["a positive integer"] if integer else []),
             *(["a number > 0"] if number else []),
         ]

@@ -25,7 +25,8 @@ def _read_mat(path: Path) -> _Source:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            _check_declared_size(path, sio.whosmat(path))
+            listing = sio.whosmat(path)
+            _check_declared_size(path, listing)
             raw = sio.loadmat(path, simplify_cells=True, chars_as_strings=True)
     except NotImplementedError:  # MATLAB v7.3 is HDF5 underneath
         return _read_hdf5(path, matlab=True)
@@ -38,8 +39,17 @@ def _read_mat(path: Path) -> _Source:
         ) from None
     items: dict[str, Any] = {}
     special: dict[str, _Var] = {}
+    classes = {name: mclass for name, _, mclass in listing}
     for key, value in raw.items():
         if not key.startswith("__"):
+            if (
+                classes.get(key) == "cell"
+                and isinstance(value, np.ndarray)
+                and value.dtype == object
+            ):
+                why = f"a MATLAB cell array of shape {value.shape} (convert it with cell2mat)"
+                special[key] = _skipped(key, why, int(value.size))
+                continue
             _flatten_mat(key, value, items, special, 0)
     for key in ("names", "units"):
         if key in items:
