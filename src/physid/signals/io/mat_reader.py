@@ -42,11 +42,7 @@ def _read_mat(path: Path) -> _Source:
     classes = {name: mclass for name, _, mclass in listing}
     for key, value in raw.items():
         if not key.startswith("__"):
-            if (
-                classes.get(key) == "cell"
-                and isinstance(value, np.ndarray)
-                and value.dtype == object
-            ):
+            if classes.get(key) == "cell" and _is_object_array(value) and not _all_text(value):
                 why = f"a MATLAB cell array of shape {value.shape} (convert it with cell2mat)"
                 special[key] = _skipped(key, why, int(value.size))
                 continue
@@ -144,6 +140,14 @@ def _skipped(name: str, why: str, size: int = -1) -> _Var:
     """A variable that is not read: as a cell, refused as a channel when it has one element per
     sample, else left out and reported; ``size`` -1 always left out."""
     return _Var(name, None, "", "cell" if size >= 0 else "skipped", why, size)
+
+
+def _is_object_array(value) -> bool:
+    return isinstance(value, np.ndarray) and value.dtype == object
+
+
+def _all_text(arr) -> bool:
+    return bool(arr.size) and all(isinstance(v, str) for v in arr.reshape(-1))
 
 
 def _is_sparse(value) -> bool:
