@@ -3,7 +3,6 @@ fit was set up, enough to predict and validate."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -11,6 +10,7 @@ from typing import Any
 from ...errors import DataFileError, InputError, arg
 from ...estimators.results import RESULT_FORMAT, upgrade_result_dict
 from .inverse import _chain_inverse
+from .result_file import read_result_json
 
 __all__ = ["LoadedResult", "load_result"]
 
@@ -105,18 +105,7 @@ def load_result(path, *, model=None) -> LoadedResult:
     from ...models import load_model
 
     p = Path(path)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise DataFileError(
-            f"cannot read the result file {str(p)!r}: {exc}. Give the file written by "
-            "physid.estimators.results.save_result (the estimate command's save option)."
-        ) from None
-    if not isinstance(data, dict) or not isinstance(data.get("parameters"), dict):
-        raise DataFileError(
-            f"{str(p)!r} is not a physid result file (no 'parameters' object); write one with "
-            "physid.estimators.results.save_result (the estimate command's save option)."
-        )
+    data = read_result_json(p)  # size, nesting and every key's type checked, naming the key
     if data.get("format", RESULT_FORMAT) != RESULT_FORMAT:
         raise DataFileError(f"{str(p)!r} has format {data.get('format')!r}, not {RESULT_FORMAT!r}.")
     data = upgrade_result_dict(data)  # keys renamed since the file was written
@@ -138,7 +127,12 @@ def load_result(path, *, model=None) -> LoadedResult:
                 f"exist here; pass the model ({arg('model', '...', cli='MODEL')})."
             )
     if isinstance(ref, (str, Path)):
-        mdl = load_model(ref, **(options or {}))  # the model that was fitted, not its defaults
+        try:  # the model that was fitted, not its defaults
+            mdl = load_model(ref, **(options or {}))
+        except InputError as exc:
+            if not options:
+                raise
+            raise DataFileError(f"{str(p)!r}: its 'model_options' {options!r}: {exc}") from None
     else:
         mdl = ref
     method = str(data.get("method", ""))
@@ -148,6 +142,7 @@ def load_result(path, *, model=None) -> LoadedResult:
     if len(params) != len(data["parameters"]):
         bad = [k for k, v in data["parameters"].items() if v is None]
         raise DataFileError(f"{str(p)!r}: parameter(s) {bad} are null (the fit failed).")
+    _check_complete(p, data, mdl)
     return LoadedResult(
         method=method,
         model=mdl,
@@ -158,6 +153,34 @@ def load_result(path, *, model=None) -> LoadedResult:
         data=data,
         model_options=None if options is None else dict(options),
     )
+
+
+def _check_complete(p, data, model) -> None:
+    """Refuse a result file that lacks a value the model needs (a truncated file): never fill
+    it in with the model's nominal value."""
+    params = data["parameters"]
+    listed = [*(data.get("names") or ()), *(data.get("free") or ())]
+    if hasattr(model, "a_names"):  # a linear ODE: every coefficient, fitted or known
+        listed += [*model.a_names, *model.b_names]
+        have = {**dict(data.get("known") or {}), **params}
+        where = "'parameters' or 'known'"
+    elif str(data.get("method", "")).startswith("idim") or data.get("parameter_set") == "base":
+        have, where = params, "'parameters'"  # base parameters: those the file lists
+    else:  # a chain's own parameters: estimated or held
+        listed += list(getattr(model, "parameter_names", ()))
+        have = {**dict(data.get("fixed") or {}), **params}
+        where = "'parameters' or 'fixed'"
+    missing = list(dict.fromkeys(n for n in listed if n not in have))
+    if missing:
+        shown = ", ".join(missing[:8]) + (
+            f" and {len(missing) - 8} more" if len(missing) > 8 else ""
+        )
+        raise DataFileError(
+            f"{str(p)!r}: the result file gives no value for {shown} (in {where}); it is "
+            f"truncated or was written for another model than {getattr(model, 'name', '')!r}. "
+            "physid does not fill in nominal values: save the fit again, or validate with the "
+            f"model it was fitted with ({arg('model', '...', cli='MODEL')})."
+        )
 
 
 def _as_loaded(result, model) -> LoadedResult:

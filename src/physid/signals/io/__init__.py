@@ -58,7 +58,7 @@ from .npz_reader import _read_npz
 from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
-from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES
+from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES, DataFileWarning
 
 __all__ = [
     "load_recording",
@@ -67,6 +67,7 @@ __all__ = [
     "DEFAULT_UNIFORM_RTOL",
     "SUPPORTED_SUFFIXES",
     "MAX_ABS_VALUE",
+    "DataFileWarning",
 ]
 
 _open = open  # opens a file for the readability check (tests replace it to simulate chmod 000)

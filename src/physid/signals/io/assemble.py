@@ -4,6 +4,7 @@ file's own channels and their units, in that order (every format goes through `_
 from __future__ import annotations
 
 import re
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,7 +24,7 @@ from .conversion import (
     _time_to_seconds,
     _time_values,
 )
-from .variables import _READ_CHANNEL, _RESERVED, _as_channel, _Source, _Var
+from .variables import _READ_CHANNEL, _RESERVED, DataFileWarning, _as_channel, _Source, _Var
 
 
 def _assemble(
@@ -60,6 +61,7 @@ def _assemble(
         metadata["channel_map"] = {**found.applied, **dict(channels or {})}
     if table.ignored:
         metadata["ignored_variables"] = sorted(set(table.ignored))
+        _report_skipped(path, variables, table, metadata)
     if out.original_units:
         metadata["original_units"] = out.original_units
     if out.unconverted:
@@ -185,7 +187,7 @@ def _file_channels(variables, t_name, n, used) -> _FileChannels:
                 f"variable {name!r} has shape {var.value.shape}; channels must have one value "
                 f"per time sample ({n}), i.e. shape ({n},) or ({n}, k)"
             )
-        elif var.kind in ("text", "cell") and 0 <= var.size != n:
+        elif var.kind == "skipped" or var.kind in ("text", "cell") and 0 <= var.size != n:
             table.ignored.append(name)  # a description, a date, a list of labels: not a channel
         else:
             refused[name] = (
@@ -196,6 +198,27 @@ def _file_channels(variables, t_name, n, used) -> _FileChannels:
         if name not in used:
             table.ignored.append(name)
     return table
+
+
+def _report_skipped(path, variables, table: _FileChannels, metadata) -> None:
+    """Name the variables left out because they hold no real numbers (never silently)."""
+    skipped = {}
+    for name in sorted(set(table.ignored)):
+        var = variables.get(name)
+        if var is not None and var.value is None:
+            skipped[name] = var.detail
+    if not skipped:
+        return
+    metadata["skipped_variables"] = skipped
+    shown = "; ".join(f"{k!r}: {v}" for k, v in list(skipped.items())[:8])
+    more = f"; and {len(skipped) - 8} more" if len(skipped) > 8 else ""
+    warnings.warn(
+        f"{path}: {len(skipped)} variable(s) not read as channels, they hold no real numbers: "
+        f"{shown}{more}. If you need one, convert it to a numeric array in the file (MATLAB: "
+        "cell2mat, full, double).",
+        DataFileWarning,
+        stacklevel=4,
+    )
 
 
 # =============================================================================== the recording's channels

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import DataFileError
+from ...errors import DataFileError, PhysidWarning
 
 #: Default relative tolerance on the sample intervals for a file to count as uniformly sampled.
 #: Times written with ~7 significant digits still pass; larger jitter needs ``resample=True``.
@@ -34,6 +34,14 @@ _RESERVED = {"t", "data", "names", "units", "metadata"}
 #: channels physid itself reads: their units must be known (and of the right kind)
 _READ_CHANNEL = re.compile(r"^(t|u|x|y|(q|qd|qdd|tau|r)\d+)$")
 _MAX_DEPTH = 8  # nesting of MATLAB structs / HDF5 groups that is followed
+#: Largest integer float64 holds exactly; integer channels beyond it would be rounded silently.
+_MAX_EXACT_INT = 2**53
+
+
+class DataFileWarning(PhysidWarning):
+    """A data file's variables that were not read as channels (a MATLAB cell array, a sparse
+    matrix, text, a dangling HDF5 link, ...), named with the reason; the recording's
+    ``metadata["skipped_variables"]`` lists them too."""
 
 
 @dataclass
@@ -43,7 +51,7 @@ class _Var:
     name: str
     value: np.ndarray | None
     unit: str = ""
-    kind: str = "numeric"  # numeric | complex | text | cell | other
+    kind: str = "numeric"  # numeric | complex | text | cell | other | skipped (not a channel)
     detail: str = ""  # the type in words, for messages
     size: int = 0  # number of elements (-1: unknown)
 
@@ -58,7 +66,15 @@ class _Source:
 def _classify(name: str, value, unit: str = "") -> _Var:
     arr = np.asarray(value) if not isinstance(value, np.ndarray) else value
     kind, size = arr.dtype.kind, int(arr.size)
-    if kind in "biuf":
+    if kind in "iu" and size and arr.dtype.itemsize >= 8:
+        worst = max(abs(int(arr.min())), abs(int(arr.max())))
+        if worst > _MAX_EXACT_INT:
+            return _Var(
+                name, None, unit, "other",
+                f"integers up to {worst} (dtype {arr.dtype}), beyond 2**53, which float64 "
+                "cannot hold exactly", size,
+            )  # fmt: skip
+    if kind in "biuf" and arr.dtype.itemsize <= 8:
         return _Var(name, arr, unit, size=size)
     if kind == "c":
         return _Var(name, None, unit, "complex", f"complex numbers (dtype {arr.dtype})", size)
