@@ -45,6 +45,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from ...errors import DataFileError, InputError
 from ..recording import Recording
 from ..writers import _header_cell as _header_cell
@@ -55,6 +57,8 @@ from .csv_reader import _read_csv
 from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
+from .rosbag_reader import is_rosbag, read_rosbag
+from .timebase import check_rate
 from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
@@ -82,13 +86,17 @@ def load_recording(
     delimiter: str | None = None,
     channel_defaults: Mapping[str, str] | None = None,
     channel_defaults_source: str | None = None,
+    rate: float | None = None,
+    topic: str | None = None,
+    joint_names=None,
 ) -> Recording:
     """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5 (chosen by the file suffix).
 
     Parameters
     ----------
     path : str or os.PathLike
-        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``.
+        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``; ROS bags
+        ``.bag`` (ROS 1), ``.mcap``/``.db3`` or a ROS 2 bag folder (needs ``physid[ros]``).
     channels : mapping of str to str, optional
         Channel map: recording channel name → a variable of the file (``"qm"``, a struct field
         ``"data.pos"``) or arithmetic over variables and scalars (``"gtau*vir"``), optionally
@@ -118,7 +126,18 @@ def load_recording(
         is used, listed in ``metadata["channel_defaults_unused"]`` (target → entry).
     channel_defaults_source : str, optional
         What ``channel_defaults`` is, for messages (e.g. ``"the [recording] table of
-        axis.toml"``); default ``"channel_defaults="``.
+        axis.toml"``); default ``"channel_defaults="``. A ``"rate"`` entry of
+        ``channel_defaults`` is the table's sample rate [Hz]: used for a file without a time
+        column, ignored for a file with one.
+    rate : float, optional
+        Sample rate [Hz] of a file without a time column (CLI: ``--rate 5000``): the time is
+        ``t = k / rate``, k = 0 .. n-1. A file that has a time column is refused with it.
+    topic : str, optional
+        ROS bags: the ``sensor_msgs/JointState`` topic to read (CLI: ``--topic
+        /joint_states``); default the bag's only one.
+    joint_names : sequence of str, optional
+        ROS bags: the model's joint names; the bag's joints of these names become ``q1..qn``,
+        ``qd1..qdn``, ``tau1..taun`` in this order (matched by name, in any order in the bag).
 
     Returns
     -------
@@ -153,11 +172,23 @@ def load_recording(
     resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
     channels = parse_channel_map(channels)
     defaults = parse_channel_map(channel_defaults) or {}
+    rate, rate_source = _rate_of(rate, defaults, channel_defaults_source)
     decimal, delimiter = _check_csv_options(decimal, delimiter)
     path = Path(path)
-    fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
-    _check_readable(path)
-    if fmt == "csv":
+    if is_rosbag(path):
+        source = read_rosbag(
+            path, topic=topic, joint_names=joint_names, mapped=set(channels or {})
+        )
+        channels = {**source.metadata.pop("joint_map", {}), **(channels or {})} or None
+        fmt = "rosbag"
+    else:
+        fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
+        if topic is not None:
+            raise InputError(f"topic= applies to ROS bags only; {path} is not one. Drop it.")
+        _check_readable(path)
+    if fmt == "rosbag":
+        pass  # read above
+    elif fmt == "csv":
         source = _read_csv(path, decimal=decimal, delimiter=delimiter)
     else:
         if (decimal, delimiter) != (".", None):
@@ -170,7 +201,27 @@ def load_recording(
     return _assemble(
         path, source, channels, resample=resample, uniform_rtol=uniform_rtol,
         defaults=defaults, defaults_source=channel_defaults_source or "channel_defaults=",
+        rate=rate, rate_source=rate_source,
     )  # fmt: skip
+
+
+def _rate_of(rate, defaults: dict, source) -> tuple[float | None, str]:
+    """The sample rate [Hz] (``rate=``, else a ``"rate"`` entry of the defaults) and its origin."""
+    table_rate = defaults.pop("rate", None)
+    if rate is not None:
+        return check_rate(rate), "rate="
+    if table_rate is None:
+        return None, "rate="
+    try:
+        value = float(table_rate)
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{source or 'channel_defaults='}: rate must be the sample rate in Hz, a number > 0 "
+            f"(e.g. rate = 5000); got {table_rate!r}."
+        )
+    return value, f"{source or 'channel_defaults='} (rate = {value:g})"
 
 
 def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
