@@ -62,10 +62,11 @@ from .timebase import check_rate
 from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
-from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES
+from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES, _Source, _Var
 
 __all__ = [
     "load_recording",
+    "map_recording",
     "save_recording",
     "parse_channel_map",
     "DEFAULT_UNIFORM_RTOL",
@@ -222,6 +223,56 @@ def _rate_of(rate, defaults: dict, source) -> tuple[float | None, str]:
             f"(e.g. rate = 5000); got {table_rate!r}."
         )
     return value, f"{source or 'channel_defaults='} (rate = {value:g})"
+
+
+def map_recording(
+    rec: Recording,
+    channels: Mapping[str, str] | None = None,
+    *,
+    channel_defaults: Mapping[str, str] | None = None,
+    channel_defaults_source: str | None = None,
+) -> Recording:
+    """Apply a channel map to a recording already loaded (e.g. files joined into one run).
+
+    The channels of ``rec`` are the variables the map sees, in their (SI) units, exactly as
+    `load_recording` applies a map to a file's columns.
+
+    Parameters
+    ----------
+    rec : Recording
+    channels, channel_defaults, channel_defaults_source
+        As for `load_recording`.
+
+    Returns
+    -------
+    Recording
+        Same time vector; mapped channels, and the others kept.
+
+    Raises
+    ------
+    DataFileError, ExpressionError
+        As for `load_recording` (named after ``metadata["source"]``).
+
+    Examples
+    --------
+    >>> rec = Recording([0.0, 0.1], [[1.0, 2.0], [3.0, 4.0]], ["pos.j1", "cur.j1"], ["m", "A"])
+    >>> out = map_recording(rec, {"q1": "pos.j1", "tau1": "0.5*cur.j1 [N]"})
+    >>> out.names, out["tau1"].tolist()
+    (('q1', 'tau1'), [1.0, 2.0])
+    """
+    if not isinstance(rec, Recording):
+        raise InputError(f"map_recording expects a Recording; got {type(rec).__name__}.")
+    variables = {"t": _Var("t", np.asarray(rec.t), "s", size=rec.n_samples)}
+    for j, name in enumerate(rec.names):
+        variables[name] = _Var(name, np.asarray(rec.data[:, j]), rec.units[j], size=rec.n_samples)
+    source = _Source(variables, dict(rec.metadata))
+    defaults = parse_channel_map(channel_defaults) or {}
+    defaults.pop("rate", None)  # the time is the recording's
+    return _assemble(
+        rec.metadata.get("source", "the recording"), source, parse_channel_map(channels),
+        resample=False, uniform_rtol=DEFAULT_UNIFORM_RTOL, defaults=defaults,
+        defaults_source=channel_defaults_source or "channel_defaults=",
+    )  # fmt: skip
 
 
 def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:

@@ -19,7 +19,7 @@ INTEGER_ORIGIN_MIN = 10**9
 
 #: A time column without a unit whose mean period exceeds this [s] gets a hint naming the unit
 #: the stamps are probably in (a 500 Hz log in ns read as s has a period of 2e6 s).
-SUSPICIOUS_PERIOD = 1.0
+SUSPICIOUS_PERIOD = 5.0
 
 _TIME_UNITS = (("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9))
 
