@@ -11,8 +11,10 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 
 from __future__ import annotations
 
+from ..errors import InputError
 from ._common import (
     add_recording_options,
+    cli_words,
     check_output_folder,
     print_json,
     progress,
@@ -73,7 +75,12 @@ def run(args) -> int:
         reading, args.file, model=getattr(loaded, "model", None), period=period
     )
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
-    report = validate(loaded, rec)
+    try:
+        report = validate(loaded, rec)
+    except InputError as exc:  # another sample period: name the flag that resamples
+        if "(Recording.resample)" not in str(exc):
+            raise
+        raise InputError(cli_words(str(exc))) from None
     if args.plot:
         from ..report.validation import write_validation_plots
 
