@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 import pytest
-from _helpers import PLANAR2, planar2_pd_run
 
 import physid
+from _helpers import PLANAR2, planar2_pd_run
 from physid.cli import main
 from physid.errors import DataFileError, InputError
 from physid.signals import Recording, join_recordings
@@ -26,7 +26,7 @@ def sim():
 
 def _write(path, header, columns):
     rows = [",".join(repr(float(v)) if not isinstance(v, (int, np.integer)) else str(int(v))
-                     for v in row) for row in zip(*columns)]  # fmt: skip
+                     for v in row) for row in zip(*columns, strict=True)]  # fmt: skip
     path.write_text(header + "\n" + "\n".join(rows) + "\n")
     return path
 
@@ -112,7 +112,7 @@ def test_a_gap_splits_the_run_into_segments(sim, tmp_path, capsys):
     # no sample of the joined run lies inside the gap
     raw = [physid.load_recording(p, uniform_rtol=None) for p in (pos, cur)]
     run = join_recordings(raw, ["pos", "cur"])
-    (a, b, label), = run.gaps
+    ((a, b, label),) = run.gaps
     assert label == "cur" and b - a == pytest.approx(0.122, abs=5e-4)
     assert run.segments[0].t[-1] <= a and run.segments[1].t[0] >= b
     np.testing.assert_allclose(np.diff(run.segments[1].t), run.period, rtol=1e-9)

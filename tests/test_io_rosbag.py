@@ -15,11 +15,10 @@ from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore
 
 import physid
+from _helpers import PLANAR2, planar2_pd_run
 from physid.cli import main
 from physid.errors import DataFileError, InputError, MissingDependencyError
 from physid.signals import load_recording
-
-from _helpers import PLANAR2, planar2_pd_run
 
 T0 = 1_700_000_000_123_456_789  # epoch nanoseconds: beyond a float64's exact integers
 JOINT_STATE = "sensor_msgs/msg/JointState"
@@ -34,12 +33,15 @@ def _messages(store, ros1, stamps, rec_at):
         header = types["std_msgs/msg/Header"]
         header = header(seq=k, stamp=time, frame_id="") if ros1 else header(stamp=time, frame_id="")
         q, qd, tau = rec_at[k]
-        yield s, types[JOINT_STATE](
-            header=header,
-            name=["elbow", "shoulder"],
-            position=q[::-1].copy(),
-            velocity=qd[::-1].copy(),
-            effort=tau[::-1].copy(),
+        yield (
+            s,
+            types[JOINT_STATE](
+                header=header,
+                name=["elbow", "shoulder"],
+                position=q[::-1].copy(),
+                velocity=qd[::-1].copy(),
+                effort=tau[::-1].copy(),
+            ),
         )
 
 
@@ -81,7 +83,9 @@ def bags(tmp_path_factory):
     csv = folder / "run.csv"
     lines = ["header.stamp [ns],q1,q2,qd1,qd2,tau1,tau2"]
     for k in range(n):
-        values = ",".join(repr(float(cols[c][k])) for c in ("q1", "q2", "qd1", "qd2", "tau1", "tau2"))
+        values = ",".join(
+            repr(float(cols[c][k])) for c in ("q1", "q2", "qd1", "qd2", "tau1", "tau2")
+        )
         lines.append(f"{int(stamps[k])},{values}")
     csv.write_text("\n".join(lines) + "\n")
     return {
@@ -113,9 +117,14 @@ def csv_fit(bags):
 
 @pytest.mark.parametrize("kind", ["mcap", "sqlite3", "ros1"])
 def test_bag_without_map_gives_the_csv_base_parameters(bags, csv_fit, capsys, kind):
-    out, err = _fit(capsys, ["identify", bags[kind], "--model", PLANAR2, "--topic", "/joint_states"])
+    out, err = _fit(
+        capsys, ["identify", bags[kind], "--model", PLANAR2, "--topic", "/joint_states"]
+    )
     assert "joints elbow, shoulder" in err  # the bag's order, matched by name
-    assert re.search(r"up to \d+(\.\d+)? % of the mean period; resampled onto a uniform grid of [12]\.99\d* ms", err)
+    assert re.search(
+        r"up to \d+(\.\d+)? % of the mean period; resampled onto a uniform grid of [12]\.99\d* ms",
+        err,
+    )
     ref = {b["name"]: b["value"] for b in csv_fit["base_parameters"]}
     got = {b["name"]: b["value"] for b in out["base_parameters"]}
     assert got.keys() == ref.keys()
@@ -151,7 +160,9 @@ def test_a_topic_not_in_the_bag_lists_the_topics(bags):
 
 
 def test_a_joint_not_in_the_bag_lists_the_bag_joints(bags, capsys):
-    with pytest.raises(DataFileError, match=r"\['wrist'\] are not in topic.*\['elbow', 'shoulder'\]"):
+    with pytest.raises(
+        DataFileError, match=r"\['wrist'\] are not in topic.*\['elbow', 'shoulder'\]"
+    ):
         load_recording(bags["ros1"], joint_names=("shoulder", "wrist"), resample=True)
     # mapped by hand, the missing one is no error
     rec = load_recording(
@@ -173,5 +184,5 @@ def test_a_bag_too_large_is_refused_with_the_size(bags, monkeypatch):
 
 def test_missing_rosbags_names_the_extra(bags, monkeypatch):
     monkeypatch.setitem(sys.modules, "rosbags.highlevel", None)
-    with pytest.raises(MissingDependencyError, match=r'physid\[ros\]'):
+    with pytest.raises(MissingDependencyError, match=r"physid\[ros\]"):
         load_recording(bags["ros1"])

@@ -11,9 +11,9 @@ import warnings
 import numpy as np
 import pytest
 import scipy.io
-from _helpers import PLANAR2, planar2_pd_run
 
 import physid
+from _helpers import PLANAR2, planar2_pd_run
 from physid.cli import main
 from physid.errors import DataFileError, InputError, ModelFileError, PhysidWarning
 from physid.signals import load_recording, save_recording
@@ -23,7 +23,7 @@ T0 = 1_700_000_000_123_456_789
 
 
 def _csv(path, header, columns):
-    lines = [header] + [",".join(str(v) for v in row) for row in zip(*columns)]
+    lines = [header] + [",".join(str(v) for v in row) for row in zip(*columns, strict=True)]
     path.write_text("\n".join(lines) + "\n")
     return path
 
@@ -79,7 +79,9 @@ def test_rate_for_a_file_without_time(tmp_path, capsys):
         load_recording(timed, rate=100)
     code = main(["filter", str(timed), "--rate", "100", "--out", str(tmp_path / "f.csv")])
     assert code == 2 and "drop --rate" in capsys.readouterr().err
-    with pytest.raises(DataFileError, match=r"give the sample rate of a file without time \(rate=\)"):
+    with pytest.raises(
+        DataFileError, match=r"give the sample rate of a file without time \(rate=\)"
+    ):
         load_recording(path)
 
 

@@ -520,7 +520,7 @@ def _load(args, path, model, table, *, raw=False, period=None):
         text = render(_RECORDING_FLAGS) if callable(render) else str(w.message)
         print(f"physid: warning: {cli_words(text)}", file=sys.stderr)
     _load_notes(path, rec, where, bag)
-    if period is not None and resample and not np_isclose(rec, period):
+    if period is not None and resample and not _on_period(rec, period):
         before = rec.dt if _uniform(rec) else None
         rec = rec.resample(period)
         was = f"{before:.6g} s" if before is not None else "non-uniform sampling"
@@ -531,7 +531,7 @@ def _load(args, path, model, table, *, raw=False, period=None):
     return rec
 
 
-def np_isclose(rec, period) -> bool:
+def _on_period(rec, period) -> bool:
     """The recording is uniformly sampled at ``period`` [s] (relative 1e-6)."""
     return _uniform(rec) and abs(rec.dt - period) <= 1e-6 * period
 
@@ -540,10 +540,9 @@ def _uniform(rec) -> bool:
     from ..errors import SamplingError
 
     try:
-        rec.dt
+        return rec.dt > 0
     except SamplingError:
         return False
-    return True
 
 
 def _load_notes(path, rec, where, bag) -> None:

@@ -14,8 +14,8 @@ from __future__ import annotations
 from ..errors import InputError
 from ._common import (
     add_recording_options,
-    cli_words,
     check_output_folder,
+    cli_words,
     print_json,
     progress,
     read_recording,
@@ -71,9 +71,7 @@ def run(args) -> int:
     # --resample: onto the fit's sample period (the fit's filters are defined per sample)
     fit_dt = (loaded.data.get("settings") or {}).get("dt", loaded.data.get("dt"))
     period = float(fit_dt) if args.resample and _finite(fit_dt) else None
-    rec = read_recording(
-        reading, args.file, model=getattr(loaded, "model", None), period=period
-    )
+    rec = read_recording(reading, args.file, model=getattr(loaded, "model", None), period=period)
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
     try:
         report = validate(loaded, rec)

@@ -123,8 +123,8 @@ def join_recordings(
     if all(rated):
         return _join_rated(recordings, labels, names)
     if any(rated):
-        which = [lb for lb, r in zip(labels, rated) if r]
-        others = [lb for lb, r in zip(labels, rated) if not r]
+        which = [lb for lb, r in zip(labels, rated, strict=True) if r]
+        others = [lb for lb, r in zip(labels, rated, strict=True) if not r]
         raise DataFileError(
             f"{which} have no time column (sampled at a rate) but {others} have time stamps; "
             "the files of one run must all have time stamps or all be sampled at one rate."
@@ -138,7 +138,10 @@ def _joined_names(recordings, labels) -> list[list[str]]:
     for rec in recordings:
         for n in rec.names:
             count[n] = count.get(n, 0) + 1
-    out = [[f"{lb}.{n}" if count[n] > 1 else n for n in rec.names] for rec, lb in zip(recordings, labels)]
+    out = [
+        [f"{lb}.{n}" if count[n] > 1 else n for n in rec.names]
+        for rec, lb in zip(recordings, labels, strict=True)
+    ]
     flat = [n for names in out for n in names]
     dup = sorted({n for n in flat if flat.count(n) > 1})
     if dup:
@@ -154,8 +157,12 @@ def _merged_metadata(recordings, labels, **extra) -> dict:
     for rec in recordings:
         units.update(rec.metadata.get("original_units") or {})
     meta = {
-        "source": " + ".join(str(r.metadata.get("source", lb)) for r, lb in zip(recordings, labels)),
-        "joined_from": [str(r.metadata.get("source", lb)) for r, lb in zip(recordings, labels)],
+        "source": " + ".join(
+            str(r.metadata.get("source", lb)) for r, lb in zip(recordings, labels, strict=True)
+        ),
+        "joined_from": [
+            str(r.metadata.get("source", lb)) for r, lb in zip(recordings, labels, strict=True)
+        ],
         **extra,
     }
     if units:
@@ -165,8 +172,8 @@ def _merged_metadata(recordings, labels, **extra) -> dict:
 
 def _join_rated(recordings, labels, names) -> JoinedRun:
     """Files without time: the same rate and length, joined column by column (no interpolation)."""
-    rates = {lb: float(r.metadata["rate"]) for r, lb in zip(recordings, labels)}
-    lengths = {lb: r.n_samples for r, lb in zip(recordings, labels)}
+    rates = {lb: float(r.metadata["rate"]) for r, lb in zip(recordings, labels, strict=True)}
+    lengths = {lb: r.n_samples for r, lb in zip(recordings, labels, strict=True)}
     if len(set(rates.values())) > 1:
         raise DataFileError(
             f"the files have different rates {rates} Hz; one run is sampled at one rate."
@@ -197,7 +204,7 @@ def _offsets(recordings, labels) -> list[float]:
     if all(o is None for o in origins):
         return [0.0] * len(recordings)
     if any(o is None for o in origins):
-        which = [lb for lb, o in zip(labels, origins) if o is None]
+        which = [lb for lb, o in zip(labels, origins, strict=True) if o is None]
         raise DataFileError(
             f"{which} have times that start near 0 while the others have epoch stamps; the "
             "files cannot be aligned. Export every file with the same clock."
@@ -208,15 +215,15 @@ def _offsets(recordings, labels) -> list[float]:
     if len(set(scales)) == 1:
         base = [min(firsts)] * len(firsts)
     else:  # stamps in different units: the common origin to a fraction of the finest unit
-        base_seconds = min(f * s for f, s in zip(firsts, scales))
+        base_seconds = min(f * s for f, s in zip(firsts, scales, strict=True))
         base = [int(round(base_seconds / s)) for s in scales]
-    return [float(f - b) * s for f, b, s in zip(firsts, base, scales)]
+    return [float(f - b) * s for f, b, s in zip(firsts, base, scales, strict=True)]
 
 
 def _join_stamped(recordings, labels, names, gap) -> JoinedRun:
     """Files with time stamps: overlap, grid, gaps, interpolation per segment."""
     offsets = _offsets(recordings, labels)
-    times = [r.t + off for r, off in zip(recordings, offsets)]
+    times = [r.t + off for r, off in zip(recordings, offsets, strict=True)]
     starts = [float(t[0]) for t in times]
     ends = [float(t[-1]) for t in times]
     start, end = max(starts), min(ends)
@@ -231,9 +238,9 @@ def _join_stamped(recordings, labels, names, gap) -> JoinedRun:
     steps = [np.diff(t) for t in times]
     medians = [float(np.median(s)) for s in steps]
     period = max(medians)
-    jitter = max(float(np.max(np.abs(s - m))) / m for s, m in zip(steps, medians))
+    jitter = max(float(np.max(np.abs(s - m))) / m for s, m in zip(steps, medians, strict=True))
     gaps = []
-    for t, s, m, lb in zip(times, steps, medians, labels):
+    for t, s, m, lb in zip(times, steps, medians, labels, strict=True):
         for i in np.flatnonzero(s > gap * m):
             a, b = float(t[i]), float(t[i + 1])
             if b > start and a < end:
@@ -282,7 +289,7 @@ def _join_stamped(recordings, labels, names, gap) -> JoinedRun:
 def _on_grid(recordings, labels, names, times, grid) -> Recording:
     """Every channel of every file interpolated onto ``grid`` (one np.interp per channel)."""
     columns, joined, units = [], [], []
-    for rec, t, ns in zip(recordings, times, names):
+    for rec, t, ns in zip(recordings, times, names, strict=True):
         for j, name in enumerate(ns):
             columns.append(np.interp(grid, t, rec.data[:, j]))
             joined.append(name)

@@ -57,9 +57,9 @@ from .csv_reader import _read_csv
 from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
+from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .rosbag_reader import is_rosbag, read_rosbag
 from .timebase import check_rate
-from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
 from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES, _Source, _Var
@@ -177,9 +177,7 @@ def load_recording(
     decimal, delimiter = _check_csv_options(decimal, delimiter)
     path = Path(path)
     if is_rosbag(path):
-        source = read_rosbag(
-            path, topic=topic, joint_names=joint_names, mapped=set(channels or {})
-        )
+        source = read_rosbag(path, topic=topic, joint_names=joint_names, mapped=set(channels or {}))
         channels = {**source.metadata.pop("joint_map", {}), **(channels or {})} or None
         fmt = "rosbag"
     else:

@@ -51,7 +51,7 @@ def _reader_class():
         from rosbags.highlevel import AnyReader
     except ImportError:
         raise MissingDependencyError(
-            'reading ROS bags needs rosbags, which is not installed; run pip install '
+            "reading ROS bags needs rosbags, which is not installed; run pip install "
             '"physid[ros]" (or pip install rosbags), or export the topics to CSV.'
         ) from None
     return AnyReader
