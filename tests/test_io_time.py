@@ -58,14 +58,14 @@ def test_map_with_a_unit_on_the_time(tmp_path):
 
 def test_stamps_read_as_seconds_get_a_hint(tmp_path, capsys):
     stamps = T0 + np.arange(200, dtype=np.int64) * 2_000_000
-    path = _csv(tmp_path / "r.csv", "stamp,q1,q2,tau1,tau2", [stamps] + [np.zeros(200)] * 4)
+    path = _csv(tmp_path / "r.csv", "header.stamp,q1,q2,tau1,tau2", [stamps] + [np.zeros(200)] * 4)
     with pytest.warns(PhysidWarning, match=r"mean period is 2e\+06 s .*in ns \(a period of 2 ms\)"):
         load_recording(path)
     main(["filter", str(path), "--out", str(tmp_path / "f.csv")])
-    assert "--map 't=stamp [ns]'" in capsys.readouterr().err
+    assert "--map 't=header.stamp [ns]'" in capsys.readouterr().err
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        load_recording(path, {"t": "stamp [ns]"})  # said: no hint
+        load_recording(path, {"t": "header.stamp [ns]"})  # said: no hint
 
 
 def test_rate_for_a_file_without_time(tmp_path, capsys):

@@ -48,7 +48,6 @@ def _split_map_unit(text: str) -> tuple[str, str | None]:
 
 
 _TIME_NAMES = ("time", "t")
-_STAMP_NAMES = ("stamp", "timestamp")
 
 
 def _find_time(path, variables: Mapping[str, _Var]) -> str:
@@ -57,8 +56,8 @@ def _find_time(path, variables: Mapping[str, _Var]) -> str:
     found = [name for name in variables if name.lower() in _TIME_NAMES]
     if not found:  # a struct field: data.time, log.t
         found = [name for name in variables if name.rsplit(".", 1)[-1].lower() in _TIME_NAMES]
-    if not found:  # a ROS export: header.stamp, stamp, timestamp
-        found = [name for name in variables if name.rsplit(".", 1)[-1].lower() in _STAMP_NAMES]
+    if not found:  # a ROS export: header.stamp, /joint_states.header.stamp
+        found = [name for name in variables if name.lower().endswith("header.stamp")]
     if len(found) == 1:
         return found[0]
     if len(found) > 1:
@@ -70,7 +69,7 @@ def _find_time(path, variables: Mapping[str, _Var]) -> str:
     shown = names[:20] + (["..."] if len(names) > 20 else [])
     raise DataFileError(
         f"{path}: no time column or variable: physid looks for one named 't' or 'time' (any "
-        f"case, e.g. 't [s]' or 'Time [ms]'), else 'stamp', 'timestamp' or 'header.stamp' "
+        f"case, e.g. 't [s]' or 'Time [ms]'), else one named 'header.stamp' "
         f"('header.stamp [ns]'); the file has {shown}. Rename it, map it with "
         "channels={'t': 'NAME'}, or give the sample rate of a file without time (rate=)."
     )
