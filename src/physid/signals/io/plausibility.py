@@ -76,7 +76,8 @@ def implausible_units(rec, joint_types, limits, *, source: str | None = None) ->
         q = _unitless(rec, f"q{j}")
         if q is None:
             continue
-        bound = float(np.nanmax(np.abs(position[j - 1]))) if position.ndim == 2 else np.nan
+        row = np.abs(position[j - 1]) if position.ndim == 2 else np.array([np.nan])
+        bound = float(np.max(row[np.isfinite(row)])) if np.isfinite(row).any() else np.nan
         peak = float(np.max(np.abs(q)))
         if np.isfinite(bound) and bound > 0 and peak > LIMIT_FACTOR * bound:
             unit = likely_unit(peak / bound, prismatic)
