@@ -91,7 +91,9 @@ def load_recording(
     topic: str | None = None,
     joint_names=None,
 ) -> Recording:
-    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5 (chosen by the file suffix).
+    """Read a recording from CSV, NPZ, MATLAB ``.mat``, HDF5 or a ROS bag (chosen by the suffix).
+
+    Long by its docstring: every keyword of every format is documented here.
 
     Parameters
     ----------
