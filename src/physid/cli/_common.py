@@ -26,6 +26,8 @@ __all__ = [
     "report_warnings",
     "add_recording_options",
     "read_recording",
+    "read_recordings",
+    "warn_implausible_estimates",
     "cli_words",
     "check_recording_units",
 ]
@@ -356,6 +358,21 @@ def add_recording_options(parser, *, what="the recording", detrend=True) -> None
         help="CSV separator: ',', ';' or tab (default: recognised from the header)",
     )
     add_resample_option(group)
+    group.add_argument(
+        "--rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="sample rate of a file without a time column: t = k/HZ (also 'rate' in the model "
+        "file's [recording] table)",
+    )
+    group.add_argument(
+        "--topic",
+        default=None,
+        metavar="TOPIC",
+        help="ROS bags: the sensor_msgs/JointState topic to read, e.g. /joint_states (default: "
+        "the bag's only one); joints are matched to the model's by name",
+    )
     if not detrend:
         return
     group.add_argument(
@@ -389,6 +406,11 @@ _CLI_WORDS = (
     (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
     (re.compile(r"delimiter=';'"), "--delimiter ';'"),
     (re.compile(r"bias_compensation=True"), "--bias-compensation"),  # RLS's withholding reason
+    (re.compile(r"\(Recording\.resample\)"), "(--resample)"),
+    (re.compile(r"\brate=(\d+)"), r"--rate \1"),
+    (re.compile(r"\brate="), "--rate"),
+    (re.compile(r"\btopic='([^']*)'"), r"--topic \1"),
+    (re.compile(r"\btopic="), "--topic"),
 )
 
 
@@ -399,7 +421,7 @@ def cli_words(message: str) -> str:
     return message
 
 
-def read_recording(args, path=None, *, model=None, table_channels=None):
+def read_recording(args, path=None, *, model=None, table_channels=None, raw=False, period=None):
     """Read the verb's recording with the options of `add_recording_options`.
 
     Parameters
@@ -418,6 +440,12 @@ def read_recording(args, path=None, *, model=None, table_channels=None):
         ``table_channels(name) -> bool``: which entries of the ``[recording]`` table apply (a
         ``--reference`` file takes ``t`` and ``r1..rn`` only, not the log's ``q1``/``tau1``);
         default all.
+    raw : bool
+        Read the file as it is (time, units, ``--rate``; no channel map, any sampling, no
+        checks): one of the files ``--join`` joins.
+    period : float, optional
+        With ``--resample``: resample onto this period [s] (validate: the fit's), whatever the
+        file's sampling.
 
     Returns
     -------
@@ -430,50 +458,233 @@ def read_recording(args, path=None, *, model=None, table_channels=None):
         (``--resample``, ``--map``).
     """
     from ..errors import PhysidError
-    from ..signals import load_recording
-    from ..signals.io import parse_channel_map
 
     path = getattr(args, "file", None) if path is None else path
     try:
         table = _model_channel_map(args, model)
         if table_channels is not None:
             table = {k: v for k, v in table.items() if table_channels(k)}
-        name = getattr(args, "model", None)
-        where = (
-            f"the [recording] table of {name}"
-            if isinstance(name, str) and name.lower().endswith(".toml")
-            else "the model file's [recording] table"
-        )
-        # --map entries are strict and override the table's; a table entry whose sources the
-        # file lacks is skipped where the file has the channel (physid's own recordings)
+        rec = _load(args, path, model, table, raw=raw, period=period)
+        if raw:
+            return rec
+        rec = _checked(args, rec, model)
+    except PhysidError as exc:
+        raise _reworded(exc) from None
+    return rec
+
+
+def _table_name(args) -> str:
+    name = getattr(args, "model", None)
+    if isinstance(name, str) and name.lower().endswith(".toml"):
+        return f"the [recording] table of {name}"
+    return "the model file's [recording] table"
+
+
+def _load(args, path, model, table, *, raw=False, period=None):
+    """`load_recording` with the verb's options; notes and warnings of the load on stderr.
+
+    ``raw``: no channel map, any sampling (the files of a --join); ``period``: resample onto
+    this period [s] (validate's --resample onto the fit's).
+    """
+    import warnings
+
+    from ..signals import load_recording
+    from ..signals.io import parse_channel_map
+    from ..signals.io.rosbag_reader import is_rosbag
+
+    where = _table_name(args)
+    resample = bool(getattr(args, "resample", False))
+    bag = is_rosbag(path)
+    # --map entries are strict and override the table's; a table entry whose sources the
+    # file lacks is skipped where the file has the channel (physid's own recordings)
+    channels = parse_channel_map(getattr(args, "channel_map", None)) or None
+    if raw:
+        channels, table = None, {k: v for k, v in table.items() if k == "rate"}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         rec = load_recording(
             path,
-            parse_channel_map(getattr(args, "channel_map", None)) or None,
-            resample=bool(getattr(args, "resample", False)),
+            channels,
+            resample=(resample or bag) and not raw and period is None,
+            uniform_rtol=None if raw or (period is not None and resample) else 1e-3,
             decimal=getattr(args, "decimal", ".") or ".",
             delimiter=getattr(args, "delimiter", None),
             channel_defaults=table or None,
             channel_defaults_source=where,
+            rate=getattr(args, "rate", None),
+            topic=getattr(args, "topic", None),
+            joint_names=getattr(model, "joint_names", None) if bag else None,
         )
-        unused = rec.metadata.get("channel_defaults_unused") or {}
-        if unused:
-            entries = ", ".join(f"{k} = {v!r}" for k, v in unused.items())
-            progress(
-                f"physid: note: {where} maps {entries}, but {path} has no such source and "
-                f"already has the channel{'s' if len(unused) > 1 else ''} "
-                f"{', '.join(unused)}: reading {'them' if len(unused) > 1 else 'it'} as "
-                "the file has them (pass --map to choose otherwise)."
-            )
-        if model is not None:
-            check_recording_units(model, rec)
-        detrend = getattr(args, "detrend", None)
-        if detrend:
-            names = None if detrend == "*" else [n.strip() for n in detrend.split(",") if n.strip()]
-            _check_detrend_for_chain(model, rec, names)
-            rec = rec.detrend(names)
+    for w in caught:
+        render = getattr(w.message, "render", None)
+        text = render(_RECORDING_FLAGS) if callable(render) else str(w.message)
+        print(f"physid: warning: {cli_words(text)}", file=sys.stderr)
+    _load_notes(path, rec, where, bag)
+    if period is not None and resample and not _on_period(rec, period):
+        before = rec.dt if _uniform(rec) else None
+        rec = rec.resample(period)
+        was = f"{before:.6g} s" if before is not None else "non-uniform sampling"
+        progress(
+            f"physid: note: {path} resampled from {was} onto the fit's period {period:.6g} s "
+            f"({rec.n_samples} samples, linear interpolation)"
+        )
+    return rec
+
+
+def _on_period(rec, period) -> bool:
+    """The recording is uniformly sampled at ``period`` [s] (relative 1e-6)."""
+    return _uniform(rec) and abs(rec.dt - period) <= 1e-6 * period
+
+
+def _uniform(rec) -> bool:
+    from ..errors import SamplingError
+
+    try:
+        return rec.dt > 0
+    except SamplingError:
+        return False
+
+
+def _load_notes(path, rec, where, bag) -> None:
+    meta = rec.metadata
+    unused = meta.get("channel_defaults_unused") or {}
+    if unused:
+        entries = ", ".join(f"{k} = {v!r}" for k, v in unused.items())
+        progress(
+            f"physid: note: {where} maps {entries}, but {path} has no such source and "
+            f"already has the channel{'s' if len(unused) > 1 else ''} "
+            f"{', '.join(unused)}: reading {'them' if len(unused) > 1 else 'it'} as "
+            "the file has them (pass --map to choose otherwise)."
+        )
+    if bag:
+        joints = meta.get("bag_joint_names") or []
+        progress(f"physid: note: {path}: topic {meta.get('topic')}, joints {', '.join(joints)}")
+    resampled = meta.get("resampled_from")
+    if resampled and "max_sampling_deviation" in meta:
+        progress(
+            f"physid: note: {path}: sample intervals deviate by up to "
+            f"{100 * meta['max_sampling_deviation']:.3g} % of the mean period; resampled onto a "
+            f"uniform grid of {1e3 * resampled['dt']:.6g} ms by linear interpolation"
+        )
+
+
+def _checked(args, rec, model):
+    """Units against the model, plausibility of unit-less channels, --detrend."""
+    if model is not None:
+        check_recording_units(model, rec)
+        _warn_implausible_data(model, rec)
+    detrend = getattr(args, "detrend", None)
+    if detrend:
+        names = None if detrend == "*" else [n.strip() for n in detrend.split(",") if n.strip()]
+        _check_detrend_for_chain(model, rec, names)
+        rec = rec.detrend(names)
+    return rec
+
+
+def _warn_implausible_data(model, rec) -> None:
+    from ..signals.io.plausibility import implausible_units
+
+    types = getattr(model, "joint_types", None)
+    limits = getattr(model, "limits", None)
+    if not types or not isinstance(limits, dict):
+        return
+    for text in implausible_units(rec, types, limits, source=rec.metadata.get("source")):
+        print(f"physid: warning: {text}", file=sys.stderr)
+
+
+def warn_implausible_estimates(model, result, recordings) -> bool:
+    """Warn (stderr) about estimated masses 100× away from the model's nominal ones.
+
+    Parameters
+    ----------
+    model : model
+        With ``parameters`` (nominal values) and ``units``.
+    result : fit result
+        With ``parameters`` and ``units``.
+    recordings : list of Recording
+        The fitted recordings: their position channels without a unit are named as suspects.
+
+    Returns
+    -------
+    bool
+        True when something was warned about.
+    """
+    from ..signals.io.plausibility import implausible_estimates
+
+    nominal = getattr(model, "parameters", None)
+    units = dict(getattr(model, "units", None) or {})
+    units.update(getattr(result, "units", None) or {})
+    if not isinstance(nominal, dict):
+        return False
+    unitless = sorted(
+        {
+            n
+            for rec in recordings
+            for n in rec.names
+            if re.fullmatch(r"q\d+", n)
+            and not rec.unit(n)
+            and n not in (rec.metadata.get("original_units") or {})
+        }
+    )
+    messages = implausible_estimates(result.parameters, nominal, units, unitless)
+    for text in messages:
+        print(f"physid: warning: {text}", file=sys.stderr)
+    return bool(messages)
+
+
+def read_recordings(args, paths, *, model=None) -> list:
+    """The verb's recordings: one per file, or with ``--join`` the files as one run.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        As for `read_recording`, and ``join`` (bool).
+    paths : list of str
+    model : model, optional
+
+    Returns
+    -------
+    list of Recording
+        One per file; with ``--join``, one per segment of the joined run (a gap splits it).
+
+    Raises
+    ------
+    PhysidError
+        Whatever reading or joining raises, in CLI words.
+    """
+    from pathlib import Path
+
+    from ..errors import InputError, PhysidError
+    from ..signals.io import map_recording
+    from ..signals.join import join_recordings
+
+    if not getattr(args, "join", False):
+        return [read_recording(args, p, model=model) for p in paths]
+    if len(paths) < 2:
+        raise InputError(
+            "--join joins the files of one run (positions in one, currents in another); give "
+            "at least 2 files, or leave --join out."
+        )
+    try:
+        raw = [read_recording(args, p, model=model, raw=True) for p in paths]
+        labels = [Path(p).stem for p in paths]
+        if len(set(labels)) < len(labels):
+            labels = [f"{Path(p).stem}{k + 1}" for k, p in enumerate(paths)]
+        run = join_recordings(raw, labels)
+        for note in run.notes:
+            progress(f"physid: note: {note}")
+        table = _model_channel_map(args, model)
+        channels = getattr(args, "channel_map", None)
+        out = []
+        for seg in run.segments:
+            mapped = map_recording(
+                seg, channels, channel_defaults=table or None,
+                channel_defaults_source=_table_name(args),
+            )  # fmt: skip
+            out.append(_checked(args, mapped, model))
     except PhysidError as exc:
         raise _reworded(exc) from None
-    return rec
+    return out
 
 
 def _check_detrend_for_chain(model, rec, names) -> None:

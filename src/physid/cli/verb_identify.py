@@ -18,8 +18,9 @@ from ._common import (
     float_list,
     print_json,
     progress,
-    read_recording,
+    read_recordings,
     report_warnings,
+    warn_implausible_estimates,
 )
 
 ORDER = 30
@@ -65,6 +66,13 @@ def register(subparsers) -> None:
         metavar="recording",
         help="recording file(s) (CSV/NPZ/MAT/HDF5) with t, q1..qn and tau1..taun (or r1..rn); "
         "several files are stacked by the idim-* methods, each filtered on its own",
+    )
+    p.add_argument(
+        "--join",
+        action="store_true",
+        help="the files are the columns of one run (positions in one, currents in another), "
+        "joined on their time stamps (or sample by sample with --rate); a name in several "
+        "files becomes STEM.NAME (pos.Joint_1); a gap splits the run into segments",
     )
     p.add_argument("--model", required=True, help="'manipulator', a TOML or a URDF model file")
     p.add_argument(
@@ -220,7 +228,7 @@ def run(args) -> int:
     model = physid.load_model(args.model, **options)
     method = args.method or _default_method(model)
     _check_method_options(args, method)
-    recordings = [read_recording(args, f, model=model) for f in args.recordings]
+    recordings = read_recordings(args, args.recordings, model=model)
     if method == "input-error":
         return _run_input_error(args, model, recordings)
     return _run_idim(args, model, recordings, method)
@@ -343,6 +351,7 @@ def _run_input_error(args, model, recordings) -> int:
         estimator.fit(recording, initial=assignments(args.initial, "--initial"))
     report_warnings(caught, args)  # now, before the result: "physid: warning:" with flags
     result = estimator.result_
+    warn_implausible_estimates(model, result, recordings)
     _save(args, result)
     if result.filter_choice:
         progress(f"identify: {result.filter_choice}")
@@ -416,6 +425,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
         estimator.fit(recordings)
     report_warnings(caught, args)  # now, before the result: "physid: warning:" with flags
     result = estimator.result_
+    warn_implausible_estimates(model, result, recordings)
     _save(args, result)
     if args.json:
         out = result.to_dict()

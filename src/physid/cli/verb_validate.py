@@ -11,9 +11,11 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 
 from __future__ import annotations
 
+from ..errors import InputError
 from ._common import (
     add_recording_options,
     check_output_folder,
+    cli_words,
     print_json,
     progress,
     read_recording,
@@ -32,7 +34,8 @@ def register(subparsers) -> None:
             "signals the fit used (the robotics convention), (b) output-error fit "
             "100(1-|y-yhat|/|y-mean(y)|) per output (MATLAB compare), (c) residual "
             "autocorrelation and cross-correlation with the input at +-25 lags against the 99 % "
-            "band (MATLAB resid). Relative errors are fractions."
+            "band (MATLAB resid). Relative errors are fractions. A held-out file on another "
+            "sampling period is refused unless --resample (onto the fit's period)."
         ),
     )
     parser.add_argument("result", metavar="RESULT.json", help="result file of the fit")
@@ -65,9 +68,17 @@ def run(args) -> int:
     import argparse
 
     reading = argparse.Namespace(**{**vars(args), "model": args.model or loaded.data.get("model")})
-    rec = read_recording(reading, args.file, model=getattr(loaded, "model", None))
+    # --resample: onto the fit's sample period (the fit's filters are defined per sample)
+    fit_dt = (loaded.data.get("settings") or {}).get("dt", loaded.data.get("dt"))
+    period = float(fit_dt) if args.resample and _finite(fit_dt) else None
+    rec = read_recording(reading, args.file, model=getattr(loaded, "model", None), period=period)
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
-    report = validate(loaded, rec)
+    try:
+        report = validate(loaded, rec)
+    except InputError as exc:  # another sample period: name the flag that resamples
+        if "(Recording.resample)" not in str(exc):
+            raise
+        raise InputError(cli_words(str(exc))) from None
     if args.plot:
         from ..report.validation import write_validation_plots
 
@@ -78,3 +89,9 @@ def run(args) -> int:
     else:
         print(report.summary())
     return 0
+
+
+def _finite(value) -> bool:
+    import math
+
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

@@ -114,6 +114,19 @@ def _parse_recording(data: dict, text: str, source: str) -> dict:
         )
     out = {}
     for key, value in table.items():
+        if key == "rate":  # the sample rate [Hz] of files without a time column
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not (math.isfinite(value) and value > 0)
+            ):
+                where = _where(source, text, "recording.rate", key, table="recording")
+                raise ModelFileError(
+                    f"{where}: recording.rate is the sample rate in Hz of files without a time "
+                    f"column, a number > 0 (e.g. rate = 5000); got {value!r}."
+                )
+            out["rate"] = repr(float(value))
+            continue
         if not isinstance(value, str) or not value.strip():
             where = _where(source, text, f"recording.{key}", key, table="recording")
             raise ModelFileError(

@@ -561,7 +561,10 @@ def _plain_number(value, key, where):
     return float(value)
 
 
-_SIDECAR_TOP = {"name", "kind", "description", "extends", "gravity", "joints", "identify", "strict"}
+_SIDECAR_TOP = {
+    "name", "kind", "description", "extends", "gravity", "joints", "identify", "strict",
+    "recording",  # the channel map of the robot's logs (read by spec.read_recording_map)
+}  # fmt: skip
 _SIDECAR_JOINT = set(DRIVE_KEYS) | set(STANDARD_KEYS) | set(PHYSICAL_KEYS) | {"acceleration"}
 
 
@@ -572,7 +575,8 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
     ----------
     data : dict
         The TOML content: ``extends`` (URDF path, relative to the TOML file), optional ``name``,
-        ``description``, ``gravity``, ``identify`` (list of parameter names), and
+        ``description``, ``gravity``, ``identify`` (list of parameter names), a
+        ``[recording]`` table (the channel map of the robot's logs, docs/your-data.md), and
         ``[joints.<urdf joint name>]`` tables with drive terms (armature, viscous, coulomb,
         viscous_positive, viscous_negative, coulomb_positive, coulomb_negative, torque_offset),
         an ``acceleration`` limit, or inertial values that replace the URDF's.
@@ -590,6 +594,10 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
             f"{source}: unknown key(s) {sorted(extra)} in a URDF sidecar; allowed: "
             f"{sorted(_SIDECAR_TOP)}."
         )
+    if "recording" in data:  # checked here, used when a recording is read (the CLI, validate)
+        from .spec_common import _parse_recording
+
+        _parse_recording(data, "", source)
     path = _sidecar_target(data, source)
     strict = bool(data.get("strict", strict))
     chain = read_urdf(path, strict=strict)

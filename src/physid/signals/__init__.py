@@ -2,6 +2,7 @@
 
 from .excitation import Multisine, Sinusoid, delayed_steps, multisine, schroeder_phases, sinusoid
 from .io import load_recording, save_recording
+from .join import JoinedRun, join_recordings
 from .noise import (
     add_white_noise,
     alias_frequency,
@@ -16,6 +17,8 @@ __all__ = [
     "Recording",
     "load_recording",
     "save_recording",
+    "join_recordings",
+    "JoinedRun",
     "add_white_noise",
     "noise_std_for_snr",
     "snr_db",

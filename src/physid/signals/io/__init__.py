@@ -45,6 +45,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
+import numpy as np
+
 from ...errors import DataFileError, InputError
 from ..recording import Recording
 from ..writers import _header_cell as _header_cell
@@ -56,12 +58,22 @@ from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
 from .options import _check_csv_options, _check_load_options, parse_channel_map
+from .rosbag_reader import is_rosbag, read_rosbag
+from .timebase import check_rate
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
-from .variables import DEFAULT_UNIFORM_RTOL, MAX_ABS_VALUE, SUPPORTED_SUFFIXES, DataFileWarning
+from .variables import (
+    DEFAULT_UNIFORM_RTOL,
+    MAX_ABS_VALUE,
+    SUPPORTED_SUFFIXES,
+    DataFileWarning,
+    _Source,
+    _Var,
+)
 
 __all__ = [
     "load_recording",
+    "map_recording",
     "save_recording",
     "parse_channel_map",
     "DEFAULT_UNIFORM_RTOL",
@@ -83,13 +95,19 @@ def load_recording(
     delimiter: str | None = None,
     channel_defaults: Mapping[str, str] | None = None,
     channel_defaults_source: str | None = None,
+    rate: float | None = None,
+    topic: str | None = None,
+    joint_names=None,
 ) -> Recording:
-    """Read a recording from CSV, NPZ, MATLAB ``.mat`` or HDF5 (chosen by the file suffix).
+    """Read a recording from CSV, NPZ, MATLAB ``.mat``, HDF5 or a ROS bag (chosen by the suffix).
+
+    Long by its docstring: every keyword of every format is documented here.
 
     Parameters
     ----------
     path : str or os.PathLike
-        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``.
+        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``; ROS bags
+        ``.bag`` (ROS 1), ``.mcap``/``.db3`` or a ROS 2 bag folder (needs ``physid[ros]``).
     channels : mapping of str to str, optional
         Channel map: recording channel name → a variable of the file (``"qm"``, a struct field
         ``"data.pos"``) or arithmetic over variables and scalars (``"gtau*vir"``), optionally
@@ -119,7 +137,18 @@ def load_recording(
         is used, listed in ``metadata["channel_defaults_unused"]`` (target → entry).
     channel_defaults_source : str, optional
         What ``channel_defaults`` is, for messages (e.g. ``"the [recording] table of
-        axis.toml"``); default ``"channel_defaults="``.
+        axis.toml"``); default ``"channel_defaults="``. A ``"rate"`` entry of
+        ``channel_defaults`` is the table's sample rate [Hz]: used for a file without a time
+        column, ignored for a file with one.
+    rate : float, optional
+        Sample rate [Hz] of a file without a time column (CLI: ``--rate 5000``): the time is
+        ``t = k / rate``, k = 0 .. n-1. A file that has a time column is refused with it.
+    topic : str, optional
+        ROS bags: the ``sensor_msgs/JointState`` topic to read (CLI: ``--topic
+        /joint_states``); default the bag's only one.
+    joint_names : sequence of str, optional
+        ROS bags: the model's joint names; the bag's joints of these names become ``q1..qn``,
+        ``qd1..qdn``, ``tau1..taun`` in this order (matched by name, in any order in the bag).
 
     Returns
     -------
@@ -154,11 +183,21 @@ def load_recording(
     resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
     channels = parse_channel_map(channels)
     defaults = parse_channel_map(channel_defaults) or {}
+    rate, rate_source = _rate_of(rate, defaults, channel_defaults_source)
     decimal, delimiter = _check_csv_options(decimal, delimiter)
     path = Path(path)
-    fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
-    _check_readable(path)
-    if fmt == "csv":
+    if is_rosbag(path):
+        source = read_rosbag(path, topic=topic, joint_names=joint_names, mapped=set(channels or {}))
+        channels = {**source.metadata.pop("joint_map", {}), **(channels or {})} or None
+        fmt = "rosbag"
+    else:
+        fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
+        if topic is not None:
+            raise InputError(f"topic= applies to ROS bags only; {path} is not one. Drop it.")
+        _check_readable(path)
+    if fmt == "rosbag":
+        pass  # read above
+    elif fmt == "csv":
         source = _read_csv(path, decimal=decimal, delimiter=delimiter)
     else:
         if (decimal, delimiter) != (".", None):
@@ -171,6 +210,76 @@ def load_recording(
     return _assemble(
         path, source, channels, resample=resample, uniform_rtol=uniform_rtol,
         defaults=defaults, defaults_source=channel_defaults_source or "channel_defaults=",
+        rate=rate, rate_source=rate_source,
+    )  # fmt: skip
+
+
+def _rate_of(rate, defaults: dict, source) -> tuple[float | None, str]:
+    """The sample rate [Hz] (``rate=``, else a ``"rate"`` entry of the defaults) and its origin."""
+    table_rate = defaults.pop("rate", None)
+    if rate is not None:
+        return check_rate(rate), "rate="
+    if table_rate is None:
+        return None, "rate="
+    try:
+        value = float(table_rate)
+    except ValueError:
+        value = float("nan")
+    if not (np.isfinite(value) and value > 0):
+        raise InputError(
+            f"{source or 'channel_defaults='}: rate must be the sample rate in Hz, a number > 0 "
+            f"(e.g. rate = 5000); got {table_rate!r}."
+        )
+    return value, f"{source or 'channel_defaults='} (rate = {value:g})"
+
+
+def map_recording(
+    rec: Recording,
+    channels: Mapping[str, str] | None = None,
+    *,
+    channel_defaults: Mapping[str, str] | None = None,
+    channel_defaults_source: str | None = None,
+) -> Recording:
+    """Apply a channel map to a recording already loaded (e.g. files joined into one run).
+
+    The channels of ``rec`` are the variables the map sees, in their (SI) units, exactly as
+    `load_recording` applies a map to a file's columns.
+
+    Parameters
+    ----------
+    rec : Recording
+    channels, channel_defaults, channel_defaults_source
+        As for `load_recording`.
+
+    Returns
+    -------
+    Recording
+        Same time vector; mapped channels, and the others kept.
+
+    Raises
+    ------
+    DataFileError, ExpressionError
+        As for `load_recording` (named after ``metadata["source"]``).
+
+    Examples
+    --------
+    >>> rec = Recording([0.0, 0.1], [[1.0, 2.0], [3.0, 4.0]], ["pos.j1", "cur.j1"], ["m", "A"])
+    >>> out = map_recording(rec, {"q1": "pos.j1", "tau1": "0.5*cur.j1 [N]"})
+    >>> out.names, out["tau1"].tolist()
+    (('q1', 'tau1'), [1.0, 2.0])
+    """
+    if not isinstance(rec, Recording):
+        raise InputError(f"map_recording expects a Recording; got {type(rec).__name__}.")
+    variables = {"t": _Var("t", np.asarray(rec.t), "s", size=rec.n_samples)}
+    for j, name in enumerate(rec.names):
+        variables[name] = _Var(name, np.asarray(rec.data[:, j]), rec.units[j], size=rec.n_samples)
+    source = _Source(variables, dict(rec.metadata))
+    defaults = parse_channel_map(channel_defaults) or {}
+    defaults.pop("rate", None)  # the time is the recording's
+    return _assemble(
+        rec.metadata.get("source", "the recording"), source, parse_channel_map(channels),
+        resample=False, uniform_rtol=DEFAULT_UNIFORM_RTOL, defaults=defaults,
+        defaults_source=channel_defaults_source or "channel_defaults=",
     )  # fmt: skip
 
 

@@ -21,15 +21,16 @@ from .conversion import (
     _find_time,
     _map_unit,
     _split_map_unit,
-    _time_to_seconds,
     _time_values,
 )
+from .timebase import rate_time, samples_of, time_to_seconds, unit_hint
 from .variables import _READ_CHANNEL, _RESERVED, DataFileWarning, _as_channel, _Source, _Var
 
 
 def _assemble(
-    path, source: _Source, channels, *, resample, uniform_rtol, defaults=None, defaults_source=""
-) -> Recording:
+    path, source: _Source, channels, *, resample, uniform_rtol, defaults=None, defaults_source="",
+    rate=None, rate_source="rate=",
+) -> Recording:  # fmt: skip
     """Time, channels, units and the channel map → a checked `Recording` (errors name the file)."""
     variables: dict[str, _Var] = source.variables
     metadata = dict(source.metadata)
@@ -43,7 +44,11 @@ def _assemble(
     )
     if "t" in found.pending:
         _place_time_default(found, mapping, variables)
-    t, t_name = _time(path, variables, mapping.pop("t", None))
+    t, t_name, origin = _time(path, variables, mapping.pop("t", None), rate, rate_source)
+    if origin:
+        metadata["time_origin"] = origin
+    if rate is not None and t_name == "":  # the time of a file without one
+        metadata["rate"] = rate
     n = t.size
     if found.pending:  # the model file's entries: used where the file has their sources
         _place_defaults(found, mapping, variables, n, t_name)
@@ -120,8 +125,16 @@ def _place_defaults(found: _Defaults, mapping, variables, n, t_name) -> None:
 
 
 # =============================================================================== time
-def _time(path, variables, t_text) -> tuple[np.ndarray, str | None]:
-    """The time in s and the variable it came from (None for an expression)."""
+def _time(path, variables, t_text, rate=None, rate_source="rate="):
+    """The time in s, the variable it came from (None: an expression; "": from ``rate``) and
+    the integer origin subtracted (`time_to_seconds`), or None."""
+    if rate is not None:
+        t_name = _rate_conflict(path, variables, t_text, rate_source)
+        if t_name is None:
+            n = samples_of(variables)
+            if n == 0:
+                raise DataFileError(f"{path}: the file holds no channels with samples.")
+            return rate_time(n, rate), "", None
     if t_text is None:
         t_name = _find_time(path, variables)
         t_var = variables[t_name]
@@ -138,7 +151,28 @@ def _time(path, variables, t_text) -> tuple[np.ndarray, str | None]:
             values = _expression_values(path, variables, 0, "t", t_text)
             t_raw = np.asarray(values, dtype=float).reshape(-1)
             t_unit = t_unit_given or ""
-    return _time_to_seconds(path, t_raw, t_unit), t_name
+    t, origin = time_to_seconds(path, t_raw, t_unit)
+    unit_hint(path, t_name if t_name is not None else t_text, t, t_unit)
+    return t, t_name, origin
+
+
+def _rate_conflict(path, variables, t_text, rate_source) -> str | None:
+    """With a rate: None when the file has no time; its time's name when the rate comes from a
+    model's table (the file's own time wins); an error for a rate given with a time."""
+    if t_text is not None:
+        name = t_text
+    else:
+        try:
+            name = _find_time(path, variables)
+        except DataFileError:
+            return None
+    if rate_source != "rate=":
+        return name  # a table's default: the file's own time wins
+    raise DataFileError(
+        f"{path}: rate= gives the sample rate of a file without a time column, but this file "
+        f"has its time in {name!r}; drop rate= (the time column is used), or, to ignore that "
+        "column, remove it from the file."
+    )
 
 
 # =============================================================================== the file's channels

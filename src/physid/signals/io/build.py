@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ..._validate import UNIFORM_RTOL
-from ...errors import DataFileError, PhysidError, arg
+from ...errors import DataFileError, PhysidError, PhysidWarning, arg
 from ..recording import Recording
 from .conversion import _check_magnitude
 from .variables import DEFAULT_UNIFORM_RTOL
@@ -57,6 +59,8 @@ def _build(
         i = int(deviation.argmax())
         if resample:
             needs_resampling = True
+            metadata["max_sampling_deviation"] = worst
+            _warn_gap(path, steps, t, row_label)
         elif uniform_rtol is not None:
             raise DataFileError(
                 f"{path}: time is not uniformly sampled: the interval from {row_label(i)} to "
@@ -77,6 +81,25 @@ def _build(
     if needs_resampling:
         rec = rec.resample()
     return rec
+
+
+def _warn_gap(path, steps, t, row_label) -> None:
+    """Say so when resampling interpolates across a gap of more than 5 median periods."""
+    median = float(np.median(steps))
+    gaps = np.flatnonzero(steps > 5.0 * median)
+    if not gaps.size:
+        return
+    i = int(gaps[np.argmax(steps[gaps])])
+    warnings.warn(
+        PhysidWarning(
+            f"{path}: {gaps.size} gap(s) longer than 5 periods; the longest, {steps[i]:.6g} s "
+            f"from {row_label(i)} (t = {float(t[i]):.6g} s) to {row_label(i + 1)}, is bridged "
+            f"by the linear interpolation of {arg('resample', 'True', cli='')} (a median period "
+            f"of {median:.6g} s). To fit the stretches apart, split the file (or read it with "
+            "physid.signals.join_recordings, which splits at gaps)."
+        ),
+        stacklevel=4,
+    )
 
 
 def _check_names(path, names) -> None:

@@ -56,6 +56,8 @@ def _find_time(path, variables: Mapping[str, _Var]) -> str:
     found = [name for name in variables if name.lower() in _TIME_NAMES]
     if not found:  # a struct field: data.time, log.t
         found = [name for name in variables if name.rsplit(".", 1)[-1].lower() in _TIME_NAMES]
+    if not found:  # a ROS export: header.stamp, /joint_states.header.stamp
+        found = [name for name in variables if name.lower().endswith("header.stamp")]
     if len(found) == 1:
         return found[0]
     if len(found) > 1:
@@ -67,12 +69,14 @@ def _find_time(path, variables: Mapping[str, _Var]) -> str:
     shown = names[:20] + (["..."] if len(names) > 20 else [])
     raise DataFileError(
         f"{path}: no time column or variable: physid looks for one named 't' or 'time' (any "
-        f"case, e.g. 't [s]' or 'Time [ms]'); the file has {shown}. Rename it, or map it with "
-        "channels={'t': 'NAME'}."
+        f"case, e.g. 't [s]' or 'Time [ms]'), else one named 'header.stamp' "
+        f"('header.stamp [ns]'); the file has {shown}. Rename it, map it with "
+        "channels={'t': 'NAME'}, or give the sample rate of a file without time (rate=)."
     )
 
 
 def _time_values(path, var: _Var) -> np.ndarray:
+    """The time variable as a vector; integer stamps stay integers (converted exactly later)."""
     if var.value is None:
         raise DataFileError(
             f"{path}: the time {var.name!r} holds {var.detail}, not real numbers; store the "
@@ -84,22 +88,8 @@ def _time_values(path, var: _Var) -> np.ndarray:
             f"{path}: the time {var.name!r} has shape {arr.shape}; it must be a vector of sample "
             "times (n_samples,). Store one time per sample."
         )
-    return arr.reshape(-1).astype(float)
-
-
-def _time_to_seconds(path, t: np.ndarray, unit: str) -> np.ndarray:
-    try:
-        u = parse_unit(unit)
-    except InputError as exc:
-        raise DataFileError(f"{path}: the time column has unit {unit!r}: {exc}") from None
-    if u.si == "" and u.scale == 1.0:
-        return t
-    if u.dimension != (0, 0, 1, 0, 0):
-        raise DataFileError(
-            f"{path}: the time column has unit {unit!r} ({u.words}), not a time; physid reads "
-            "time in s (ms, us, min and h are converted). Convert the column to seconds."
-        )
-    return t * u.scale if u.scale != 1.0 else t
+    flat = arr.reshape(-1)
+    return flat.astype(np.int64) if flat.dtype.kind in "iu" else flat.astype(float)
 
 
 #: the generic fix `physid.units.parse_unit` ends an unknown unit's message with
