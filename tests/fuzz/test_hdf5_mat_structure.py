@@ -143,11 +143,11 @@ def _file(draw):
 @given(path=_file(), channels=st.one_of(st.none(), st.sampled_from(
     [{"x": "g.x"}, {"x": "ext.x"}, {"u": "x", "x": "u"}, {"x": "names"}])))  # fmt: skip
 def test_hdf5_structure_loads_or_raises_physid_error(path, channels):
-    from physid.signals.io import DataFileWarning
+    from physid.errors import PhysidWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a warning escaping the loader is a defect too...
-        warnings.simplefilter("ignore", DataFileWarning)  # ...except its notes of skipped names
+        warnings.simplefilter("ignore", PhysidWarning)  # ...except physid's own notes to the user
         try:
             rec = load_recording(path, channels=channels)
         except PhysidError:

@@ -15,9 +15,8 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from physid.errors import PhysidError
+from physid.errors import PhysidError, PhysidWarning
 from physid.signals import Recording, load_recording
-from physid.signals.io import DataFileWarning
 
 _SETTINGS = settings(deadline=None, suppress_health_check=list(HealthCheck))
 
@@ -25,7 +24,7 @@ _SETTINGS = settings(deadline=None, suppress_health_check=list(HealthCheck))
 def _check(path: Path, **kwargs) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a warning escaping the loader is a defect too...
-        warnings.simplefilter("ignore", DataFileWarning)  # ...except its notes of skipped names
+        warnings.simplefilter("ignore", PhysidWarning)  # ...except physid's own notes to the user
         try:
             rec = load_recording(path, **kwargs)
         except PhysidError:
