@@ -19,6 +19,7 @@ from .._linear import (
 )
 from .._regression import check_excitation
 from ..base import EstimatorMixin
+from ..plausibility import gate, linear_ode_problems
 from ..results import ParameterDict
 from .batch import _check_forgetting, _check_init_samples, _first_invertible_row, weighted_ls_path
 from .online import StreamingRecursiveEstimator
@@ -175,6 +176,18 @@ class RecursiveLeastSquares(EstimatorMixin):
         success, message, fit = _verdict(
             spec, {**known_values, **fitted}, reg.names, recording, (in_name, out_name), lost
         )
+        if success:
+            success, message = gate(
+                success,
+                message,
+                linear_ode_problems(
+                    spec,
+                    {**known_values, **fitted},
+                    recording.t,
+                    recording[in_name],
+                    recording[out_name],
+                ),
+            )
         if not success:
             stderr, stderr_reason = None, "no trustworthy estimate"
         cov_final = None if stderr is None else np.array(cov_final, dtype=float)
