@@ -133,3 +133,32 @@ def test_flipped_segments_and_gate():
     assert text is not None and "mirror image" in text
     assert gate(True, "ok.", [None]) == (True, "ok.")
     assert gate(True, "ok.", ["bad."]) == (False, "Implausible: bad. ok.")
+
+
+def test_residual_analysis_is_not_white_on_nan():
+    from physid.analysis.validation import residual_analysis
+
+    e = np.full(500, np.nan)
+    r = residual_analysis(e, np.sin(np.arange(500.0)))
+    assert r["white"] is False and r["independent"] is False
+    assert re.search(r"not finite at 500 of 500 samples", r["verdict"])
+    assert "explains the data" not in r["verdict"].replace("nothing says the model explains", "")
+    zero = residual_analysis(np.zeros(500))
+    assert zero["white"] is False and "constant" in zero["verdict"]
+
+
+def test_huge_values_are_refused_not_a_traceback(hostile, tmp_path):
+    from physid.signals import save_recording
+
+    from ._cases import check_case
+
+    rec = msd_paper_scenario(1.0, 60, duration=2.0, seed=1)
+    big = Recording(rec.t, np.asarray(rec.data) * 1e140, rec.names, rec.units)
+    hostile.add_file("big_csv", save_recording(big, tmp_path / "big.csv"))
+    for method in ("algebraic", "rls"):
+        check_case(
+            hostile,
+            ["estimate", "{big_csv}", "--method", method],
+            2,
+            r"channel 'u' .* above 1e\+60",
+        )

@@ -33,6 +33,8 @@ __all__ = [
     "too_perfect",
     "unchanging",
     "gate",
+    "check_magnitude",
+    "MAX_MAGNITUDE",
     "linear_ode_problems",
     "STILL_NOISE_RATIO",
     "FLIP_CORRELATION",
@@ -259,6 +261,41 @@ def linear_ode_problems(model, values, t, u, y) -> list[str | None]:
             y_hat, _ = simulate_prediction(model, values, t, u, y)
         problems.append(flipped_segments(t, y, y_hat, name=f"the output {out_name}"))
     return problems
+
+
+#: Largest magnitude of a signal the linear-ODE estimators accept: their standard errors use
+#: fourth powers of the signals (the variance of a variance), which overflow float64 above
+#: about 1e77.
+MAX_MAGNITUDE = 1e60
+
+
+def check_magnitude(signals, names: Sequence[str]) -> None:
+    """Refuse signals whose magnitude would overflow the estimators' arithmetic.
+
+    Parameters
+    ----------
+    signals : sequence of array_like
+        The channels (any unit).
+    names : sequence of str
+        One name per channel.
+
+    Raises
+    ------
+    InputError
+        A channel with a value above `MAX_MAGNITUDE`, naming it and the fix.
+    """
+    from ..errors import InputError
+
+    for x, name in zip(signals, names, strict=True):
+        with np.errstate(invalid="ignore"):
+            big = float(np.nanmax(np.abs(np.asarray(x, dtype=float)), initial=0.0))
+        if big > MAX_MAGNITUDE:
+            raise InputError(
+                f"channel {name!r} reaches {big:.3g}, above {MAX_MAGNITUDE:.0e}: the estimate's "
+                "standard errors take fourth powers of the signals, which overflow float64. "
+                "Rescale the channel (record it in a larger unit, e.g. with a [unit] header or "
+                "the channel map's scale factor)."
+            )
 
 
 def gate(success: bool, message: str, problems: Sequence[str | None]) -> tuple[bool, str]:

@@ -19,7 +19,7 @@ from .._linear import (
 )
 from .._regression import check_excitation
 from ..base import EstimatorMixin
-from ..plausibility import gate, linear_ode_problems
+from ..plausibility import check_magnitude, gate, linear_ode_problems
 from ..results import ParameterDict
 from .batch import _check_forgetting, _check_init_samples, _first_invertible_row, weighted_ls_path
 from .online import StreamingRecursiveEstimator
@@ -131,6 +131,7 @@ class RecursiveLeastSquares(EstimatorMixin):
         if self.covariance not in ("full", "diagonal"):
             raise InputError(f"covariance must be 'full' or 'diagonal'; got {self.covariance!r}.")
         spec, in_name, out_name = self._channels(recording)
+        check_magnitude((recording[in_name], recording[out_name]), (in_name, out_name))
         dt = recording.dt
         reg = build_regression(
             spec,
