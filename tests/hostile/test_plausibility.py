@@ -19,6 +19,7 @@ from physid.estimators.plausibility import (
     constant_channels,
     flipped_segments,
     gate,
+    partial_segments,
     still_joints,
     too_perfect,
 )
@@ -74,6 +75,21 @@ def _flipped_input() -> Recording:
     n = d.shape[0]
     d[n // 2 :, rec.names.index("u")] *= -1.0  # the actuator's sign flips halfway
     return Recording(rec.t, d, rec.names, rec.units)
+
+
+def _flipped_output() -> Recording:
+    rec = msd_paper_scenario(1.0, 60, duration=2.0, seed=1)
+    d = np.array(rec.data)
+    n = d.shape[0]
+    d[n // 2 :, rec.names.index("x")] *= -1.0  # the sensor's sign flips halfway
+    return Recording(rec.t, d, rec.names, rec.units)
+
+
+@pytest.mark.parametrize("method", ["algebraic", "rls"])
+def test_linear_ode_estimators_refuse_an_output_sign_flip(method):
+    res = make(method, "msd").fit(_flipped_output()).result_
+    assert res.success is False
+    assert re.search(r"Implausible: .*not during|explains almost nothing", res.message)
 
 
 @pytest.mark.parametrize("method", ["algebraic", "rls"])
@@ -162,3 +178,16 @@ def test_huge_values_are_refused_not_a_traceback(hostile, tmp_path):
             2,
             r"channel 'u' .* above 1e\+60",
         )
+
+
+def test_partial_segments():
+    t = np.linspace(0, 4, 4000)
+    y = np.sin(7 * t)
+    assert partial_segments(t, y, y) is None
+    noise = np.random.default_rng(4).normal(size=t.size)
+    half = np.where(t < 2, noise, y)  # the model follows only the second half
+    text = partial_segments(t, half, y)
+    assert text is not None and "not during 0–" in text
+    # a first half at rest (a tenth of the energy or less) is not judged
+    rest = np.where(t < 2, 0.01 * noise, y)
+    assert partial_segments(t, rest, y) is None

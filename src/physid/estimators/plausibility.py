@@ -30,6 +30,9 @@ __all__ = [
     "constant_channels",
     "still_joints",
     "flipped_segments",
+    "partial_segments",
+    "FOLLOW_CORRELATION",
+    "MISS_CORRELATION",
     "too_perfect",
     "unchanging",
     "gate",
@@ -148,15 +151,7 @@ def flipped_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
     t, y, y_hat = (np.asarray(a, dtype=float).ravel() for a in (t, y, y_hat))
     if y.size < 8 * segments or not (np.all(np.isfinite(y)) and np.all(np.isfinite(y_hat))):
         return None
-    edges = np.linspace(0, y.size, segments + 1).astype(int)
-    corr = np.full(segments, np.nan)
-    for k in range(segments):  # a handful of parts, each a vectorised reduction
-        a = y[edges[k] : edges[k + 1]]
-        b = y_hat[edges[k] : edges[k + 1]]
-        a, b = a - a.mean(), b - b.mean()
-        den = float(np.linalg.norm(a) * np.linalg.norm(b))
-        if den > 0:
-            corr[k] = float(a @ b) / den
+    edges, corr, _ = _segment_correlations(y, y_hat, segments)
     if not np.any(np.isfinite(corr)):
         return None
     hi, lo = int(np.nanargmax(corr)), int(np.nanargmin(corr))
@@ -171,6 +166,75 @@ def flipped_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
         f"its mirror image during {span(lo)} (correlation {corr[lo]:.2f}): the sign of the "
         "output or of the input's gain changed during the record, and no single model explains "
         "both parts. Check the channels' signs and fit each part on its own."
+    )
+
+
+def _segment_correlations(y, y_hat, segments: int):
+    """Edges, correlation of ``y`` with ``y_hat`` and energy of ``y`` (about their means) in
+    each of ``segments`` equal parts of the record."""
+    edges = np.linspace(0, y.size, segments + 1).astype(int)
+    corr = np.full(segments, np.nan)
+    energy = np.zeros(segments)
+    for k in range(segments):  # a handful of parts, each a vectorised reduction
+        a = y[edges[k] : edges[k + 1]]
+        b = y_hat[edges[k] : edges[k + 1]]
+        a, b = a - a.mean(), b - b.mean()
+        energy[k] = float(a @ a)
+        den = float(np.linalg.norm(a) * np.linalg.norm(b))
+        if den > 0:
+            corr[k] = float(a @ b) / den
+    return edges, corr, energy
+
+
+#: `partial_segments`: the prediction "follows" the output in a part where their correlation is
+#: at least this, and "misses" it where the correlation is at most `MISS_CORRELATION` (white
+#: output noise at 0 dB SNR still leaves 0.71, at -5 dB 0.49).
+FOLLOW_CORRELATION = 0.8
+MISS_CORRELATION = 0.35
+
+
+def partial_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8) -> str | None:
+    """A sentence when the prediction follows ``y`` closely in one part of the record and misses
+    it in at least a quarter of the record where ``y`` moves, else None.
+
+    Parts where the output barely moves (energy below a tenth of the largest part's: a record
+    that starts at rest) are not judged. A model that explains only the end of a record whose
+    output changed sign, gain or dynamics halfway is caught here, where its prediction is not a
+    mirror image (`flipped_segments`) but noise.
+
+    Parameters
+    ----------
+    t : array_like, shape (n_samples,)
+        Time [s].
+    y, y_hat : array_like, shape (n_samples,)
+        The measured output and the identified model's prediction of it (same unit).
+    name : str
+        The output's name, for the sentence.
+    segments : int
+        Parts of the record compared.
+
+    Returns
+    -------
+    str or None
+    """
+    t, y, y_hat = (np.asarray(a, dtype=float).ravel() for a in (t, y, y_hat))
+    if y.size < 8 * segments or not (np.all(np.isfinite(y)) and np.all(np.isfinite(y_hat))):
+        return None
+    edges, corr, energy = _segment_correlations(y, y_hat, segments)
+    judged = np.isfinite(corr) & (energy >= 0.1 * energy.max())
+    follows = judged & (corr >= FOLLOW_CORRELATION)
+    misses = judged & (corr <= MISS_CORRELATION)
+    if not follows.any() or misses.sum() < max(2, segments // 4):
+        return None
+    good = int(np.flatnonzero(follows)[np.argmax(corr[follows])])
+    bad = np.flatnonzero(misses)
+    spans = ", ".join(f"{t[edges[k]]:.4g}–{t[edges[k + 1] - 1]:.4g} s" for k in bad[:4])
+    return (
+        f"the identified model follows {name} during {t[edges[good]]:.4g}–"
+        f"{t[edges[good + 1] - 1]:.4g} s (correlation {corr[good]:.2f}) but not during {spans} "
+        f"(correlation at most {np.max(corr[bad]):.2f}), where the output moves as much: the "
+        "system, or the sign or gain of a channel, changed during the record, and no single "
+        "model explains it. Check the channels and fit each part on its own."
     )
 
 
@@ -259,7 +323,9 @@ def linear_ode_problems(model, values, t, u, y) -> list[str | None]:
     if problems[0] is None and all(np.isfinite(float(v)) for v in values.values()):
         with np.errstate(all="ignore"):
             y_hat, _ = simulate_prediction(model, values, t, u, y)
-        problems.append(flipped_segments(t, y, y_hat, name=f"the output {out_name}"))
+        label = f"the output {out_name}"
+        flip = flipped_segments(t, y, y_hat, name=label)
+        problems.append(flip or partial_segments(t, y, y_hat, name=label))
     return problems
 
 
