@@ -78,6 +78,10 @@ def _default_chunksize(n: int, workers: int, chunks_per_worker: int = 4) -> int:
     return max(1, math.ceil(n / (chunks_per_worker * max(workers, 1))))
 
 
+#: The address schemes of Dask's communication backends a ``scheduler`` address may use.
+_DASK_SCHEMES = ("tcp", "tls", "inproc", "ucx", "ws", "wss")
+
+
 def parse_scheduler(scheduler) -> tuple[str, Any]:
     """Classify a ``scheduler`` argument as ``(kind, argument)``.
 
@@ -103,6 +107,14 @@ def parse_scheduler(scheduler) -> tuple[str, Any]:
                 )
             return "dask-local", int(n)
         if "://" in scheduler:
+            scheme = scheduler.partition("://")[0].lower()
+            if scheme not in _DASK_SCHEMES:
+                raise InputError(
+                    f"{arg('scheduler')} {scheduler!r}: a scheduler address must use one of "
+                    f"the Dask schemes {', '.join(s + '://' for s in _DASK_SCHEMES)} (e.g. "
+                    "'tcp://HOST:8786'); the accepted forms are 'local', 'serial', 'local:N' "
+                    f"and such an address, not {scheme + '://'!r}."
+                )
             return "dask-address", scheduler
         raise InputError(
             "scheduler must be 'local', 'serial', 'local:N' (a Dask LocalCluster with N workers) "

@@ -39,7 +39,79 @@ def register(subparsers) -> None:
         action="store_true",
         help="skip the base parameters (they need the regressor; slow for big symbolic models)",
     )
+    info.add_argument(
+        "--base",
+        action="store_true",
+        help="compute the base parameters even when their estimated work is above the limit "
+        "(a QR of about 1e10 floating-point operations: minutes for 100+ joints)",
+    )
     info.set_defaults(func=run_info)
+
+
+#: Estimated floating-point work of the base-parameter QR above which ``model info`` skips it
+#: unless ``--base`` is given (about a minute on a busy laptop core; 2e9 took 7 s for a 50-joint
+#: chain on a shared 2-core machine, and the work grows as the cube of the joints).
+BASE_WORK_LIMIT = 2e10
+#: Estimated work above which a progress line says what is being computed.
+BASE_WORK_NOTE = 1e9
+
+
+def base_work(model) -> tuple[int, int, float]:
+    """``(rows, columns, flop)`` of the QR that finds a chain model's base parameters.
+
+    The regressor stacks ``max(60, 2·columns/joints + 20)`` random states of every joint (as
+    `physid.models.base.base_parameters_of_regressor` does); two column-pivoted QRs and a
+    least-squares solve cost about ``3·rows·columns²``.
+    """
+    nj = max(int(model.n_joints), 1)
+    cols = len(getattr(model, "regressor_names", None) or model.parameter_names)
+    rows = max(60, 2 * cols // nj + 20) * nj
+    return rows, cols, 3.0 * rows * cols**2
+
+
+def _base_section(model, force: bool) -> dict:
+    """The ``base_parameters`` section, or ``{"skipped": reason}`` when it is not computed."""
+    from ..errors import IdentifiabilityError
+
+    rows, cols, work = base_work(model)
+    if work > BASE_WORK_LIMIT and not force:
+        reason = (
+            f"skipped: {cols} regressor columns need a QR of a {rows}×{cols} matrix (about "
+            f"{work:.1e} floating-point operations, minutes or more); pass --base to compute "
+            "them anyway (the result is cached)"
+        )
+        progress(f"physid model info: base parameters {reason}")
+        return {"skipped": reason}
+    if work > BASE_WORK_NOTE:
+        progress(
+            f"physid model info: computing the base parameters: QR of a {rows}×{cols} regressor "
+            f"(about {work:.1e} floating-point operations) ..."
+        )
+    start = time.perf_counter()
+    try:
+        bp = model.base_parameters()
+    except IdentifiabilityError:
+        reason = (
+            f"not available: model {model.name!r} is not polynomial in its parameters (an "
+            "expression such as Abs(), sqrt() or a division by a parameter), so it has no "
+            "linear-in-parameters form τ = Y β(θ); the IDIM methods need that form, the "
+            "input-error method does not"
+        )
+        progress(f"physid model info: base parameters {reason}")
+        return {"skipped": reason}
+    exprs = getattr(bp, "expressions", bp.base_names)
+    words = getattr(bp, "words", None) or [""] * len(exprs)
+    return {
+        "n_base": int(bp.n_base),
+        "n_columns": int(bp.n_beta),
+        "base": [
+            {"name": b, "expression": e, "words": w}
+            for b, e, w in zip(bp.base_names, exprs, words, strict=True)
+        ],
+        "no_effect": list(bp.no_effect),
+        "unidentifiable": list(bp.unidentifiable),
+        "seconds": time.perf_counter() - start,
+    }
 
 
 def _finite(x):
@@ -47,14 +119,17 @@ def _finite(x):
     return x if math.isfinite(x) else None
 
 
-def describe(model, *, base: bool = True) -> dict:
+def describe(model, *, base: bool = True, force: bool = False) -> dict:
     """JSON-ready description of a model (the content of ``physid model info --json``).
 
     Parameters
     ----------
     model : ChainModel or LinearODEModel
     base : bool
-        Include the base parameters.
+        Include the base parameters (``{"skipped": reason}`` when their estimated work is above
+        `BASE_WORK_LIMIT`, or when the model is not linear in its parameters).
+    force : bool
+        Compute the base parameters whatever their estimated work.
 
     Returns
     -------
@@ -94,21 +169,7 @@ def describe(model, *, base: bool = True) -> dict:
         out["load_seconds"] = float(model.load_seconds)
         out["loaded_from_cache"] = bool(model.loaded_from_cache)
         if base:
-            start = time.perf_counter()
-            bp = model.base_parameters()
-            exprs = getattr(bp, "expressions", bp.base_names)
-            words = getattr(bp, "words", None) or [""] * len(exprs)
-            out["base_parameters"] = {
-                "n_base": int(bp.n_base),
-                "n_columns": int(bp.n_beta),
-                "base": [
-                    {"name": b, "expression": e, "words": w}
-                    for b, e, w in zip(bp.base_names, exprs, words, strict=True)
-                ],
-                "no_effect": list(bp.no_effect),
-                "unidentifiable": list(bp.unidentifiable),
-                "seconds": time.perf_counter() - start,
-            }
+            out["base_parameters"] = _base_section(model, force)
     else:
         out["order"] = int(model.order)
         out["a"] = list(model.a_names)
@@ -171,7 +232,7 @@ def run_info(args) -> int:
     start = time.perf_counter()
     model = load_model(args.model)
     progress(f"physid model info: loaded {args.model!r} in {time.perf_counter() - start:.3f} s")
-    info = describe(model, base=not args.no_base)
+    info = describe(model, base=not args.no_base, force=args.base)
     if args.json:
         print_json(info)
         return 0
@@ -201,7 +262,9 @@ def run_info(args) -> int:
     if info.get("physical"):
         lines.append(f"physical parameters: {info['physical']['message']}")
     bp = info.get("base_parameters")
-    if bp:
+    if bp and "skipped" in bp:
+        lines.append(f"base parameters: {bp['skipped']}")
+    elif bp:
         lines.append(f"base parameters ({bp['n_base']} of {bp['n_columns']} columns):")
         for b in bp["base"]:
             lines.append(f"  {b['name']} = {b['expression']}")

@@ -373,7 +373,9 @@ def structural_identifiability(
     rng = np.random.default_rng(seed)
     q, qd, qdd = _random_states(int(model.n_joints), int(n_states), rng)
     jac = np.asarray(model.parameter_jacobian(q, qd, qdd, values), dtype=float)
-    scaled = jac.reshape(-1, len(names)) * scale
+    with np.errstate(all="ignore"):
+        scaled = jac.reshape(-1, len(names)) * scale
+    _check_finite_sensitivity(scaled, names, theta)
     col_norm = np.linalg.norm(scaled, axis=0)
     dead = col_norm <= 1e-12 * max(col_norm.max(), 1e-300)
     not_excitable = tuple(n for n, d in zip(names, dead, strict=True) if d)
@@ -392,6 +394,38 @@ def structural_identifiability(
     identifiable = tuple(n for n in names if n not in involved)
     rel.setflags(write=False)
     return StructuralIdentifiability(names, identifiable, tuple(combos), rel, not_excitable)
+
+
+def _check_finite_sensitivity(scaled: np.ndarray, names: Sequence[str], theta: np.ndarray) -> None:
+    """Refuse parameter values at which the model's sensitivities overflow (e.g. a start value
+    of 1e308): every direction would look invisible and every parameter be held."""
+    names = list(names)
+    finite = np.all(np.isfinite(scaled), axis=0)
+    norms = np.linalg.norm(np.where(np.isfinite(scaled), scaled, 0.0), axis=0)
+    seen = norms[finite & (norms > 0)]
+    typical = float(np.median(seen)) if seen.size else 0.0
+    # a term 1e12 times the typical one hides every other below the SVD's threshold
+    loud = ~finite | ((norms > _DOMINANCE * typical) if typical > 0 else False)
+    if not np.any(loud):
+        return
+    idx = np.flatnonzero(loud)
+    worst = int(idx[np.argmax(np.abs(theta[idx]))])
+    also = [names[k] for k in idx if k != worst]
+    values = f"{names[worst]} = {theta[worst]:.3g}" + (
+        f" (its term shared with {', '.join(also)})" if also else ""
+    )
+    raise InputError(
+        f"the model's torque at {values} is out of scale with every other parameter's (its "
+        f"term is more than {_DOMINANCE:.0e} times the typical one, or overflows float64): no "
+        "other parameter could be seen beside it, and the fit would hold them all. Give values "
+        f"of the order of the physical ones ({arg('initial', '{NAME: VALUE}', cli='NAME=VALUE')} "
+        "or the model file's values)."
+    )
+
+
+#: Largest ratio of one parameter's sensitivity term to the typical one that
+#: `structural_identifiability` accepts (beyond it the others fall below its threshold).
+_DOMINANCE = 1e12
 
 
 # ---------------------------------------------------------------------- hold plan

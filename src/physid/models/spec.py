@@ -161,6 +161,12 @@ def parse_model_text(text: str, source: str = "<string>", *, strict: bool = Fals
     if "extends" in data:
         from .urdf import read_sidecar
 
+        if "strict" in data and not isinstance(data["strict"], bool):
+            raise ModelFileError(
+                f"{_where(source, text, 'strict', 'strict')}: strict must be a TOML boolean, "
+                f"true or false without quotes; got {data['strict']!r}."
+            )
+
         return read_sidecar(data, source, strict=strict)
     kind = data.get("kind", "chain")
     if kind not in KINDS:

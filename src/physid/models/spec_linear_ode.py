@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 from ..errors import ModelFileError, PhysidError
 from ._locate import _where
 from .spec_common import _parse_recording
@@ -43,6 +47,7 @@ def _parse_linear_ode(data, text, source, name, params) -> LinearODESpec:
             f"must be below the output order n = {len(out['a'])} (a strictly proper model); drop "
             f"entries from b or add entries to a."
         )
+    _check_nominal_coefficients(expressions, params, text, source)
     offset = _ode_offset(ode, out, names, text, source)
     units = _ode_units(ode, text, source)
     return LinearODESpec(
@@ -81,6 +86,11 @@ def _ode_coefficients(key, seq, names, expressions, text, source) -> tuple:
         )
     coefs = []
     for i, entry in enumerate(seq):
+        if not isinstance(entry, str) and not math.isfinite(float(entry)):
+            raise ModelFileError(
+                f"{where}: entry {i} of ode.{key} is {float(entry)} (a number beyond float64's "
+                "range, or nan); give a finite coefficient."
+            )
         entry_text = repr(float(entry)) if not isinstance(entry, str) else entry.strip()
         if entry_text in names:
             coefs.append(entry_text)
@@ -113,6 +123,28 @@ def _ode_coefficients(key, seq, names, expressions, text, source) -> tuple:
         expressions[coef] = entry_text
         coefs.append(coef)
     return tuple(coefs)
+
+
+def _check_nominal_coefficients(expressions: dict, params, text, source) -> None:
+    """Refuse coefficient expressions that are not finite at the parameters' nominal values,
+    with the file and line of the ``a``/``b`` list (the model could not be built there)."""
+    from ..expressions import evaluate_expression
+
+    values = {p.name: float(p.value) for p in params}
+    for coef, entry in expressions.items():
+        key = coef[0]
+        with np.errstate(all="ignore"):
+            try:
+                value = float(evaluate_expression(entry, values))
+            except (ArithmeticError, ValueError):
+                value = float("nan")
+        if not math.isfinite(value):
+            where = _where(source, text, f"ode.{key}", key, table="ode")
+            raise ModelFileError(
+                f"{where}: coefficient {entry!r} (entry {coef[1:].rstrip('_')} of ode.{key}) is "
+                f"{value} at the nominal parameter values; give values under [parameters] at "
+                "which it is finite (no division by zero)."
+            )
 
 
 def _ode_offset(ode, out, names, text, source):

@@ -599,6 +599,11 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
 
         _parse_recording(data, "", source)
     path = _sidecar_target(data, source)
+    if "strict" in data and not isinstance(data["strict"], bool):
+        raise ModelFileError(
+            f"{source}: strict must be a TOML boolean, true or false without quotes; got "
+            f"{data['strict']!r} ({type(data['strict']).__name__})."
+        )
     strict = bool(data.get("strict", strict))
     chain = read_urdf(path, strict=strict)
     table = data.get("joints", {})
@@ -655,6 +660,20 @@ def _sidecar_target(data: dict, source: str) -> Path:
             f"{source}: extends = {target!r}: no such file {str(path)!r} (paths are relative to "
             "the TOML file)."
         )
+    if path.resolve() == Path(source).resolve():
+        raise ModelFileError(
+            f"{source}: extends = {target!r} names the sidecar itself (a cycle): extends must "
+            "name the robot's URDF file."
+        )
+    if path.is_file():
+        with open(path, "rb") as fh:
+            head = fh.read(512)
+        if not looks_like_xml(head) and re.search(rb"^\s*extends\s*=", head, re.M):
+            raise ModelFileError(
+                f"{source}: extends = {target!r} names another sidecar TOML, not a URDF (a "
+                "sidecar extends a URDF file only, so chains of sidecars, and cycles, are "
+                "refused): point extends at the robot's URDF file."
+            )
     return path
 
 

@@ -53,9 +53,26 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
             f"residual_analysis needs more than {2 * max_lag + 1} samples for max_lag="
             f"{max_lag}; got {n}. Use a longer held-out record."
         )
-    e = e - e.mean(axis=0)
     band = BAND_Z / np.sqrt(n)
     lags = np.arange(-max_lag, max_lag + 1)
+    bad = int(np.count_nonzero(~np.isfinite(e).all(axis=1)))
+    if bad:  # NaN compares False with the band: it would pass every test as "white"
+        return _untestable(
+            lags,
+            band,
+            f"residual is not finite at {bad} of {n} samples (the prediction or the data hold "
+            "NaN or inf): no residual test is possible and nothing says the model explains "
+            "the data",
+        )
+    e = e - e.mean(axis=0)
+    if not np.any(e):
+        return _untestable(
+            lags,
+            band,
+            "residual is constant (zero after removing its mean): no whiteness test is possible; "
+            "the prediction reproduces the data to rounding, so check that the held-out output "
+            "is measured, not computed from the model",
+        )
 
     def xcorr(a, b):  # r_ab(k) = Σ a(t+k) b(t) / √(Σa² Σb²), k = −L..L (biased, as resid)
         # only the 2L+1 lags used, one dot product each: O(n·L) time, O(n) memory (the full
@@ -115,6 +132,22 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
         "cross_correlation_outside": cross_out,
         "white": bool(white),
         "independent": bool(independent),
+        "verdict": verdict,
+    }
+
+
+def _untestable(lags, band: float, verdict: str) -> dict:
+    """The result of `residual_analysis` when its tests cannot run: neither white nor
+    independent, and the ``verdict`` says why."""
+    return {
+        "lags": lags,
+        "band": float(band),
+        "autocorrelation": [],
+        "cross_correlation": [],
+        "autocorrelation_outside": [],
+        "cross_correlation_outside": [],
+        "white": False,
+        "independent": False,
         "verdict": verdict,
     }
 

@@ -13,6 +13,7 @@ from ...models.linear_ode import as_linear_ode_model
 from .._linear import check_distinct_channels, check_distinct_signals
 from .._regression import check_excitation
 from ..base import EstimatorMixin
+from ..plausibility import check_magnitude
 from .kernels import DEFAULT_INTERPOLATION_DEGREE
 from .plan import DEFAULT_GUARD, FINAL_RULES, AlgebraicSettings, _Plan, _settings_plan
 from .result import AlgebraicResult, _make_result
@@ -121,6 +122,7 @@ def algebraic_estimates(
     if s.final not in FINAL_RULES:
         raise InputError(f"final must be one of {FINAL_RULES}; got {s.final!r}.")
     u, y = check_signal_pair(u, y)
+    check_magnitude((u, y), ("u", "y"))
     model = as_linear_ode_model(model)
     y = y - model.known_output_offset()  # a held offset (identify = false) is removed (a copy)
     plan = _settings_plan(model, dt, s)

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..._validate import check_positive
-from ...errors import InputError, SamplingError
+from ...errors import InputError, SamplingError, arg
 from ...models.linear_ode import as_linear_ode_model
 from .._linear import check_known_finite
 from .._regression import offset_name
@@ -200,6 +200,16 @@ def _plan_columns(model, unknown, known):
 def _plan_equations(n: int, p: int, mu, n_equations, extra_derivatives):
     """The checked ``mu``, equations per window and extra derivatives of a model of order ``n``
     with ``p`` unknowns."""
+    n_eq = p if n_equations is None else int(n_equations)
+    if mu is None and n + n_eq > MAX_MU:
+        # the default mu = order + 1 already breaks the limit: the model, not mu, is the cause
+        raise InputError(
+            f"the algebraic estimator cannot handle a model of order {n} with {n_eq} "
+            f"equation(s) per window: it needs powers of 1/s up to order + n_equations = "
+            f"{n + n_eq}, and beyond {MAX_MU} the polynomial kernels lose every significant "
+            f"digit to cancellation. Use {arg('method', repr('rls'), cli='rls')} (recursive "
+            "least squares has no such limit) or a model of lower order."
+        )
     mu = n + 1 if mu is None else int(mu)
     if mu < n + 1:
         raise InputError(

@@ -17,6 +17,7 @@ from .._linear import (
     physical_statement,
     simulate_prediction,
 )
+from ..plausibility import gate, linear_ode_problems
 from ..results import ParameterDict, ResultMixin
 from .plan import AlgebraicSettings, _Plan
 from .uncertainty import (
@@ -196,6 +197,10 @@ def _make_result(
     success, message, fit = _model_verdict(
         model, {**known, **params}, names, signals, tail, success, message
     )
+    if success and signals is not None:
+        success, message = gate(
+            success, message, linear_ode_problems(model, {**known, **params}, *signals)
+        )
     if not success:
         stderr, stderr_reason = None, stderr_reason or "no trustworthy estimate"
     if stderr is None:

@@ -17,6 +17,7 @@ from ..._validate import check_int, check_positive
 from ...errors import InputError, SamplingError, arg
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
+from ..plausibility import gate, too_perfect, unchanging
 from .base_parameters import BaseInfo, base_regressor_info, unit_of
 from .iv import controller, iv_iterations
 from .result import IDIMResult
@@ -211,6 +212,7 @@ class IDIMEstimator(EstimatorMixin):
         cond = float(condition_number(rows.W * est.weights[None, :, None]))
         rel = _relative_errors(rows.tau, e)
         success, message = self._verdict(est, rows, rel, cond, len(recs))
+        success, message = gate(success, message, _implausible(rows.tau, e))
         consistent = None
         if self.consistent:
             consistent = consistent_estimate(model, info, rows.W, rows.tau, est.beta, est.weights)
@@ -387,6 +389,13 @@ def _relative_errors(y: np.ndarray, e: np.ndarray) -> dict[str, float]:
     for j in range(e.shape[1]):
         rel[f"tau{j + 1}"] = float(np.linalg.norm(e[:, j]) / max(tau_norm[j], 1e-300))
     return rel
+
+
+def _implausible(tau: np.ndarray, e: np.ndarray) -> list[str | None]:
+    """The plausibility gate's sentences (`physid.estimators.plausibility`): torques that
+    never change, and a fit exact to rounding on them."""
+    names = [f"tau{j + 1}" for j in range(tau.shape[1])]
+    return [unchanging(tau, names, "torque"), too_perfect(e, tau, names)]
 
 
 def _check_all_unknown(model) -> None:

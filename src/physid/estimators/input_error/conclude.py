@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 
 from ...filters.band import choose_filter, noise_floor
+from ..plausibility import gate, still_joints, too_perfect
 from .core import NOISE_SHARE, RESIDUAL_WARN, FilterWarning, quality_factor
 from .prepare import _Problem
 from .result import InputErrorResult
@@ -46,6 +47,7 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
     if withhold is not None:
         combo_errors = {k: float("nan") for k in combo_errors}
     success, message = _message(est, problem, solution)
+    success, message = gate(success, message, _implausible(problem, solution))
     sol, after, f = solution.sol, solution.after, problem.filtered
     return InputErrorResult(
         parameters=problem.as_params(theta_hat),
@@ -200,6 +202,42 @@ def _residual_cause(problem: _Problem, share, explained: bool) -> tuple[str, str
         "model (a missing friction term, wrong gains) and the data (a quantised "
         "encoder: its steps are noise that the cut-off must stop; try a lower cut-off)."
     ), "no measurement noise explains the residual"
+
+
+def _implausible(problem: _Problem, solution: _Solution) -> list[str | None]:
+    """The plausibility gate's sentences: a joint that never moves while parameters that act
+    only through its motion are free, and a fit exact to rounding on torques that never change.
+
+    A free parameter acts only through joint j when its Jacobian column has (almost) all its
+    energy on joint j's equations (friction, rotor inertia) or none at all.
+    """
+    names, nj = problem.free_names, problem.tau_f.shape[1]
+    out: list[str | None] = []
+    still = still_joints(problem.filtered.q)
+    jac = np.asarray(solution.jacobian, dtype=float)
+    if (
+        still
+        and jac.ndim == 2
+        and jac.shape[0] == problem.tau_f.size
+        and jac.shape[1] == len(names)
+    ):
+        energy = np.sum(jac.reshape(-1, nj, jac.shape[1]) ** 2, axis=0)  # (joint, parameter)
+        total = energy.sum(axis=0)
+        for j in still:
+            own = [n for k, n in enumerate(names) if not energy[j, k] < 0.99 * total[k]]
+            if not own:
+                continue
+            q = problem.filtered.q[:, j]
+            out.append(
+                f"joint {j + 1} never moves (q{j + 1} spans {np.ptp(q):.2g}, standard deviation "
+                f"{np.std(q):.2g}: no more than its measurement noise), so {', '.join(own)} "
+                "(which act only through its motion) are not in the data and their values are "
+                f"noise. Move joint {j + 1} in the experiment (physid design-excitation), or hold "
+                "them at known values (identify = false in the model file)."
+            )
+    torque_names = [f"tau{j + 1}" for j in range(nj)]
+    out.append(too_perfect(solution.residuals, problem.tau_f, torque_names))
+    return out
 
 
 def _message(est, problem: _Problem, solution: _Solution) -> tuple[bool, str]:

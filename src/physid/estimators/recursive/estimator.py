@@ -19,6 +19,7 @@ from .._linear import (
 )
 from .._regression import check_excitation
 from ..base import EstimatorMixin
+from ..plausibility import check_magnitude, gate, linear_ode_problems
 from ..results import ParameterDict
 from .batch import _check_forgetting, _check_init_samples, _first_invertible_row, weighted_ls_path
 from .online import StreamingRecursiveEstimator
@@ -130,6 +131,7 @@ class RecursiveLeastSquares(EstimatorMixin):
         if self.covariance not in ("full", "diagonal"):
             raise InputError(f"covariance must be 'full' or 'diagonal'; got {self.covariance!r}.")
         spec, in_name, out_name = self._channels(recording)
+        check_magnitude((recording[in_name], recording[out_name]), (in_name, out_name))
         dt = recording.dt
         reg = build_regression(
             spec,
@@ -175,6 +177,18 @@ class RecursiveLeastSquares(EstimatorMixin):
         success, message, fit = _verdict(
             spec, {**known_values, **fitted}, reg.names, recording, (in_name, out_name), lost
         )
+        if success:
+            success, message = gate(
+                success,
+                message,
+                linear_ode_problems(
+                    spec,
+                    {**known_values, **fitted},
+                    recording.t,
+                    recording[in_name],
+                    recording[out_name],
+                ),
+            )
         if not success:
             stderr, stderr_reason = None, "no trustworthy estimate"
         cov_final = None if stderr is None else np.array(cov_final, dtype=float)
