@@ -167,7 +167,7 @@ def run(args) -> int:
         seed=args.seed,
         scheduler=args.scheduler,
         workers=args.workers,
-        progress=not args.no_progress,
+        progress=not (args.no_progress or args.quiet),
         scheduler_timeout=args.scheduler_timeout,
     )
     snr, ratio = float_list(args.snr, "--snr"), float_list(args.ratio, "--ratio")
