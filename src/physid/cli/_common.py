@@ -28,6 +28,7 @@ __all__ = [
     "read_recording",
     "cli_words",
     "check_recording_units",
+    "torque_fit_line",
 ]
 
 #: File types a figure is written as (`physid.report.style.save_figure` writes PNG).
@@ -610,3 +611,30 @@ def check_recording_units(model, rec) -> None:
                     "model or the channel's unit (map it: --map "
                     f"'{name}=GAIN*SOURCE [{expected}]')."
                 )
+
+
+def torque_fit_line(result) -> str:
+    """``"torque fit: tau1 98.7 %, tau2 97.9 %"`` of an arm's fit, 100 (1 − rms error / rms τ).
+
+    Parameters
+    ----------
+    result : InputErrorResult or IDIMResult
+        With ``relative_residual`` (array per joint) or ``relative_error`` (dict per joint).
+
+    Returns
+    -------
+    str
+        The line ``identify`` prints after the summary ("" when the result has neither).
+    """
+    rel = getattr(result, "relative_error", None)
+    if isinstance(rel, dict):
+        pairs = [(k, v) for k, v in rel.items() if k != "overall"]
+    else:
+        values = getattr(result, "relative_residual", None)
+        if values is None:
+            return ""
+        pairs = [(f"tau{j + 1}", float(v)) for j, v in enumerate(values)]
+    shown = ", ".join(f"{k} {100.0 * (1.0 - v):.2f} %" for k, v in pairs if math.isfinite(v))
+    if not shown:
+        return ""
+    return f"  torque fit (100 (1 − rms error / rms τ), filtered): {shown}"

@@ -447,6 +447,12 @@ class LinearODEModel:
                 raise InputError(f"known[{k!r}] must be a number; got {v!r}.") from None
         return unknown, values
 
+    def _repr_html_(self) -> str:
+        """A notebook summary: joints (or input → output) and the nominal parameters."""
+        from ._display import model_html
+
+        return model_html(self)
+
     def __repr__(self) -> str:
         return (
             f"LinearODEModel(name={self.name!r}, order={self.order}, "
