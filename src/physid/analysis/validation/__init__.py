@@ -241,7 +241,12 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
     )
     if _is_idim(loaded):
         notes.append(_stick_note(loaded, stuck))
-    if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
+    # the plots show every row, a dropped equation as a gap (NaN), never as a torque of 0 N·m
+    shown_f, shown_hat = np.array(tau_f, dtype=float), np.array(tau_hat, dtype=float)
+    if stuck is not None and np.any(stuck):
+        shown_f[stuck], shown_hat[stuck] = np.nan, np.nan
+    series["inverse"] = (t_f, {nm: (shown_f[:, j], shown_hat[:, j]) for j, nm in enumerate(names)})
+    if stuck is not None:  # (c): the rows where every joint's equation is kept
         free = ~np.any(stuck, axis=1)
         if free.all():
             pass
@@ -256,7 +261,6 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
                 "(c) runs on every row, the dropped equations counting as zero residual: "
                 f"only {int(free.sum())} rows have every joint's equation kept"
             )
-    series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
     fits, out_rel, note = _chain_output_error(loaded, recording, series)
     notes.append(note)
     what = "filtered, decimated rows" if _is_idim(loaded) else "filtered samples"
