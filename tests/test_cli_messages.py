@@ -50,7 +50,13 @@ def test_cli_words_rewords_python_arguments(library, command_line):
 
 def test_python_words_finds_each_kind_and_spares_command_line_syntax():
     text = "x uniform_rtol=None, final='median', kp=[...], fixed={'l1': 1}, {NAME: COLUMN}"
-    assert python_words(text) == ["uniform_rtol=None", "final='", "kp=[", "fixed={", "{NAME: COLUMN}"]
+    assert python_words(text) == [
+        "uniform_rtol=None",
+        "final='",
+        "kp=[",
+        "fixed={",
+        "{NAME: COLUMN}",
+    ]
     assert python_words("--map 'tau1=35.15*vir [N]' --fix l1=0.4 --kp 1,2") == []
 
 

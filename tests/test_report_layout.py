@@ -171,11 +171,7 @@ def _demo_shaped_sections():
                     f"{part.split(' —')[0]} section {k}",
                     paragraphs=("Headline numbers of this part: 3 of 9 claims hold.", "More."),
                     tables=(wide,),
-                    figures=(
-                        FigureSpec(
-                            f"f{p}_{k}", _figure(), long_caption
-                        ),
-                    ),
+                    figures=(FigureSpec(f"f{p}_{k}", _figure(), long_caption),),
                     part=part,
                 )  # fmt: skip
             )
