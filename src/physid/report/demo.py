@@ -558,7 +558,7 @@ def _your_data_section() -> ReportSection:
         "A file that lacks a channel gets the --map line that would fix it, built from its own "
         "column names.",
         Html(f"<pre><code>{html.escape(commands)}</code></pre>"),
-        "What they print (an RLS fit of a mass-spring-damper at 40 dB, abridged; each value "
+        "What they print (an RLS fit of a simulated mass-spring-damper, abridged; each value "
         "with its standard error and unit, then the fit):",
         Html(f"<pre><code>{html.escape(prints)}</code></pre>"),
         Html(
