@@ -173,6 +173,7 @@ def explain_residual(result: dict[str, Any], residual, output, impulse, *, input
 
     Otherwise the model is named (a model error ``(G − Ĝ) u`` correlates with a coloured input at
     negative lags too, and not as the input noise predicts), with how much input noise explains.
+    (Long by its docstring: the three explanations are written out where they are decided.)
 
     Parameters
     ----------
@@ -335,11 +336,13 @@ def _input_noise_verdict(result, evidence) -> str:
         )
         if "input_snr_db" in evidence:
             noise += f" (input SNR ≈ {evidence['input_snr_db']:.0f} dB)"
+    explained = f"{_percent(evidence['autocorrelation_explained'])} of the autocorrelation"
+    if not result["independent"]:
+        cross = _percent(evidence.get("cross_correlation_explained"))
+        explained = f"{cross} of the cross-correlation and " + explained
     return (
         f"consistent with the model once noise on the measured input is counted: the residual is "
         f"{' and '.join(failed)}, the pattern the model's own impulse response gives to input "
-        f"noise (it explains {_percent(evidence.get('cross_correlation_explained'))} of the "
-        f"cross-correlation and {_percent(evidence['autocorrelation_explained'])} of the "
-        f"autocorrelation{noise}); what remains passes both tests. Reduce the input's noise or "
-        "use an errors-in-variables estimate; the model need not change"
+        f"noise (it explains {explained}{noise}); what remains passes both tests. Reduce the "
+        "input's noise or use an errors-in-variables estimate; the model need not change"
     )
