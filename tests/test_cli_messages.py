@@ -153,3 +153,16 @@ def test_documented_errors_speak_command_line():
     assert len(lines) >= 5
     leaks = {line: python_words(line) for line in lines if python_words(line)}
     assert leaks == {}
+
+
+def test_zero_signal_with_snr_names_no_python_argument(tmp_path):
+    res = run_cli(
+        ["simulate", "msd", "--out", str(tmp_path / "z.csv"), "--amplitude", "0", "--snr", "40"]
+    )
+    assert res.code == 2
+    assert "Give the system a non-zero input." in res.err
+    assert python_words(res.err) == [] and "noise_std" not in res.err
+    from physid.signals.noise import noise_std_for_snr  # the library names its argument
+
+    with pytest.raises(InputError, match=r"noise_std=\.\.\."):
+        noise_std_for_snr(np.zeros((10, 1)), 40.0)

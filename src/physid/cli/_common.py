@@ -389,6 +389,8 @@ def _map_entries(match: re.Match) -> str:
 _CLI_WORDS = (
     (re.compile(r" ?\(or uniform_rtol=None to keep the time vector as it is\)"), ""),
     (re.compile(r",? or uniform_rtol=None to keep the time vector as it is"), ""),
+    # a verb without --noise-std (simulate msd): only the input can be changed
+    (re.compile(r", or give the noise as a standard deviation instead \(noise_std=\.\.\.\)"), ""),
     (re.compile(r"resample=True"), "--resample"),
     (re.compile(r"channels=\{((?:'[^']*': '[^']*'(?:, )?)+)\}"), _map_entries),
     (re.compile(r"channels\['([^']*)'\] = '([^']*)'"), r"--map \1=\2"),
