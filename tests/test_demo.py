@@ -99,8 +99,9 @@ def test_results_json_covers_both_papers_and_the_demo_sections(payload):
     meta = payload["metadata"]
     assert meta["quick"] is True and meta["physid_version"] == physid.__version__
     titles = list(payload["results"])
-    assert titles[0] == HEADLINE_TITLE
-    assert titles[-4:] == [YOUR_DATA_TITLE, ADDS_TITLE, ERRATA_TITLE, INTRO_TITLE]
+    # the summary, then a user's own data, then the papers
+    assert titles[:2] == [HEADLINE_TITLE, YOUR_DATA_TITLE]
+    assert titles[-3:] == [ADDS_TITLE, ERRATA_TITLE, INTRO_TITLE]
     parts = payload["results"][INTRO_TITLE]["wall_time_s"]
     assert set(parts) == {"manipulator_paper", "msd_paper", "arm6"}
     rows = {row[0]: row[1] for row in payload["tables"][INTRO_TITLE][1]["rows"]}
@@ -224,10 +225,10 @@ def test_run_demo_on_stand_ins(tmp_path):
     payload = json.loads(paths.json.read_text())
     assert list(payload["results"]) == [
         HEADLINE_TITLE,
+        YOUR_DATA_TITLE,
         "Arm",
         "MSD 1",
         "MSD 2",
-        YOUR_DATA_TITLE,
         ADDS_TITLE,
         ERRATA_TITLE,
         INTRO_TITLE,

@@ -47,10 +47,33 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["CliResult", "HostileEnv", "run_cli", "check_case", "case_ids"]
+__all__ = ["CliResult", "HostileEnv", "run_cli", "check_case", "case_ids", "python_words"]
 
 # "file.py:12: RuntimeWarning: overflow ..." — what Python prints for an unhandled warning
 _RAW_WARNING = re.compile(r"\b\w*Warning: ")
+
+# Python argument syntax a command-line user must never be told to type: ``name=None``,
+# ``final='median'``, ``channels={...}``, ``kp=[...]``, a dict literal ``{'u': 'Force'}``
+_PYTHON_WORDS = re.compile(
+    r"(?<![-\w.])[a-z_][a-z0-9_]*=(?:None\b|True\b|False\b|'|\"|\{|\[|\.\.\.)"
+    r"|\{\s*'[^']*'\s*:|\{[A-Z_]+: [A-Z_]+\}"
+)
+
+
+# a URDF error quotes the file's own XML (<axis xyz="0 0 1"/>, value='nan'): that is the file's
+# syntax, not Python's
+_XML = re.compile(r"<[^<>]*>|\b(?:xyz|rpy|value|name|type|link|filename|lower|upper)='[^']*'")
+
+
+_FOREIGN_CALL = re.compile(r"\b(?:numpy|np|scipy\.io)\.\w+\([^()]*\)")
+
+
+def python_words(text: str) -> list[str]:
+    """The pieces of Python argument syntax in ``text`` (empty when it speaks command line)."""
+    lines = [_XML.sub("", line) if ".urdf" in line else line for line in text.splitlines()]
+    # how to write a file with another tool (numpy.savez(path, t=..., x=...)) is that tool's code
+    lines = [_FOREIGN_CALL.sub("", line) for line in lines]
+    return [m.group(0) for line in lines for m in _PYTHON_WORDS.finditer(line)]
 
 
 @dataclass(frozen=True)
@@ -161,6 +184,8 @@ def check_case(env: HostileEnv, argv, expected_exit: int, message_regex: str) ->
         assert sum(line.startswith("physid: error:") for line in lines) == 1, shown
     text = res.err if expected_exit != 0 else res.out + res.err
     assert re.search(message_regex, text, re.DOTALL), f"no match for {message_regex!r}\n{shown}"
+    leaked = python_words(res.err)
+    assert not leaked, f"Python argument syntax {leaked} on stderr (say it with flags)\n{shown}"
     assert not res.warnings, "warnings escaped:\n" + "\n".join(res.warnings) + "\n" + shown
     raw = [
         line

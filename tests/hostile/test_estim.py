@@ -19,6 +19,8 @@ from physid import Recording
 from physid.signals import save_recording
 from physid.simulate.msd import msd_paper_scenario
 
+from ._cases import python_words
+
 _TOML_SAME = (
     'name = "same"\nkind = "linear_ode"\n[parameters]\n'
     "theta2 = { value = 133.3, identify = true }\ntheta1 = { value = 0.0167, identify = true }\n"
@@ -126,3 +128,4 @@ def test_estim_hostile(case_id, argv, expected_exit, message_regex, files, tmp_p
         assert len(lines) == 1 and err.strip().splitlines()[-1].startswith("physid: error:")
     numpy_warnings = [w for w in caught if issubclass(w.category, RuntimeWarning)]
     assert not numpy_warnings, [str(w.message) for w in numpy_warnings]
+    assert python_words(err) == [], err  # command-line words only

@@ -69,7 +69,7 @@ CASES = [
         "design-samples-work",
         ["design-input", "msd", "--samples", "20000"],
         2,
-        r"evaluates about [\d.e+]+ terms .*Lower samples",
+        r"evaluates about [\d.e+]+ terms .*Lower --samples",
     ),
     # --- a figure path that is not an image (matplotlib's ValueError after the whole run)
     (

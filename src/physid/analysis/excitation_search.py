@@ -10,6 +10,8 @@ import time
 import numpy as np
 from scipy import optimize
 
+from .._progress import Progress
+
 #: Fraction of each limit the designed trajectory may use.
 MARGIN = 0.98
 #: Sharpness p of the soft maximum / minimum of log λ in the search objective.
@@ -282,7 +284,9 @@ def _search_from_starts(
     bounds = [(None, None)] * (nj * search.nf) + q0_bounds
     order = np.argsort(randoms)[: int(n_starts)]
     results = []
+    bar = Progress(len(order), "design-excitation: optimising", unit="starts")
     for i, k in enumerate(order):
+        bar.advance(1 if i else 0)
         left = deadline - time.perf_counter()
         if left <= 0 and results:
             break
@@ -314,4 +318,5 @@ def _search_from_starts(
             results.append((search.true_cond(z0), c, q0, i))
             if time.perf_counter() > stop_at:
                 break
+    bar.close()
     return results

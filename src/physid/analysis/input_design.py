@@ -367,10 +367,12 @@ def _check_request_size(n_lam, n_ratios, ratio_range, w0, ts, samples, horizons)
         terms += h * n * (n_ratios + _search_grid(lo, hi, w0, h, ts))
     if terms > MAX_TERMS:
         raise InputError(
-            f"the input design with samples={samples} and horizons={list(horizons)} evaluates "
-            f"about {terms:.3g} terms (limit {MAX_TERMS:.3g}, about a minute; memory "
+            f"the input design with {arg('samples', str(samples))} and "
+            f"{arg('horizons', str(list(horizons)), cli=','.join(str(h) for h in horizons))} "
+            f"evaluates about {terms:.3g} terms (limit {MAX_TERMS:.3g}, about a minute; memory "
             f"{format_bytes(nbytes)}): the search grid grows with the record's length, so the "
-            "work grows with its square. Lower samples (or give shorter horizons)."
+            f"work grows with its square. Lower {arg('samples')} (or give shorter "
+            f"{arg('horizons')})."
         )
 
 

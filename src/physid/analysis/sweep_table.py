@@ -239,7 +239,7 @@ def first_failure(rows: Sequence[Mapping[str, Any]], setting_columns: Sequence[s
     for r in rows:
         if r.get("status") == "ok":
             continue
-        where = "".join(f"{k}={r.get(k)}, " for k in setting_columns)
+        where = "".join(f"{k}={r.get(k)}, " for k in setting_columns if r.get(k) is not None)
         return (
             f"the first (row {r.get('index')}: {where}trial {r.get('trial')}) ended with status "
             f"{r.get('status')!r}: {str(r.get('message') or '(no message)').rstrip('.')}"

@@ -78,7 +78,24 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="verb", metavar="VERB")
     for mod in _verb_modules():
         mod.register(sub)
+    for verb_parser in sub.choices.values():
+        _add_quiet(verb_parser)
     return parser
+
+
+def _add_quiet(parser: argparse.ArgumentParser) -> None:
+    """``--quiet`` on a verb and on each of its sub-parsers (``simulate msd ... --quiet``)."""
+    if "--quiet" not in parser._option_string_actions:
+        parser.add_argument(
+            "--quiet",
+            action="store_true",
+            default=argparse.SUPPRESS,
+            help="no progress or notes on stderr (warnings and errors still show)",
+        )
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                _add_quiet(child)
 
 
 def argument_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict:
@@ -109,6 +126,8 @@ def argument_flags(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
             longs = [o for o in action.option_strings if o.startswith("--")]
             if longs and action.dest not in ("help", "version", argparse.SUPPRESS):
                 flags.setdefault(action.dest, longs[0])
+    if "channel_map" in flags:  # the library's channels={...} is the command line's --map
+        flags.setdefault("channels", flags["channel_map"])
     module = sys.modules.get(getattr(getattr(args, "func", None), "__module__", "") or "")
     flags.update(getattr(module, "ARGUMENT_FLAGS", {}) or {})
     return flags
@@ -287,7 +306,29 @@ def _main(argv: list[str] | None) -> int:
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return 2
-    from ._common import check_outputs, report_warnings
+    from .._progress import configure
+
+    # progress on stderr: never with --quiet, nor under --json when stdout is a pipe
+    quiet = bool(getattr(args, "quiet", False))
+    json_to_pipe = bool(getattr(args, "json", False)) and not _isatty(sys.stdout)
+    configure(False if quiet or json_to_pipe else None, quiet=quiet)
+    args.quiet = quiet
+    try:
+        return _run(parser, args)
+    finally:
+        configure(None)
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _run(parser, args) -> int:
+    """Run the verb; print its errors and warnings in command-line words."""
+    from ._common import check_outputs, cli_words, report_warnings
 
     caught: list = []
     flags = argument_flags(parser, args)  # keyword -> flag, for errors and warnings alike
@@ -308,7 +349,7 @@ def _main(argv: list[str] | None) -> int:
         return 143
     except PhysidError as exc:
         report_warnings(caught, flags)
-        print(f"physid: error: {exc.render(flags)}", file=sys.stderr)
+        print(f"physid: error: {cli_words(exc.render(flags))}", file=sys.stderr)
         return 2
     except (
         FileNotFoundError,

@@ -30,6 +30,7 @@ __all__ = [
     "warn_implausible_estimates",
     "cli_words",
     "check_recording_units",
+    "torque_fit_line",
 ]
 
 #: File types a figure is written as (`physid.report.style.save_figure` writes PNG).
@@ -101,7 +102,11 @@ def print_json(obj: Any) -> None:
 
 
 def progress(message: str) -> None:
-    """Progress goes to stderr so stdout stays machine-readable."""
+    """Progress goes to stderr so stdout stays machine-readable (nothing with ``--quiet``)."""
+    from .._progress import _STATE
+
+    if _STATE.get("quiet"):
+        return
     print(message, file=sys.stderr, flush=True)
 
 
@@ -313,6 +318,7 @@ def report_warnings(caught, flags=None) -> None:
     for w in caught or ():
         message = w.message
         text = message.render(flags) if isinstance(message, PhysidWarning) else str(message)
+        text = cli_words(text)
         key = (w.category.__name__, text)
         counts[key] = counts.get(key, 0) + 1
     for (category, message), n in counts.items():
@@ -387,35 +393,57 @@ def add_recording_options(parser, *, what="the recording", detrend=True) -> None
     )
 
 
-# library messages name Python keywords; the command line shows its own flags instead
+def _map_entries(match: re.Match) -> str:
+    """``channels={'u': 'Force', 'x': 'pos [mm]'}`` → ``--map 'u=Force,x=pos [mm]'``."""
+    pairs = re.findall(r"'([^']*)': '([^']*)'", match.group(1))
+    text = ",".join(f"{k}={v}" for k, v in pairs)
+    return f"--map '{text}'"
+
+
+# library messages name Python keywords; the command line shows its own flags instead (a
+# message worded with physid.errors.arg marks is rendered by the verb's flags first; these
+# patterns reword the rest, and any text a result carries, such as its stderr_reason)
 _CLI_WORDS = (
-    (
-        re.compile(
-            r"Pass resample=True to (.*?) \(or uniform_rtol=None to keep the time vector as "
-            r"it is\)\."
-        ),
-        r"Pass --resample to \1.",
-    ),
+    (re.compile(r" ?\(or uniform_rtol=None to keep the time vector as it is\)"), ""),
+    (re.compile(r",? or uniform_rtol=None to keep the time vector as it is"), ""),
+    # a verb without --noise-std (simulate msd): only the input can be changed
+    (re.compile(r", or give the noise as a standard deviation instead \(noise_std=\.\.\.\)"), ""),
     (re.compile(r"resample=True"), "--resample"),
-    (re.compile(r"channels=\{'([^']*)': '([^']*)'\}"), r"--map '\1=\2'"),
+    (re.compile(r"channels=\{((?:'[^']*': '[^']*'(?:, )?)+)\}"), _map_entries),
     (re.compile(r"channels\['([^']*)'\] = '([^']*)'"), r"--map \1=\2"),
     (re.compile(r"channels\['([^']*)'\]"), r"--map \1"),
+    (re.compile(r"channels=\{NAME: COLUMN\}"), "--map NAME=COLUMN"),
     (re.compile(r"channels=\{\.\.\.\}"), "--map"),
     (re.compile(r"channels= ?"), "--map "),
     (re.compile(r"decimal=','"), "--decimal ,"),
     (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
-    (re.compile(r"delimiter=';'"), "--delimiter ';'"),
+    (re.compile(r"delimiter='([^']*)'"), r"--delimiter '\1'"),
     (re.compile(r"bias_compensation=True"), "--bias-compensation"),  # RLS's withholding reason
     (re.compile(r"\(Recording\.resample\)"), "(--resample)"),
     (re.compile(r"\brate=(\d+)"), r"--rate \1"),
     (re.compile(r"\brate="), "--rate"),
     (re.compile(r"\btopic='([^']*)'"), r"--topic \1"),
     (re.compile(r"\btopic="), "--topic"),
+    (re.compile(r"\bfinal='([\w-]+)'"), r"--final \1"),  # the algebraic estimator's reasons
 )
 
 
 def cli_words(message: str) -> str:
-    """Reword a library message for the command line (``resample=True`` → ``--resample``)."""
+    """Reword a library message for the command line (``resample=True`` → ``--resample``).
+
+    Parameters
+    ----------
+    message : str
+        A library message or a result's text (already rendered with the verb's flags).
+
+    Returns
+    -------
+    str
+        The message with the Python keywords the command line spells as flags replaced:
+        ``channels={'u': 'Force'}`` → ``--map u=Force``, ``final='median'`` → ``--final
+        median``; a clause about a keyword the command line has no flag for
+        (``uniform_rtol=None``) is dropped.
+    """
     for pattern, repl in _CLI_WORDS:
         message = pattern.sub(repl, message)
     return message
@@ -571,6 +599,8 @@ def _load_notes(path, rec, where, bag) -> None:
 def _checked(args, rec, model):
     """Units against the model, plausibility of unit-less channels, --detrend."""
     if model is not None:
+        if callable(getattr(model, "recording_channels", None)):  # the --map that fixes it
+            model.recording_channels(rec.names, dict(zip(rec.names, rec.units, strict=True)))
         check_recording_units(model, rec)
         _warn_implausible_data(model, rec)
     detrend = getattr(args, "detrend", None)
@@ -725,7 +755,12 @@ def _model_channel_map(args, model) -> dict:
     return {}
 
 
-_RECORDING_FLAGS = {"resample": "--resample", "decimal": "--decimal", "delimiter": "--delimiter"}
+_RECORDING_FLAGS = {
+    "resample": "--resample",
+    "decimal": "--decimal",
+    "delimiter": "--delimiter",
+    "channels": "--map",
+}
 
 
 def _reworded(exc):
@@ -789,3 +824,30 @@ def check_recording_units(model, rec) -> None:
                     "model or the channel's unit (map it: --map "
                     f"'{name}=GAIN*SOURCE [{expected}]')."
                 )
+
+
+def torque_fit_line(result) -> str:
+    """``"torque fit: tau1 98.7 %, tau2 97.9 %"`` of an arm's fit, 100 (1 − rms error / rms τ).
+
+    Parameters
+    ----------
+    result : InputErrorResult or IDIMResult
+        With ``relative_residual`` (array per joint) or ``relative_error`` (dict per joint).
+
+    Returns
+    -------
+    str
+        The line ``identify`` prints after the summary ("" when the result has neither).
+    """
+    rel = getattr(result, "relative_error", None)
+    if isinstance(rel, dict):
+        pairs = [(k, v) for k, v in rel.items() if k != "overall"]
+    else:
+        values = getattr(result, "relative_residual", None)
+        if values is None:
+            return ""
+        pairs = [(f"tau{j + 1}", float(v)) for j, v in enumerate(values)]
+    shown = ", ".join(f"{k} {100.0 * (1.0 - v):.2f} %" for k, v in pairs if math.isfinite(v))
+    if not shown:
+        return ""
+    return f"  torque fit (100 (1 − rms error / rms τ), filtered): {shown}"

@@ -230,5 +230,5 @@ def run(args) -> int:
     else:
         print(cli_words(result.summary()))
     if not result.success:
-        print(f"physid: estimate failed: {result.message}", file=sys.stderr)
+        print(f"physid: estimate failed: {cli_words(result.message)}", file=sys.stderr)
     return 0 if result.success else 1

@@ -15,11 +15,13 @@ import warnings
 from ._common import (
     add_recording_options,
     assignments,
+    cli_words,
     float_list,
     print_json,
     progress,
     read_recordings,
     report_warnings,
+    torque_fit_line,
     warn_implausible_estimates,
 )
 
@@ -389,7 +391,8 @@ def _run_input_error(args, model, recordings) -> int:
             }
         )
     else:
-        print(result.summary())
+        print(cli_words(result.summary()))
+        print(torque_fit_line(result))
     return 0 if result.success else 1
 
 
@@ -449,5 +452,6 @@ def _run_idim(args, model, recordings, method: str) -> int:
             out["standard_parameters"] = result.consistent.standard
         print_json(out)
     else:
-        print(result.summary())
+        print(cli_words(result.summary()))
+        print(torque_fit_line(result))
     return 0 if result.success else 1

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 
 from ..errors import EstimationError, InputError
 from ._common import check_output_folder, float_list, print_json, progress
@@ -167,7 +168,8 @@ def run(args) -> int:
         seed=args.seed,
         scheduler=args.scheduler,
         workers=args.workers,
-        progress=not args.no_progress,
+        # a log file gets a line per 10 %, a terminal a bar; none with --quiet or --json to a pipe
+        progress=not (args.no_progress or args.quiet or _json_to_pipe(args)),
         scheduler_timeout=args.scheduler_timeout,
     )
     snr, ratio = float_list(args.snr, "--snr"), float_list(args.ratio, "--ratio")
@@ -226,3 +228,11 @@ def run(args) -> int:
     for key, path in paths.items():
         print(f"{key}: {path}")
     return 0
+
+
+def _json_to_pipe(args) -> bool:
+    """``--json`` with stdout not a terminal: the output is for a program, stderr stays quiet."""
+    try:
+        return bool(getattr(args, "json", False)) and not sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        return bool(getattr(args, "json", False))

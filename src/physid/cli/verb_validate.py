@@ -82,7 +82,7 @@ def run(args) -> int:
     if args.plot:
         from ..report.validation import write_validation_plots
 
-        written = write_validation_plots(report, args.plot)
+        written = write_validation_plots(report, args.plot, recording=rec)
         progress(f"validate: figures in {written['index']}")
     if args.json:
         print_json(report.to_dict())

@@ -325,7 +325,7 @@ def check_distinct_signals(u, y) -> None:
 
 def check_known_finite(known) -> None:
     """Refuse known coefficient values that are not finite numbers, naming them."""
-    from ..errors import InputError
+    from ..errors import InputError, arg
 
     bad = {}
     for name, value in dict(known or {}).items():
@@ -336,11 +336,14 @@ def check_known_finite(known) -> None:
         if not np.isfinite(v):
             bad[name] = v
     if bad:
+        shown = ", ".join(f"{k} = {v}" for k, v in bad.items())
+        first = sorted(bad)[0]
+        fix = "{" + repr(first) + ": VALUE}"
         raise InputError(
-            f"known values must be finite numbers; got {bad} for {sorted(bad)}. A known "
+            f"{arg('known')} values must be finite numbers; got {shown}. A known "
             "coefficient is held at its value in every equation, so NaN or inf makes every "
-            "estimate NaN: give its value (known={'theta1': 0.0167}) or estimate it (leave it out "
-            "of known)."
+            f"estimate NaN: give its value ({arg('known', fix, cli=first + '=VALUE')}) "
+            f"or estimate it (leave it out of {arg('known')})."
         )
 
 

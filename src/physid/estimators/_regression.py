@@ -61,7 +61,7 @@ def check_excitation(
         raise IdentifiabilityError(
             f"the regressor column of {dead} is zero over the whole record (no excitation), so "
             f"{dead} cannot be estimated. Excite the system (non-zero, varying input) or fix "
-            "them with known=..."
+            f"them with {arg('known', '{NAME: VALUE}', cli='NAME=VALUE')}."
         )
     if Y is not None:
         y_norm = float(np.linalg.norm(Y))
@@ -103,5 +103,5 @@ def check_excitation(
             f"the regressors are linearly dependent (rank-deficient Σ x xᵀ, smallest scaled "
             f"eigenvalue {w[0]:.2e}); the direction {combo} is not identifiable from this record. "
             "Use a richer input (e.g. a sinusoid away from the filter's stop band) or fix one of "
-            f"{list(names)} with known=..."
+            f"{list(names)} with {arg('known', '{NAME: VALUE}', cli='NAME=VALUE')}."
         )

@@ -210,6 +210,24 @@ class ResultMixin:
     _private_fields: tuple[str, ...] = ()
     _unpicklable_fields: tuple[str, ...] = ()
 
+    def __init_subclass__(cls, **kwargs):
+        # a dataclass keeps a __repr__ its class defines: give each subclass the short one
+        # before @dataclass would write its field-by-field repr (arrays of every sample)
+        super().__init_subclass__(**kwargs)
+        if "__repr__" not in cls.__dict__:
+            cls.__repr__ = ResultMixin.__repr__
+
+    def __repr__(self) -> str:
+        from ._display import plain_repr
+
+        return plain_repr(self, self._schema())
+
+    def _repr_html_(self) -> str:
+        """A notebook table: each value with its standard error, 95 % interval and unit."""
+        from ._display import html_table
+
+        return html_table(self, self._schema())
+
     def __getstate__(self):
         state = dict(self.__dict__)
         state.update(dict.fromkeys(self._unpicklable_fields))
@@ -286,6 +304,10 @@ class ResultMixin:
             lines.append(f"  {name:<{width}} = {value:.8g}{se_txt}  (derived){unit}")
         if schema["stderr"] is None and schema["stderr_reason"]:
             lines.append(f"  no standard errors: {schema['stderr_reason']}")
+        from ._display import fit_text
+
+        if fit_text(self):
+            lines.append(f"  {fit_text(self)} (output-error fit on the fitted record)")
         if schema["message"]:
             lines.append(f"  {schema['message']}")
         return "\n".join(lines)

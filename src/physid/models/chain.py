@@ -169,6 +169,12 @@ class ChainModel(_LinearInParameters):
         """The model specification this model was built from."""
         return self._spec
 
+    def _repr_html_(self) -> str:
+        """A notebook summary: joints (or input → output) and the nominal parameters."""
+        from ._display import model_html
+
+        return model_html(self)
+
     def __repr__(self) -> str:
         return (
             f"ChainModel(name={self.name!r}, n_joints={self.n_joints}, kinetic={self.kinetic!r}, "

@@ -32,6 +32,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from .._progress import working
 from ..errors import IdentifiabilityError, InputError, PhysidWarning, arg
 
 __all__ = [
@@ -372,7 +373,8 @@ def structural_identifiability(
     scale = np.where(theta != 0.0, np.abs(theta), 1.0)
     rng = np.random.default_rng(seed)
     q, qd, qdd = _random_states(int(model.n_joints), int(n_states), rng)
-    jac = np.asarray(model.parameter_jacobian(q, qd, qdd, values), dtype=float)
+    with working(f"physid: identifiability check of {len(names)} parameters"):
+        jac = np.asarray(model.parameter_jacobian(q, qd, qdd, values), dtype=float)
     with np.errstate(all="ignore"):
         scaled = jac.reshape(-1, len(names)) * scale
     _check_finite_sensitivity(scaled, names, theta)

@@ -362,18 +362,29 @@ class LinearODEModel:
         """True for the mass–spring–damper form ẍ + θ1 ẋ + θ2 x = b0 u."""
         return self.a_names == ("theta2", "theta1")
 
-    def recording_channels(self, names) -> tuple[str, str]:
+    def recording_channels(self, names, units=None) -> tuple[str, str]:
         """(input, output) channel names of this model in a recording with channels ``names``.
 
         The model's ``input_name`` and ``output_name``; the output falls back to ``x`` then
-        ``y`` (the recording convention of docs/architecture.md).
+        ``y`` (the recording convention of docs/architecture.md). When they are missing, the
+        error shows the channel map that would fix it, guessed from the columns' names and
+        ``units`` (mapping channel → unit; optional).
         """
         candidates = list(dict.fromkeys([self.output_name, "x", "y"]))
         out_name = next((c for c in candidates if c in names), None)
         if self.input_name not in names or out_name is None:
+            from .._hints import guess_map, map_hint, unit_kind
+
+            want_out = candidates[0] if out_name is None else out_name
+            kinds = {
+                self.input_name: (unit_kind(self.input_unit), "force", "acceleration"),
+                want_out: (unit_kind(self.output_unit), "length", "angle"),
+            }
+            guess = guess_map(kinds, names, units)
             raise InputError(
                 f"the recording needs an input channel {self.input_name!r} and an output channel "
-                f"{' or '.join(repr(c) for c in candidates)}; it has {list(names)}."
+                f"{' or '.join(repr(c) for c in candidates)}; it has {list(names)}. "
+                + map_hint(guess, {c: "COLUMN" for c in kinds if c not in names})
             )
         return self.input_name, out_name
 
@@ -435,6 +446,12 @@ class LinearODEModel:
             except (TypeError, ValueError):
                 raise InputError(f"known[{k!r}] must be a number; got {v!r}.") from None
         return unknown, values
+
+    def _repr_html_(self) -> str:
+        """A notebook summary: joints (or input → output) and the nominal parameters."""
+        from ._display import model_html
+
+        return model_html(self)
 
     def __repr__(self) -> str:
         return (

@@ -102,6 +102,12 @@ class RigidBodyModel(ChainModel):
         """Names of β (= `parameter_names`: the model is linear in its parameters)."""
         return self.parameter_names
 
+    def _repr_html_(self) -> str:
+        """A notebook summary: joints (or input → output) and the nominal parameters."""
+        from ._display import model_html
+
+        return model_html(self)
+
     def __repr__(self) -> str:
         return (
             f"RigidBodyModel(name={self.name!r}, n_joints={self.n_joints}, "

@@ -240,6 +240,9 @@ p { margin: 0.6rem 0; max-width: 80ch; }
 a { color: var(--accent); }
 code { font-family: ui-monospace, "SFMono-Regular", Menlo, Consolas, monospace;
        font-size: 0.92em; background: var(--band); padding: 0.05em 0.3em; border-radius: 3px; }
+pre { overflow-x: auto; max-width: 100%; background: var(--band); padding: 0.6rem 0.8rem;
+      border-radius: 6px; font-size: 0.88rem; }
+pre code { background: none; padding: 0; }
 .meta { color: var(--muted); font-size: 0.92rem; margin: 0 0 1rem; }
 nav.toc { background: var(--band); border: 1px solid var(--line); border-radius: 6px;
           padding: 0.75rem 1.25rem; margin: 1rem 0 1.5rem; }
@@ -261,11 +264,12 @@ th.num { text-align: right; }
 td:not(.num) { overflow-wrap: break-word; word-break: normal; hyphens: auto; min-width: 4em; }
 table.errata td:first-child { white-space: nowrap; }
 table.errata th:nth-child(2), table.errata td:nth-child(2) { min-width: 8.5em; }
-/* Tables with many columns (and the errata) use the page width, centred on the text column,
-   up to 1500px, so that no column hides behind a horizontal scroll on a laptop screen. */
-.table-wrap.wide { width: min(calc(100vw - 2rem), 1500px);
-                   margin-left: calc(50% - min(calc(50vw - 1rem), 750px)); }
+/* Tables with many columns (and the errata) stay inside the text column: their headers wrap,
+   and what still does not fit scrolls inside the table's box, never past the page. */
+.table-wrap { max-width: 100%; }
 .table-wrap.wide th { white-space: normal; min-width: 4.5em; }
+caption { position: sticky; left: 0; max-width: calc(min(100vw, 1040px) - 4rem);
+          white-space: normal; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 figure { margin: 1rem 0 1.5rem; }
 figure img { display: block; max-width: 100%; height: auto; margin: 0 auto;
@@ -276,6 +280,10 @@ figcaption { color: var(--muted); font-size: 0.92rem; margin-top: 0.4rem; }
 .part section > h3 { font-size: 1.2rem; margin: 2rem 0 0.6rem; padding-top: 0.5rem;
                      border-top: 1px solid var(--line); }
 details.long-table { margin: 0.5rem 0 1.25rem; }
+details.fold > summary { cursor: pointer; color: var(--accent); font-weight: 600;
+                         margin: 0.4rem 0 0.8rem; }
+details.fold > summary .titles { color: var(--muted); font-weight: 400; font-size: 0.9em; }
+.part-lead { font-size: 1.02rem; }
 details.long-table > summary { cursor: pointer; color: var(--accent); font-weight: 600; }
 table.summary caption { font-weight: 600; }
 figcaption .file { color: var(--muted); font-size: 0.85em; }
@@ -548,37 +556,78 @@ def _errata_html(errata_tab: Table | None, n_errata: int, last: bool) -> list[st
         '<section id="errata"><h2>Errata found in the papers</h2>',
         f"<p>{n_errata} misprint(s) or error(s), each with the evidence; the "
         f"sections {where} show the details.</p>",
+        _fold("Show the errata table", ["errata"]),
         _table_html(errata_tab, "errata"),
+        "</details>",
         "</section>",
     ]
 
 
+def _section_html(s, slug, pngs, *, skip_first: bool = False) -> list[str]:
+    """One section: heading, paragraphs, tables and figures (``skip_first``: its first
+    paragraph is shown above a fold instead)."""
+    heading = "h3" if s.part else "h2"
+    out = [f'<section id="{slug}"><{heading}>{_esc(s.title)}</{heading}>']
+    out.extend(_paragraph(p) for p in list(s.paragraphs)[1 if skip_first else 0 :])
+    out.extend(_table_html(t) for t in s.tables)
+    out.extend(_figure_html(f.name, pngs[f.name], f.caption, f.alt) for f in s.figures)
+    out.append("</section>")
+    return out
+
+
+def _fold(summary: str, titles: Sequence[str]) -> str:
+    shown = " · ".join(_esc(t) for t in titles)
+    return (
+        f'<details class="fold"><summary>{_esc(summary)} '
+        f'<span class="titles">({shown})</span></summary>'
+    )
+
+
 def _body_html(sections, slugs, part_slugs, lead, errata_after, toc, errata_html, pngs):
-    """The sections in order, grouped by part, with the contents and the errata in place."""
+    """The sections in order, grouped by part, with the contents and the errata in place.
+
+    The first ``lead`` sections are shown in full. After them each part shows its heading and
+    the first paragraph of its first section (its headline numbers); the rest of the part is
+    folded (``<details>``), and so is every other section below its first paragraph, so the
+    page opens at a few screens. A link to a folded section opens its fold (browsers expand
+    ``<details>`` around a fragment target; the page has no script).
+    """
     parts: list[str] = []
-    open_part = ""
+    open_part, part_folded = "", False
     for i, (s, slug) in enumerate(zip(sections, slugs, strict=True)):
         if i == lead:
             parts.extend(toc)
         if s.part != open_part:
             if open_part:
-                parts.append("</div>")
+                parts.append("</details></div>" if part_folded else "</div>")
             if s.part:
                 parts.append(
                     f'<div class="part" id="{part_slugs[s.part]}">'
                     f'<h2 class="part-title">{_esc(s.part)}</h2>'
                 )
+                part_folded = i >= lead
+                if part_folded:
+                    members = [x.title for x in sections[i:] if x.part == s.part]
+                    if s.paragraphs:
+                        parts.append(
+                            _paragraph(s.paragraphs[0]).replace("<p>", '<p class="part-lead">', 1)
+                        )
+                    parts.append(_fold(f"Show {s.part.split(' —')[0]}", members))
             open_part = s.part
         if i == errata_after:
             parts.extend(errata_html(last=False))
-        heading = "h3" if s.part else "h2"
-        parts.append(f'<section id="{slug}"><{heading}>{_esc(s.title)}</{heading}>')
-        parts.extend(_paragraph(p) for p in s.paragraphs)
-        parts.extend(_table_html(t) for t in s.tables)
-        parts.extend(_figure_html(f.name, pngs[f.name], f.caption, f.alt) for f in s.figures)
-        parts.append("</section>")
+        folded_part = bool(s.part) and i >= lead
+        first_of_part = folded_part and (i == 0 or sections[i - 1].part != s.part)
+        if folded_part or i < lead or not (s.tables or s.figures or len(s.paragraphs) > 1):
+            parts.extend(_section_html(s, slug, pngs, skip_first=first_of_part))
+            continue
+        # a section outside the parts, after the lead: its first paragraph, the rest folded
+        body = _section_html(s, slug, pngs, skip_first=True)
+        lead_text = [_paragraph(s.paragraphs[0])] if s.paragraphs else []
+        parts.extend([body[0], *lead_text, _fold("Show the details", [s.title]), *body[1:-1]])
+        parts.extend(["</details>", body[-1]])
     if open_part:
-        parts.append("</div>")
+        parts.append("</details></div>" if part_folded else "</div>")
     if lead >= len(sections):
         parts.extend(toc)
     if errata_after == len(sections):

@@ -16,7 +16,16 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .style import COLORS, FULL_WIDTH, figure_legend, legend_outside, panel_height, styled
+from .style import (
+    COLORS,
+    DROPPED_LABEL,
+    FULL_WIDTH,
+    figure_legend,
+    legend_outside,
+    panel_height,
+    shade_dropped,
+    styled,
+)
 
 __all__ = ["plot_excitation", "plot_bias_bars", "plot_torque_prediction"]
 
@@ -183,12 +192,22 @@ def plot_torque_prediction(t, measured, predicted, *, title: str | None = None) 
         if j >= n:
             ax.set_visible(False)
             continue
+        # a dropped equation (near rest) is NaN: a gap in a shaded span, never a torque of 0
+        shade_dropped(ax, t, ~(np.isfinite(measured[:, j]) & np.isfinite(predicted[:, j])))
         ax.plot(t, measured[:, j], color=COLORS[0], lw=1.2, label="measured (filtered)")
         ax.plot(t, predicted[:, j], color=COLORS[1], lw=1.0, ls="--", label="predicted")
         ax.set_title(f"joint {j + 1}")
         ax.set_ylabel(f"τ{j + 1} [N·m]")
         ax.set_xlabel("t [s]")
-    figure_legend(fig, axes[-1, 0], ncol=2)
+    legend_ax = next(
+        (
+            ax
+            for ax in axes.flat
+            if ax.get_visible() and DROPPED_LABEL in ax.get_legend_handles_labels()[1]
+        ),
+        axes[-1, 0],
+    )
+    figure_legend(fig, legend_ax, ncol=3)
     if title:
         fig.suptitle(title)
     return fig

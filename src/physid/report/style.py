@@ -60,6 +60,8 @@ __all__ = [
     "describe_figure",
     "final_value",
     "unit_of",
+    "DROPPED_LABEL",
+    "shade_dropped",
 ]
 
 #: Resolution of every PNG physid writes [dots per inch].
@@ -334,3 +336,39 @@ def labels_missing(description: dict[str, Any]) -> list[str]:
             elif "[" not in a[key]:
                 missing.append(f"axes {i} {key} has no unit: {a[key]!r}")
     return missing
+
+
+#: Legend text of the shaded spans where samples were dropped (`shade_dropped`).
+DROPPED_LABEL = "dropped near rest"
+
+
+def shade_dropped(ax, t, dropped, *, label: str = DROPPED_LABEL) -> int:
+    """Shade the spans of ``t`` where ``dropped`` is True (one legend entry); the span count.
+
+    A dropped sample is drawn as a gap (NaN), never as a value: shading says why it is empty.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    t : array_like, shape (n,) [s]
+    dropped : array_like of bool, shape (n,)
+    label : str
+        Legend text of the first span.
+
+    Returns
+    -------
+    int
+        Number of shaded spans.
+    """
+    t = np.asarray(t, dtype=float)
+    d = np.asarray(dropped, dtype=bool)
+    if t.size == 0 or not d.any():
+        return 0
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], d.astype(np.int8), [0]])))
+    half = 0.5 * float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    for k, (i, j) in enumerate(zip(edges[::2], edges[1::2], strict=True)):
+        ax.axvspan(
+            t[i] - half, t[j - 1] + half, color="0.85", lw=0, zorder=0,
+            label=label if k == 0 else None,
+        )  # fmt: skip
+    return len(edges) // 2

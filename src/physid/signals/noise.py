@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import as_1d, check_finite, check_positive
-from ..errors import InputError
+from ..errors import InputError, arg
 from .excitation import sinusoid
 
 __all__ = [
@@ -127,8 +127,8 @@ def noise_std_for_snr(x, snr_db: float) -> np.ndarray:
     if np.any(power == 0):
         raise InputError(
             "the signal is identically zero in at least one channel, so no noise level gives "
-            "a finite "
-            "SNR; give the noise as a standard deviation (std=...) instead."
+            "a finite SNR. Give the system a non-zero input, or give the noise as a standard "
+            f"deviation instead ({arg('noise_std', '...', cli='STD')})."
         )
     return np.sqrt(power / 10.0 ** (snr / 10.0))
 

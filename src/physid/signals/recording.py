@@ -625,7 +625,31 @@ class Recording:
         pairs = zip(self.names, self.units, strict=True)
         chans = ", ".join(f"{n} [{u}]" if u else n for n, u in pairs)
         span = f"{self.t[0]:.6g}..{self.t[-1]:.6g} s" if self.n_samples else "empty"
-        return f"Recording({self.n_samples} samples, {span}; {chans})"
+        return f"Recording({self.n_samples} samples, {span}{self._rate_text()}; {chans})"
+
+    def _rate_text(self) -> str:
+        if self.n_samples < 2:
+            return ""
+        rate = (self.n_samples - 1) / float(self.t[-1] - self.t[0])
+        return f" at {rate / 1000:.4g} kHz" if rate >= 1000 else f" at {rate:.4g} Hz"
+
+    def _repr_html_(self) -> str:
+        """A notebook table: each channel's unit and range; samples, duration and rate."""
+        import html
+
+        rows = "".join(
+            f"<tr><td>{html.escape(n)}</td><td>{html.escape(u)}</td>"
+            f"<td style='text-align:right'>{np.nanmin(self[n]):.4g}</td>"
+            f"<td style='text-align:right'>{np.nanmax(self[n]):.4g}</td></tr>"
+            for n, u in zip(self.names, self.units, strict=True)
+        )
+        span = f"{self.duration:.6g} s" if self.n_samples else "empty"
+        return (
+            f"<div><p style='margin:0.2em 0'><b>Recording</b> {self.n_samples} samples, {span}"
+            f"{self._rate_text()}, {self.n_channels} channels</p><table><thead><tr>"
+            "<th>channel</th><th>unit</th><th>min</th><th>max</th></tr></thead>"
+            f"<tbody>{rows}</tbody></table></div>"
+        )
 
     def save(self, path, **kwargs) -> None:
         """Write to CSV or NPZ (chosen by the suffix); see `physid.signals.io.save_recording`."""

@@ -152,7 +152,8 @@ def _apply_jump(current: MSDParameters, change, when: float) -> MSDParameters:
     for key in ("stiffness", "damping"):
         if key in change and m is None:
             raise InputError(
-                f"the jump at t = {when} s sets the {key}, which needs the mass; give mass=... "
+                f"the jump at t = {when} s sets the {key}, which needs the mass; give "
+                f"{arg('mass', '...', cli='KG')} "
                 "(or jump natural_frequency / theta2 instead)."
             )
     if "stiffness" in change:
@@ -365,8 +366,9 @@ def _msd_input(
         if force_amplitude is not None:
             if params["mass"] is None:
                 raise InputError(
-                    "force_amplitude [N] needs the mass to form u = F/m; give mass=... or give the "
-                    "amplitude of u directly (amplitude=...)."
+                    f"{arg('force_amplitude')} [N] needs the mass to form u = F/m; give "
+                    f"{arg('mass', '...', cli='KG')} or give the amplitude of u directly "
+                    f"({arg('amplitude', '...', cli='A')})."
                 )
             amp = float(force_amplitude) / params["mass"]
             meta["force_amplitude"] = float(force_amplitude)

@@ -52,7 +52,13 @@ from .parameters import _idim_parameters as _idim_parameters
 from .parameters import _idim_threshold as _idim_threshold
 from .parameters import _input_error_parameters as _input_error_parameters
 from .parameters import _is_idim
-from .residual import BAND_Z, MAX_LAG, _enough_for_residual, residual_analysis
+from .residual import (
+    BAND_Z,
+    MAX_LAG,
+    _enough_for_residual,
+    explain_residual,
+    residual_analysis,
+)
 
 __all__ = [
     "LoadedResult",
@@ -195,7 +201,24 @@ def _validate_linear(loaded, recording, max_lag, notes, series):
     elif _enough_for_residual(y.size, max_lag, "samples", notes):
         residual = residual_analysis(y - y_hat, recording[in_name], max_lag=max_lag)
         residual["of"] = f"output error of {out_name}"
+        impulse = _impulse_response(loaded, recording.t)
+        explain_residual(residual, y - y_hat, y, impulse, inputs=recording[in_name])
     return rel, fits, out_rel, residual
+
+
+def _impulse_response(loaded, t):
+    """The identified model's response to one unit input sample (offset removed).
+
+    The pulse sits at sample 1, not 0: an interpolated input spreads an interior sample over
+    the intervals on both sides, as it does each sample of the noise.
+    """
+    from ...estimators._linear import simulate_prediction
+
+    pulse = np.zeros(np.asarray(t).size)
+    pulse[1] = 1.0
+    g, _ = simulate_prediction(loaded.model, loaded.coefficients, t, pulse)
+    rest, _ = simulate_prediction(loaded.model, loaded.coefficients, t, np.zeros_like(pulse))
+    return np.append((g - rest)[1:], 0.0)
 
 
 def _validate_chain(loaded, recording, max_lag, notes, series):
@@ -218,7 +241,12 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
     )
     if _is_idim(loaded):
         notes.append(_stick_note(loaded, stuck))
-    if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
+    # the plots show every row, a dropped equation as a gap (NaN), never as a torque of 0 N·m
+    shown_f, shown_hat = np.array(tau_f, dtype=float), np.array(tau_hat, dtype=float)
+    if stuck is not None and np.any(stuck):
+        shown_f[stuck], shown_hat[stuck] = np.nan, np.nan
+    series["inverse"] = (t_f, {nm: (shown_f[:, j], shown_hat[:, j]) for j, nm in enumerate(names)})
+    if stuck is not None:  # (c): the rows where every joint's equation is kept
         free = ~np.any(stuck, axis=1)
         if free.all():
             pass
@@ -233,7 +261,6 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
                 "(c) runs on every row, the dropped equations counting as zero residual: "
                 f"only {int(free.sum())} rows have every joint's equation kept"
             )
-    series["inverse"] = (t_f, {nm: (tau_f[:, j], tau_hat[:, j]) for j, nm in enumerate(names)})
     fits, out_rel, note = _chain_output_error(loaded, recording, series)
     notes.append(note)
     what = "filtered, decimated rows" if _is_idim(loaded) else "filtered samples"

@@ -146,6 +146,10 @@ class AlgebraicResult(LinearODEResultMixin, ResultMixin):
     ):
         """Estimates against time with the invalid windows shaded; returns the Figure.
 
+        A model in physical terms (``msd-force``: m, c, k) shows those parameters over time
+        with their final value and 95 % interval (`physid.report.physical.plot_physical`);
+        give ``names`` to plot coefficients instead.
+
         Parameters
         ----------
         names : sequence of str, optional
@@ -161,6 +165,10 @@ class AlgebraicResult(LinearODEResultMixin, ResultMixin):
         """
         from ...report.algebraic import plot_algebraic
 
+        if ax is None and names is None and (self.physical or {}).get("identifiable"):
+            from ...report.physical import plot_physical  # the m, c, k the model declares
+
+            return plot_physical(self, truth=truth, title="algebraic estimator (sliding windows)")
         if ax is None:
             return plot_algebraic(self, names=names, truth=truth)
         return plot_algebraic(self, names=names, truth=truth, ax=ax)

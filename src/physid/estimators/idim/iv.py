@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..._progress import Progress
 from ..._validate import per_joint
 from ...errors import InputError, ShapeError, SimulationError, arg
 from .base_parameters import BaseInfo, base_regressor
@@ -162,7 +163,9 @@ def iv_iterations(model, info, recs, rows, loops, beta, weights, history, notes,
     changes: list[float] = []
     kept_instruments: list[np.ndarray] = []
     Z = None
+    bar = Progress(int(max_iter), "IDIM-IV: simulating the loop", unit="iterations (at most)")
     for _ in range(int(max_iter)):
+        bar.advance(1 if changes else 0)
         theta = params_for_base(model, info, beta, theta)
         _note_reach(model, info, theta, beta, notes)
         Z = instruments(
@@ -191,6 +194,7 @@ def iv_iterations(model, info, recs, rows, loops, beta, weights, history, notes,
                 "simulated loop: improve the excitation or lower the state-filter cutoff."
             )
             break
+    bar.close()
     return beta, Z, changes
 
 

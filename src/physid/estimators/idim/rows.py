@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..._hints import joint_hint
 from ..._validate import check_int, sample_period
 from ...errors import InputError, SamplingError, ShapeError, arg
 from .._stiction import coulomb_joints, drop_equations, stuck_samples
@@ -81,8 +82,8 @@ def _recording_arrays(recording, n_joints: int, torque: bool = True):
     if missing:
         raise InputError(
             f"the recording lacks channel(s) {missing}; IDIM needs q1..q{n_joints} [rad] and "
-            f"tau1..tau{n_joints} [N·m] (it has {names}). Map them with "
-            f"{arg('channels', '{NAME: COLUMN}', cli='q1=COLUMN,...')}."
+            f"tau1..tau{n_joints} [N·m] (it has {names}). "
+            + joint_hint(n_joints, names, dict(zip(recording.names, recording.units, strict=True)))
         )
     extra = [
         c

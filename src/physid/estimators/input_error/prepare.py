@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ..._hints import joint_hint
 from ..._validate import check_int, check_length, check_positive, per_joint
 from ...errors import DataFileError, IdentifiabilityError, InputError, ShapeError, arg
 from ...filters import filter_derivatives
@@ -307,7 +308,10 @@ def _channels(est, recording, nj: int) -> tuple[list[str], list[str]]:
     if not q_names:
         raise DataFileError(
             f"the recording has no joint-angle channels q1..q{nj} [rad]; it has "
-            f"{list(recording.names)}. Name the angle columns q1, q2, ..."
+            f"{list(recording.names)}. Name the angle columns q1, q2, ... "
+            + joint_hint(
+                nj, recording.names, dict(zip(recording.names, recording.units, strict=True))
+            )
         )
     if len(q_names) != nj:
         raise ShapeError(

@@ -100,8 +100,8 @@ class RecursiveResult(LinearODEResultMixin, ResultMixin):
             + "."
         )
 
-    def plot(self, truth: Mapping[str, float] | None = None, ax=None):
-        """θ̂ (and ω0 for the MSD) against time; see `physid.report.recursive`.
+    def plot(self, truth: Mapping[str, float] | None = None, ax=None, physical=None):
+        """θ̂ (and ω0 for the MSD), or the model's physical parameters, against time.
 
         Parameters
         ----------
@@ -109,11 +109,22 @@ class RecursiveResult(LinearODEResultMixin, ResultMixin):
             True values drawn as dashed lines.
         ax : matplotlib Axes, optional
             Draw the last panel (ω0 for the MSD) there.
+        physical : bool, optional
+            Plot the physical parameters the model declares (m, c, k of ``msd-force``) with
+            their final value and 95 % interval (`physid.report.physical.plot_physical`);
+            default: whenever the model declares some the estimate determines.
 
         Returns
         -------
         matplotlib.figure.Figure
         """
+        if physical is None:
+            physical = ax is None and bool((self.physical or {}).get("identifiable"))
+        if physical:
+            from ...report.physical import plot_physical
+
+            title = f"recursive least squares, λ = {self.forgetting:g}"
+            return plot_physical(self, truth=truth, title=title)
         from ...report.recursive import plot_recursive
 
         return plot_recursive(self, truth=truth, ax=ax)

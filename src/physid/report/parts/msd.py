@@ -40,7 +40,8 @@ def claims(sd, r) -> ReportSection:
         "squares (Kalman-Bucy): it claims the algebraic estimate converges within a few sample "
         "periods, about a hundred times faster than RLS, and that the input frequency ratio "
         "Z = ω1/ω0 has an optimum for each method.",
-        f"Of its {h['claims']} claims checked below, {h['claims_hold']} hold as stated and "
+        f"Of its {h['claims']} claims checked below, {h['claims_hold']} "
+        f"{'holds' if h['claims_hold'] == 1 else 'hold'} as stated and "
         f"{h['claims_partly']} partly. At {h['snr_db']:g} dB the algebraic estimator's pooled estimate of ω0 "
         f"is within {_pct(h['algebraic_final_error_25dB'])}, and RLS reaches 2 % "
         f"{h['rls_over_algebraic_25dB']:.2g}× later, not {h['paper_ratio']:g}×.",
