@@ -145,8 +145,14 @@ def test_positions_in_degrees_beyond_the_urdf_limits_warn(tmp_path, capsys):
     messages = implausible_units(rec, model.joint_types, model.limits, source="deg.csv")
     assert messages and "channel 'q1' has no unit" in messages[0]
     assert "the model's joint limit 3 rad: is it in deg?" in messages[0]
+    # each interface names its own fix: channels= in Python, --map on the command line
+    assert str(PhysidWarning(messages[0])).endswith(
+        "(a header 'q1 [deg]' or channels={'q1': 'SOURCE [deg]'}); a fit on it is wrong."
+    )
     main(["identify", str(log), "--model", str(PLANAR2)])
-    assert "physid: warning: " in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "physid: warning: " in err
+    assert "or --map 'q1=SOURCE [deg]'); a fit on it is wrong." in err
     # with its unit in the header, nothing is doubtful
     tagged = _csv(tmp_path / "tagged.csv", "t [s],q1 [rad],q2 [rad]",
                   [sim.t, sim["q1"] * 400, sim["q2"]])  # fmt: skip

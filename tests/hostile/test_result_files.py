@@ -47,7 +47,7 @@ CASES = [
     ("list-for-gains", ["validate", "{ie_gains}", "{arm_csv}"], 2,
      r"'gains' must be an object; the file has \[1, 2\]"),
     ("unknown-model-option", ["validate", "{ie_opts}", "{arm_csv}"], 2,
-     r"ie_opts\.json': its 'model_options' \{'nope': 1\}: unknown option"),
+     r"ie_opts\.json': its 'model_options' \{\"nope\": 1\}: unknown option"),
     ("number-for-model", ["validate", "{lin_model}", "{msd_csv}"], 2,
      r"'model' must be a string; the file has 7 \(int\)"),
     ("recursion-bomb", ["validate", "{deep}", "{msd_csv}"], 2,

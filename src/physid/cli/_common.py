@@ -619,7 +619,8 @@ def _warn_implausible_data(model, rec) -> None:
     if not types or not isinstance(limits, dict):
         return
     for text in implausible_units(rec, types, limits, source=rec.metadata.get("source")):
-        print(f"physid: warning: {text}", file=sys.stderr)
+        shown = PhysidWarning(text).render(_RECORDING_FLAGS)  # the --map spelling of the fix
+        print(f"physid: warning: {shown}", file=sys.stderr)
 
 
 def warn_implausible_estimates(model, result, recordings) -> bool:

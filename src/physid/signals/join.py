@@ -232,8 +232,8 @@ def _join_stamped(recordings, labels, names, gap) -> JoinedRun:
         raise DataFileError(
             f"the time ranges of {labels[late]} ({starts[late]:.6g} to {ends[late]:.6g} s) and "
             f"{labels[early]} ({starts[early]:.6g} to {ends[early]:.6g} s) do not overlap; "
-            "--join joins files recorded at the same time (one run). Give the files of one run, "
-            "or fit separate runs as separate recordings (without --join)."
+            "joining is for files recorded at the same time (one run). Give the files of one "
+            "run, or fit separate runs as separate recordings."
         )
     steps = [np.diff(t) for t in times]
     medians = [float(np.median(s)) for s in steps]

@@ -3,6 +3,7 @@ fit was set up, enough to predict and validate."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -132,7 +133,9 @@ def load_result(path, *, model=None) -> LoadedResult:
         except InputError as exc:
             if not options:
                 raise
-            raise DataFileError(f"{str(p)!r}: its 'model_options' {options!r}: {exc}") from None
+            raise DataFileError(
+                f"{str(p)!r}: its 'model_options' {json.dumps(options)}: {exc}"
+            ) from None
     else:
         mdl = ref
     method = str(data.get("method", ""))

@@ -21,8 +21,8 @@ MAX_RESULT_BYTES = 64 * 2**20
 MAX_RESULT_DEPTH = 32
 
 _FIX = (
-    "Write it again with physid.estimators.results.save_result (the --save option of "
-    "physid estimate and physid identify)."
+    "Write it again with physid.estimators.results.save_result (what physid estimate and "
+    "physid identify save)."
 )
 
 

@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 
+from ...errors import arg
+
 __all__ = ["implausible_units", "likely_unit"]
 
 #: A joint's data beyond this multiple of the model's limit are called implausible.
@@ -15,6 +17,13 @@ LIMIT_FACTOR = 10.0
 
 _REVOLUTE = (("deg", math.pi / 180), ("mrad", 1e-3), ("arcmin", math.pi / 10800))
 _PRISMATIC = (("mm", 1e-3), ("cm", 1e-2), ("um", 1e-6))
+
+
+def _unit_fix(j: int, unit: str) -> str:
+    """How to give q{j} a unit: a header, or the channel map (marked, so each interface shows
+    its own spelling: ``channels={...}`` in Python, ``--map`` on the command line)."""
+    entry = arg("channels", f"{{'q{j}': 'SOURCE [{unit}]'}}", cli=f"'q{j}=SOURCE [{unit}]'")
+    return f"a header 'q{j} [{unit}]' or {entry}"
 
 
 def likely_unit(ratio: float, prismatic: bool) -> str:
@@ -84,7 +93,7 @@ def implausible_units(rec, joint_types, limits, *, source: str | None = None) ->
             out.append(
                 f"{prefix}channel 'q{j}' has no unit and reaches {peak:.4g}, {peak / bound:.3g} "
                 f"times the model's joint limit {bound:.4g} {si}: is it in {unit}? Give the unit "
-                f"(a header 'q{j} [{unit}]' or --map 'q{j}=SOURCE [{unit}]'); a fit on it is wrong."
+                f"({_unit_fix(j, unit)}); a fit on it is wrong."
             )
             continue  # the speed of the same channel says the same
         vlim = float(velocity[j - 1]) if velocity.size >= j else np.nan
@@ -99,7 +108,7 @@ def implausible_units(rec, joint_types, limits, *, source: str | None = None) ->
             out.append(
                 f"{prefix}joint {j} moves at up to {top:.4g} {si}/s by its channels without unit, "
                 f"{top / vlim:.3g} times the model's velocity limit {vlim:.4g} {si}/s: is q{j} in "
-                f"{unit}? Give the unit (a header 'q{j} [{unit}]' or --map 'q{j}=SOURCE [{unit}]')."
+                f"{unit}? Give the unit ({_unit_fix(j, unit)})."
             )
     return out
 
