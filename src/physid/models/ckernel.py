@@ -19,7 +19,7 @@ from .rigid import DRIVE_NAMES, RigidChain
 
 __all__ = ["ChainKernel", "load_kernel", "model_buffer", "offset_slots"]
 
-_JS = 35
+_JS = 36
 _MAXJ = 64
 _P = ctypes.c_void_p
 
@@ -58,7 +58,7 @@ def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.
 
     Returns
     -------
-    ndarray (4 + 35 n,)
+    ndarray (4 + 36 n,)
     """
     inertia, drive = chain.split(beta)
     n = chain.n_joints
@@ -76,6 +76,7 @@ def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.
         for c, name in enumerate(names):
             J[26 + DRIVE_NAMES.index(name)] = drive[i, c]
         J[34] = coulomb_smoothing
+        J[35] = chain.parents[i]
     return buf
 
 

@@ -1,12 +1,14 @@
 """URDF files and rigid-body TOML chains → `physid.models.rigid.RigidChain`.
 
 URDF (read with the standard library's XML parser; no ROS): ``revolute``, ``continuous`` and
-``prismatic`` joints become the chain's joints in the order of the tree from its root; ``fixed``
-joints are merged (the child link's inertia is moved into the parent's frame and added);
-``<origin xyz rpy>``, ``<axis>``, ``<inertial>`` (origin, mass, inertia about the centre of mass),
-``<limit>`` (position, velocity, effort) and ``<dynamics damping friction>`` (viscous and Coulomb
-friction) are read; visuals, collisions, meshes, transmissions and gazebo tags are ignored.
-``<mimic>``, ``planar`` and ``floating`` joints are refused with a message.
+``prismatic`` joints become the model's joints in depth-first order of the tree from its root (as
+pinocchio orders them; a branching robot is a kinematic tree, each joint's parent recorded);
+``fixed`` joints are merged (the child link's inertia is moved into the parent's frame and
+added); ``<origin xyz rpy>``, ``<axis>``, ``<inertial>`` (origin, mass, inertia about the centre
+of mass), ``<limit>`` (position, velocity, effort) and ``<dynamics damping friction>`` (viscous
+and Coulomb friction) are read; visuals, collisions, meshes, transmissions and gazebo tags are
+ignored. A ``<mimic>`` on a fixed joint is ignored with a note; a movable mimic joint, ``planar``
+and ``floating`` joints are refused with a message.
 
 A sidecar TOML file (``extends = "robot.urdf"``) adds drive terms per joint and chooses what to
 identify (docs/model-files.md, "URDF and inertial parameters").
@@ -196,8 +198,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
     ------
     ModelFileError
         Not XML, no ``<robot>``, a loop or several roots, a missing parent/child link, a negative
-        mass, a zero-length axis, an unsupported joint type or a mimic joint, a branching tree of
-        movable joints.
+        mass, a zero-length axis, an unsupported joint type or a movable mimic joint.
     """
     if not isinstance(text, str) or not text.strip():
         raise ModelFileError(f"{source}: the URDF file is empty; give a <robot> document.")
@@ -228,7 +229,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
             f"{source}: the URDF has {len(roots)} root links {roots[:6]} (links that are no "
             "joint's child); connect them with joints so that one root remains."
         )
-    order, bodies_inertia = _serial_order(roots[0], links, joints, children, source)
+    order, bodies_inertia = _tree_order(roots[0], links, joints, children, source)
     n = len(order)
     standard = np.array([bodies_inertia.get(k, np.zeros(10)) for k in range(n)])
     drive = {}
@@ -259,6 +260,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         gravity=np.array([0.0, 0.0, -9.81]),
         limits=limits,
         source=source,
+        parent=tuple(joints[j]["parent_body"] for j in order),
     )
 
 
@@ -299,7 +301,14 @@ def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> t
         raise ModelFileError(
             f"{w}: unknown joint type {jtype!r}; use revolute, continuous, prismatic or fixed."
         )
-    if el.find("mimic") is not None:
+    if el.find("mimic") is not None and jtype == "fixed":
+        warnings.warn(
+            f"{w}: note: the fixed joint {jname!r} carries a <mimic> tag; a fixed joint has no "
+            "coordinate to copy, so the tag is ignored.",
+            ModelWarning,
+            stacklevel=4,
+        )
+    elif el.find("mimic") is not None:
         raise ModelFileError(
             f"{w}: joint {jname!r} mimics joint "
             f"{el.find('mimic').get('joint')!r}; mimic joints are not supported (their "
@@ -368,57 +377,48 @@ def _joint_links(el, w: str, jname: str, links: dict, child_of: dict) -> tuple:
     return parent, child
 
 
-def _serial_order(root: str, links: dict, joints: dict, children: dict, source: str) -> tuple:
-    """The movable joints in tree order from ``root`` (their ``placement`` and ``parent_body``
-    set), and each body's standard parameters with its fixed links folded in; refuses a branch.
+def _tree_order(root: str, links: dict, joints: dict, children: dict, source: str) -> tuple:
+    """The movable joints in depth-first order from ``root`` (their ``placement`` and
+    ``parent_body`` set), and each body's standard parameters with its fixed links folded in.
 
     Bodies are the root (the base, -1) and each movable joint's child, with the links fixed to it.
+    Depth first, children in document order: pinocchio's order, and the joints of one arm of a
+    branching robot stay together.
     """
     body_of = {root: (-1, np.eye(4))}  # link -> (body index, T_body_link)
     order = []  # movable joints in tree order
     bodies_inertia = {}
     stack = [root]
     seen = set()
+    child_joint = {}  # link -> the joint whose child it is
     while stack:
-        lk = stack.pop(0)
+        lk = stack.pop()
         if lk in seen:
             raise ModelFileError(f"{source}: link {lk!r} is reached twice (a loop).")
         seen.add(lk)
         b, T = body_of[lk]
+        if lk != root:
+            jname = child_joint[lk]
+            j = joints[jname]
+            if j["type"] != "fixed":
+                j["parent_body"] = b
+                j["placement"] = T
+                order.append(jname)
+                b, T = len(order) - 1, np.eye(4)
+                body_of[lk] = (b, T)
         bodies_inertia.setdefault(b, np.zeros(10))
         bodies_inertia[b] = bodies_inertia[b] + inertial.transform_standard(
             links[lk], T[:3, :3], T[:3, 3]
         )
-        for jname in children.get(lk, []):
+        for jname in reversed(children.get(lk, [])):  # popped in document order
             j = joints[jname]
-            Tj = T @ _homogeneous(j["R"], j["p"])
-            if j["type"] == "fixed":
-                body_of[j["child"]] = (b, Tj)
-            else:
-                parent_body = b
-                if any(joints[o]["parent_body"] == parent_body for o in order):
-                    other = next(o for o in order if joints[o]["parent_body"] == parent_body)
-                    raise ModelFileError(
-                        f"{j['where']}: joints {other!r} and {jname!r} both move from the same "
-                        "body: the robot branches. physid models serial chains; make the joints "
-                        "of one branch 'fixed' (e.g. the fingers of a gripper)."
-                    )
-                j["parent_body"] = parent_body
-                j["placement"] = Tj
-                order.append(jname)
-                body_of[j["child"]] = (len(order) - 1, np.eye(4))
+            body_of[j["child"]] = (b, T @ _homogeneous(j["R"], j["p"]))
+            child_joint[j["child"]] = jname
             stack.append(j["child"])
     if not order:
         raise ModelFileError(
             f"{source}: the robot has no revolute, continuous or prismatic joint; nothing moves."
         )
-    for k, jname in enumerate(order):
-        pb = joints[jname]["parent_body"]
-        if pb != k - 1:
-            raise ModelFileError(
-                f"{joints[jname]['where']}: joint {jname!r} does not continue the chain from the "
-                "previous movable joint (the tree branches); physid models serial chains."
-            )
     return order, bodies_inertia
 
 
@@ -562,6 +562,7 @@ def _plain_number(value, key, where):
 
 
 _SIDECAR_TOP = {"name", "kind", "description", "extends", "gravity", "joints", "identify", "strict"}
+_SIDECAR_TOP |= {"transmission"}  # motors and their coupling (physid.models.transmission)
 _SIDECAR_JOINT = set(DRIVE_KEYS) | set(STANDARD_KEYS) | set(PHYSICAL_KEYS) | {"acceleration"}
 
 
@@ -614,22 +615,34 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
             f"{source}: identify must be a list of parameter names; got {identify!r}."
         )
     name = data.get("name", chain.name)
-    return RigidChain(
-        name=str(name),
-        joint_names=chain.joint_names,
-        joint_types=chain.joint_types,
-        rotation=chain.rotation,
-        translation=chain.translation,
-        axis=chain.axis,
-        standard=standard,
-        link_to_joint=chain.link_to_joint,
-        drive=drive,
-        gravity=gravity,
-        limits=limits,
-        source=source,
-        description=str(data.get("description", "")),
-        identify=tuple(identify),
+    return _with_transmission(
+        data,
+        source,
+        RigidChain(
+            name=str(name),
+            joint_names=chain.joint_names,
+            joint_types=chain.joint_types,
+            rotation=chain.rotation,
+            translation=chain.translation,
+            axis=chain.axis,
+            standard=standard,
+            link_to_joint=chain.link_to_joint,
+            drive=drive,
+            gravity=gravity,
+            limits=limits,
+            source=source,
+            description=str(data.get("description", "")),
+            identify=tuple(identify),
+            parent=chain.parent,
+        ),
     )
+
+
+def _with_transmission(data: dict, source: str, chain: RigidChain) -> RigidChain:
+    """The sidecar's chain with its ``[transmission]`` table, if any."""
+    from .transmission import attach_transmission
+
+    return attach_transmission(chain, data.get("transmission"), source)
 
 
 def _sidecar_target(data: dict, source: str) -> Path:

@@ -96,6 +96,7 @@ def _compiled_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing):
     uniform grid); another model its equations compiled by `physid.simulate.compiled`.
     """
     if hasattr(model, "chain") and hasattr(model, "_c_kernel"):
+        model.check_simulable(params)  # M(q)⁻¹ must exist (a massless link refuses)
         kernel = model._c_kernel()  # rigid-body chain: the generic C kernel
         if kernel is None:
             return None
