@@ -464,6 +464,10 @@ def read_recording(args, path=None, *, model=None, table_channels=None):
                 f"{', '.join(unused)}: reading {'them' if len(unused) > 1 else 'it'} as "
                 "the file has them (pass --map to choose otherwise)."
             )
+        convert = getattr(model, "joint_side_channels", None)
+        if convert is not None:  # motor-side qm/taum/im through the model's transmission
+            cols, units = convert(rec.names, rec.__getitem__, str(path))
+            rec = rec.with_channels(cols, units) if cols else rec
         if model is not None:
             check_recording_units(model, rec)
         detrend = getattr(args, "detrend", None)

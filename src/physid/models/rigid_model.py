@@ -168,6 +168,28 @@ class RigidBodyModel(ChainModel):
                 "inertia, or the joint an armature (Ia) or a motor inertia."
             )
 
+    def joint_side_channels(self, names, column, source: str = "the recording") -> tuple:
+        """Joint channels (q, tau) from motor-side ones (qm, taum, im) through the model's
+        ``[transmission]`` (`physid.models.transmission.Transmission.joint_side`).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Channel names of the recording.
+        column : callable
+            ``column(name) -> ndarray (n_samples,)``.
+        source : str
+
+        Returns
+        -------
+        (dict, dict)
+            New columns and their units; empty without a transmission or motor channels.
+        """
+        tr = self._chain.transmission
+        if tr is None:
+            return {}, {}
+        return tr.joint_side(names, column, source)
+
     # -- kernels ----------------------------------------------------------------------------
     def _c_kernel(self):
         """The C kernel of the whole model, or None (no compiler, or motor-side terms, which

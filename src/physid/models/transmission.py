@@ -172,6 +172,68 @@ class Transmission:
             )
         return self.joint_torques(np.asarray(current, float) * self.torque_constants)
 
+    def joint_side(self, names, column, source: str = "the recording") -> tuple:
+        """Joint channels computed from a recording's motor-side channels.
+
+        ``qm1..qmn`` (motor angles [rad]) give ``q1..qn`` = K⁻¹ θm + q0; ``taum1..taumn``
+        (motor torques [N·m]) give ``tau1..taun`` = Kᵀ τm; ``im1..imn`` (motor currents [A])
+        give ``tau1..taun`` = Kᵀ (kt ⊙ i).
+
+        Parameters
+        ----------
+        names : sequence of str
+            The recording's channel names.
+        column : callable
+            ``column(name) -> ndarray (n_samples,)``.
+        source : str
+            The recording (for messages).
+
+        Returns
+        -------
+        (dict, dict)
+            New columns (name → ndarray) and their units; empty without motor channels.
+
+        Raises
+        ------
+        ModelFileError
+            Some motor channels of a kind but not all, both a motor-side and a joint-side
+            channel of the same quantity, or currents without torque constants.
+        """
+        n = self.n_motors
+        have = set(names)
+        out, units = {}, {}
+        kinds = (("qm", "q", "rad"), ("taum", "tau", "N·m"), ("im", "tau", "N·m"))
+        for stem, target, unit in kinds:
+            wanted = [f"{stem}{k + 1}" for k in range(n)]
+            present = [w for w in wanted if w in have]
+            if not present:
+                continue
+            if len(present) != n:
+                missing = [w for w in wanted if w not in have]
+                raise ModelFileError(
+                    f"{source}: motor channels {present} are given but {missing} are not; the "
+                    f"coupling (K, {n} × {n}) needs all {n} motors' {stem} channels."
+                )
+            clash = [f"{target}{k + 1}" for k in range(n) if f"{target}{k + 1}" in have]
+            if stem == "im" and "taum1" in have:
+                clash = ["taum1.."]
+            if clash:
+                raise ModelFileError(
+                    f"{source}: both motor-side {stem}1..{stem}{n} and {clash} are given for "
+                    "the same quantity; map one of them (--map)."
+                )
+            data = np.column_stack([np.asarray(column(w), dtype=float) for w in wanted])
+            if stem == "qm":
+                joint = self.joint_positions(data)
+            elif stem == "taum":
+                joint = self.joint_torques(data)
+            else:
+                joint = self.joint_torques_from_currents(data)
+            for j in range(n):
+                out[f"{target}{j + 1}"] = joint[:, j]
+                units[f"{target}{j + 1}"] = unit
+        return out, units
+
 
 # ---------------------------------------------------------------------------------------------
 # the [transmission] table
