@@ -144,10 +144,10 @@ CASES = [
                 + link("l1")
                 + link("l2")
                 + joint("j1", "base", "l1")
-                + joint("j2", "l1", "l2", extra='<mimic joint="j1"/>')
+                + joint("j2", "l1", "l2", extra='<mimic joint="j9"/>')
             )
         },
-        r"joint 'j2' mimics joint 'j1'; mimic joints are not supported",
+        r"joint 'j2' mimics 'j9', which is not a joint of the robot",
     ),
     (
         "urdf-nothing-moves",

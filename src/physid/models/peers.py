@@ -178,6 +178,11 @@ def to_pinocchio(model, params=None, *, coulomb_smoothing: float = 0.0) -> Pinoc
         }
         return PinocchioPeer(pm, friction, coulomb_smoothing)
     chain = model.chain
+    if chain.mimic:
+        raise InputError(
+            f"to_pinocchio: model {model.name!r} has mimic joints; build the peer with "
+            "pinocchio.buildModelFromUrdf(path, mimic=True) instead."
+        )
     if chain.motor_names:
         raise InputError(
             f"to_pinocchio: model {model.name!r} has motor-side terms {list(chain.motor_names)} "

@@ -83,6 +83,10 @@ class RigidChain:
         Motors and their coupling (`physid.models.transmission`).
     notes : tuple of str
         What the reader changed or ignored (shown when the model is loaded).
+    mimic : tuple of (int, int, float, float)
+        Mimic joints ``(follower, leader, multiplier, offset)``: q_follower = multiplier ·
+        q_leader + offset. The model's coordinates are the other joints' (`independent`); the
+        dynamics functions take and return those (τ = Gᵀ τ_all, M = Gᵀ M_all G).
     """
 
     name: str
@@ -102,6 +106,7 @@ class RigidChain:
     parent: tuple = ()
     transmission: object = None
     notes: tuple = ()
+    mimic: tuple = ()
 
     def __post_init__(self):
         for name in ("rotation", "translation", "axis", "standard", "link_to_joint", "gravity"):
@@ -127,6 +132,23 @@ class RigidChain:
     def is_serial(self) -> bool:
         """Whether each joint's parent is the previous one."""
         return not self.parent
+
+    @property
+    def independent(self) -> tuple:
+        """Indices of the joints that are coordinates (all but the mimic followers)."""
+        followers = {m[0] for m in self.mimic}
+        return tuple(i for i in range(self.n_joints) if i not in followers)
+
+    def mimic_map(self):
+        """``(G, o)``: q_all = G q + o, G (n_all, n_independent), o (n_all,)."""
+        ind = self.independent
+        G = np.zeros((self.n_joints, len(ind)))
+        G[ind, np.arange(len(ind))] = 1.0
+        o = np.zeros(self.n_joints)
+        for f, leader, mult, off in self.mimic:
+            G[f, ind.index(leader)] = mult
+            o[f] = off
+        return G, o
 
     @property
     def motor_names(self) -> tuple:
@@ -203,6 +225,7 @@ class RigidChain:
             "drive": list(self.drive_names),
             "gravity": self.gravity.tolist(),
             **({"parent": list(self.parent)} if self.parent else {}),
+            **({"mimic": [list(m) for m in self.mimic]} if self.mimic else {}),
             **(
                 {"transmission": self.transmission.content()}
                 if self.transmission is not None
@@ -384,6 +407,7 @@ def rnea(
     """
     inertia, drv = chain.split(beta)
     motor = chain.motor_values(beta)
+    qa, qda, qdda = _expand(chain, q, qd, qdd)
     N = q.shape[0]
     out = np.empty((N, chain.n_joints))
     for s in range(0, N, BLOCK):
@@ -392,16 +416,30 @@ def rnea(
             chain,
             inertia,
             drv,
-            q[sl],
-            qd[sl],
-            qdd[sl],
+            qa[sl],
+            qda[sl],
+            qdda[sl],
             gravity=gravity,
             with_drive=drive,
             smoothing=smoothing,
         )
-        if drive and motor.size:  # motor-side terms through the coupling (rigid.transmission)
-            out[sl] += chain.transmission.torque(motor, qd[sl], qdd[sl], smoothing)
+    if chain.mimic:  # virtual work: τ = Gᵀ τ_all
+        out = out @ chain.mimic_map()[0]
+    if drive and motor.size:  # motor-side terms through the coupling (rigid.transmission)
+        out += chain.transmission.torque(motor, qd, qdd, smoothing)
     return out
+
+
+def _expand(chain, q, qd=None, qdd=None):
+    """All joints' q, q̇, q̈ from the coordinates (mimic joints follow their leaders)."""
+    if not chain.mimic:
+        return q, qd, qdd
+    G, o = chain.mimic_map()
+    return (
+        q @ G.T + o,
+        None if qd is None else qd @ G.T,
+        None if qdd is None else qdd @ G.T,
+    )
 
 
 def mass_matrix(chain: RigidChain, beta, q):
@@ -418,6 +456,7 @@ def mass_matrix(chain: RigidChain, beta, q):
     ndarray (N, n, n) [kg·m² | kg]
     """
     inertia, drv = chain.split(beta)
+    q = _expand(chain, q)[0]
     N, n = q.shape
     M = np.empty((N, n, n))
     zeros = np.zeros((0, 0))
@@ -442,6 +481,9 @@ def mass_matrix(chain: RigidChain, beta, q):
     if "Ia" in chain.drive:
         c = chain.drive_names.index("Ia")
         M[:, np.arange(n), np.arange(n)] += drv[:, c]
+    if chain.mimic:
+        G = chain.mimic_map()[0]
+        M = np.einsum("fi,nfg,gj->nij", G, M, G)  # Gᵀ M G
     if chain.motor_names:  # rotors: Kᵀ diag(Im) K
         M += chain.transmission.mass(chain.motor_values(beta))
     return 0.5 * (M + M.transpose(0, 2, 1))
@@ -492,15 +534,22 @@ def regressor(chain: RigidChain, q, qd, qdd, out=None):
     -------
     ndarray (N, n, n_parameters)
     """
-    N, n = q.shape
+    N, m = q.shape
+    n = chain.n_joints
     P = chain.per_joint
     n_motor = len(chain.motor_names)
     if out is None:
-        out = np.empty((N, n, n * P + n_motor))
+        out = np.empty((N, m, n * P + n_motor))
     block = _regressor_block if chain.is_serial else _regressor_block_tree
+    qa, qda, qdda = _expand(chain, q, qd, qdd)
+    G = chain.mimic_map()[0] if chain.mimic else None
     for s in range(0, N, BLOCK):
         sl = slice(s, s + BLOCK)
-        block(chain, q[sl], qd[sl], qdd[sl], out[sl, :, : n * P])
+        if G is None:
+            block(chain, qa[sl], qda[sl], qdda[sl], out[sl, :, : n * P])
+        else:  # Y = Gᵀ Y_all
+            full = block(chain, qa[sl], qda[sl], qdda[sl], np.empty((qa[sl].shape[0], n, n * P)))
+            out[sl, :, : n * P] = np.einsum("fi,nfp->nip", G, full)
         if n_motor:
             out[sl, :, n * P :] = chain.transmission.columns(qd[sl], qdd[sl])
     return out

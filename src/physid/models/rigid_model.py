@@ -45,7 +45,8 @@ class RigidBodyModel(ChainModel):
         self._chain = chain
         self._spec = chain
         self.name = chain.name
-        self.n_joints = chain.n_joints
+        ind = list(chain.independent)  # mimic joints follow their leaders: not coordinates
+        self.n_joints = len(ind)
         self.parameter_names = chain.parameter_names()
         self._nominal = chain.nominal_vector()
         self.units = dict(zip(self.parameter_names, chain.parameter_units(), strict=True))
@@ -62,9 +63,9 @@ class RigidBodyModel(ChainModel):
             self.unknown = self.parameter_names
         self.kinetic = "exact"
         self.gravity = tuple(float(g) for g in chain.gravity)
-        self.joint_names = tuple(chain.joint_names)
-        self.joint_types = tuple(chain.joint_types)
-        self.limits = {k: np.array(v, dtype=float) for k, v in chain.limits.items()}
+        self.joint_names = tuple(chain.joint_names[i] for i in ind)
+        self.joint_types = tuple(chain.joint_types[i] for i in ind)
+        self.limits = {k: np.array(v, dtype=float)[ind] for k, v in chain.limits.items()}
         n = self.n_joints
         self.limits.setdefault("position", np.full((n, 2), np.nan))
         for key in ("velocity", "effort", "acceleration"):
@@ -200,6 +201,8 @@ class RigidBodyModel(ChainModel):
 
     def _core_kernel(self):
         """The C kernel of the rigid bodies and joint-side drive terms (batched functions)."""
+        if self._chain.mimic:  # the kernel moves every joint on its own
+            return None
         if not getattr(self, "_kernel_tried", False):
             self._kernel_tried = True
             from .ckernel import load_kernel

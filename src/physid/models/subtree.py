@@ -87,6 +87,11 @@ def subtree_model(model, joints, held: dict):
     from .rigid_model import RigidBodyModel
 
     chain = model.chain
+    if chain.mimic:
+        raise InputError(
+            f"--joints: model {chain.name!r} has mimic joints; choosing a sub-tree of it is not "
+            "supported. Identify the whole robot."
+        )
     idx = _chosen(chain, list(joints))
     n = chain.n_joints
     q = np.array([float(held.get(name, 0.0)) for name in chain.joint_names])

@@ -408,5 +408,6 @@ def attach_transmission(chain, table, source: str):
 
     if table is None:
         return chain
-    tr = parse_transmission(table, chain.joint_names, source, taken=chain.parameter_names())
+    names = [chain.joint_names[i] for i in chain.independent]  # the model's coordinates
+    tr = parse_transmission(table, names, source, taken=chain.parameter_names())
     return dataclasses.replace(chain, transmission=tr)

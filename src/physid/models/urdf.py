@@ -7,8 +7,10 @@ pinocchio orders them; a branching robot is a kinematic tree, each joint's paren
 added); ``<origin xyz rpy>``, ``<axis>``, ``<inertial>`` (origin, mass, inertia about the centre
 of mass), ``<limit>`` (position, velocity, effort) and ``<dynamics damping friction>`` (viscous
 and Coulomb friction) are read; visuals, collisions, meshes, transmissions and gazebo tags are
-ignored. A ``<mimic>`` on a fixed joint is ignored with a note; a movable mimic joint, ``planar``
-and ``floating`` joints are refused with a message.
+ignored. A ``<mimic joint multiplier offset>`` joint follows its leader (q = multiplier ·
+q_leader + offset, as pinocchio's ``mimic=True``): it is no coordinate of the model, but its link
+and drive terms act through the leader; on a fixed joint the tag is ignored with a note.
+``planar`` and ``floating`` joints are refused with a message.
 
 A sidecar TOML file (``extends = "robot.urdf"``) adds drive terms per joint and chooses what to
 identify (docs/model-files.md, "URDF and inertial parameters").
@@ -198,7 +200,8 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
     ------
     ModelFileError
         Not XML, no ``<robot>``, a loop or several roots, a missing parent/child link, a negative
-        mass, a zero-length axis, an unsupported joint type or a movable mimic joint.
+        mass, a zero-length axis, an unsupported joint type, a mimic joint whose leader is
+        missing, fixed, of another type or a mimic joint itself.
     """
     if not isinstance(text, str) or not text.strip():
         raise ModelFileError(f"{source}: the URDF file is empty; give a <robot> document.")
@@ -261,7 +264,37 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         limits=limits,
         source=source,
         parent=tuple(joints[j]["parent_body"] for j in order),
+        mimic=_mimic_joints(order, joints),
     )
+
+
+def _mimic_joints(order: list, joints: dict) -> tuple:
+    """``(follower, leader, multiplier, offset)`` of each movable mimic joint, checked."""
+    out = []
+    for k, jname in enumerate(order):
+        spec = joints[jname].get("mimic")
+        if spec is None:
+            continue
+        leader, mult, off = spec
+        w = joints[jname]["where"]
+        if leader not in order:
+            what = "a fixed joint" if leader in joints else "not a joint of the robot"
+            raise ModelFileError(
+                f"{w}: joint {jname!r} mimics {leader!r}, which is {what}; a mimic joint "
+                f"follows a movable joint (the movable ones: {order[:8]})."
+            )
+        if joints[leader].get("mimic") is not None:
+            raise ModelFileError(
+                f"{w}: joint {jname!r} mimics {leader!r}, itself a mimic joint; make it mimic "
+                f"{joints[leader]['mimic'][0]!r} (multiplying the multipliers)."
+            )
+        if joints[leader]["type"] != joints[jname]["type"]:
+            raise ModelFileError(
+                f"{w}: joint {jname!r} ({joints[jname]['type']}) mimics {leader!r} "
+                f"({joints[leader]['type']}); a mimic joint must be of its leader's type."
+            )
+        out.append((k, order.index(leader), mult, off))
+    return tuple(out)
 
 
 def _urdf_links(root, source: str, strict: bool) -> dict:
@@ -308,13 +341,12 @@ def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> t
             ModelWarning,
             stacklevel=4,
         )
-    elif el.find("mimic") is not None:
-        raise ModelFileError(
-            f"{w}: joint {jname!r} mimics joint "
-            f"{el.find('mimic').get('joint')!r}; mimic joints are not supported (their "
-            "coordinate is not independent). Make it 'fixed', or remove <mimic> to identify "
-            "it as a joint of its own."
-        )
+    mimic = None
+    if el.find("mimic") is not None and jtype != "fixed":
+        me = el.find("mimic")
+        if not me.get("joint"):
+            raise ModelFileError(f'{w}: <mimic> needs joint="LEADER", the joint it follows.')
+        mimic = (me.get("joint"), _float(me, "multiplier", w, 1.0), _float(me, "offset", w, 0.0))
     parent, child = _joint_links(el, w, jname, links, child_of)
     R, p = _origin(el, w)
     axis = np.array([1.0, 0.0, 0.0])
@@ -350,6 +382,7 @@ def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> t
         "damping": damping,
         "friction": friction,
         "where": w,
+        "mimic": mimic,
     }
 
 
