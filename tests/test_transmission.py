@@ -282,3 +282,31 @@ coulomb = 0.01
     # θ̇m = −40 q̇: τ = −40 (Im (−40 q̈) + Fvm (−40 q̇) + Fcm sign(−40 q̇))
     expected = 1600 * 1e-4 * -1.1 + 1600 * 2e-3 * 0.7 + 40 * 0.01 * 1.0
     assert tau[0, 0] - rigid_only[0, 0] == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("kernel", ["c", "numpy"])
+def test_forward_dynamics_of_a_coupled_model_inverts_inverse_dynamics(
+    tmp_path, kernel, monkeypatch
+):
+    """make_rhs (simulation): q̈ = M⁻¹(τ − h) with the rotors' Kᵀ diag(Im) K in M."""
+    values = (IM, FVM, np.zeros(6))  # no Coulomb term: sign(θ̇m) is exact here
+    model = physid.load_model(_coupled(tmp_path, values=values))
+    if kernel == "numpy":
+        monkeypatch.setattr(model, "_core_kernel", lambda: None)
+    rhs = model.make_rhs()
+    rng = np.random.default_rng(4)
+    for _ in range(5):
+        q, qd, tau = rng.normal(size=6), rng.normal(size=6), 10 * rng.normal(size=6)
+        qdd = rhs(q, qd, tau)
+        back = model.inverse_dynamics(q[None], qd[None], qdd[None])[0]
+        assert np.max(np.abs(back - tau)) < 1e-9
+
+
+def test_simulating_motor_coulomb_terms_says_how(tmp_path):
+    from physid.models.urdf import ModelWarning
+
+    model = physid.load_model(_coupled(tmp_path, values=(IM, FVM, FCM)))
+    with pytest.warns(
+        ModelWarning, match=r"motor-side Coulomb terms \['Fcm1', .*tanh\(θ̇m / 1 rad/s\)"
+    ):
+        model.make_rhs()

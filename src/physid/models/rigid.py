@@ -386,6 +386,7 @@ def rnea(
     gravity: bool = True,
     drive: bool = True,
     smoothing: float = 0.0,
+    motor_smoothing: float | None = None,
 ):
     """Inverse dynamics τ (N, n) [N·m or N] by Newton–Euler over all samples, in blocks.
 
@@ -400,6 +401,8 @@ def rnea(
         Include gravity / the drive and friction terms.
     smoothing : float [rad/s]
         0: exact sign(q̇) in the Coulomb terms; > 0: tanh(q̇ / smoothing) (simulation).
+    motor_smoothing : float [rad/s], optional
+        The same for the motor-side Coulomb terms, on θ̇m (default ``smoothing``).
 
     Returns
     -------
@@ -426,7 +429,8 @@ def rnea(
     if chain.mimic:  # virtual work: τ = Gᵀ τ_all
         out = out @ chain.mimic_map()[0]
     if drive and motor.size:  # motor-side terms through the coupling (rigid.transmission)
-        out += chain.transmission.torque(motor, qd, qdd, smoothing)
+        eps = smoothing if motor_smoothing is None else motor_smoothing
+        out += chain.transmission.torque(motor, qd, qdd, eps)
     return out
 
 

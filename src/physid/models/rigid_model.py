@@ -17,7 +17,10 @@ from ..errors import InputError, ModelFileError
 from . import rigid
 from .chain import ChainModel
 
-__all__ = ["RigidBodyModel"]
+__all__ = ["RigidBodyModel", "MOTOR_COULOMB_SMOOTHING"]
+
+#: Smoothing velocity [rad/s, motor side] of motor-side Coulomb terms in exact-Coulomb simulation.
+MOTOR_COULOMB_SMOOTHING = 1.0
 
 
 class RigidBodyModel(ChainModel):
@@ -488,14 +491,59 @@ class RigidBodyModel(ChainModel):
         if k is not None:
             return k.forward_one(beta, eps)
         chain = self._chain
+        motor_eps = self._motor_coulomb_smoothing(beta, eps)
+        core = self._core_kernel()
+        if core is not None and chain.transmission is not None:
+            parts = core.mass_and_bias(beta, eps)  # C for the bodies, the motors in numpy
+            tr, motor = chain.transmission, chain.motor_values(beta)
+            M_motor = tr.mass(motor)
+
+            def rhs_mixed(q, qd, tau):
+                M, h = parts(q, qd)
+                qd1 = np.reshape(qd, (1, n))
+                h = h + tr.torque(motor, qd1, np.zeros((1, n)), motor_eps)[0]
+                return np.linalg.solve(M + M_motor, np.asarray(tau, dtype=float) - h)
+
+            return rhs_mixed
 
         def rhs_np(q, qd, tau):
             q1, qd1 = np.reshape(q, (1, n)), np.reshape(qd, (1, n))
             M = rigid.mass_matrix(chain, beta, q1)[0]
-            h = rigid.rnea(chain, beta, q1, qd1, np.zeros((1, n)), smoothing=eps)[0]
+            h = rigid.rnea(
+                chain, beta, q1, qd1, np.zeros((1, n)), smoothing=eps, motor_smoothing=motor_eps
+            )[0]
             return np.linalg.solve(M, np.asarray(tau, dtype=float) - h)
 
         return rhs_np
+
+    def _motor_coulomb_smoothing(self, beta, eps: float) -> float:
+        """The smoothing [rad/s, motor side] of the motor-side Coulomb terms in simulation.
+
+        The event-driven exact Coulomb simulation (`physid.simulate.coulomb`) freezes the
+        joints' own Coulomb torques; a motor's Coulomb torque on θ̇m = K q̇ is not one joint's,
+        and sign(θ̇m) would stall an ODE integrator at each reversal. With ``eps`` = 0 such
+        terms use tanh(θ̇m / `MOTOR_COULOMB_SMOOTHING`) (a band of 1 rad/s at the motor, a few
+        hundredths of a rad/s at the joint through a gear), and a note says so.
+        """
+        tr = self._chain.transmission
+        if eps > 0 or tr is None:
+            return eps
+        values = self._chain.motor_values(beta)
+        used = [t[2] for t, v in zip(tr.terms, values, strict=True) if t[1] == "coulomb" and v]
+        if not used:
+            return eps
+        import warnings
+
+        from .urdf import ModelWarning
+
+        warnings.warn(
+            f"simulating {self.name!r}: the motor-side Coulomb terms {used} use "
+            f"tanh(θ̇m / {MOTOR_COULOMB_SMOOTHING:g} rad/s) instead of sign(θ̇m) (the exact "
+            "Coulomb simulation freezes the joints' own friction only).",
+            ModelWarning,
+            stacklevel=3,
+        )
+        return MOTOR_COULOMB_SMOOTHING
 
     def make_state_rhs(self, params=None):
         """``f(y, tau) -> ẏ`` for the state y = [q, q̇] (length 2·n_joints).
