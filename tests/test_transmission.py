@@ -310,3 +310,24 @@ def test_simulating_motor_coulomb_terms_says_how(tmp_path):
         ModelWarning, match=r"motor-side Coulomb terms \['Fcm1', .*tanh\(θ̇m / 1 rad/s\)"
     ):
         model.make_rhs()
+
+
+def test_identify_from_encoder_counts_and_currents_through_the_map(tmp_path):
+    """`--map qm1=enc1,…,im1=cur1,…`: the model's torque constants turn currents into torques;
+    noise-free, motor 6's terms come back to 1e-3."""
+    _write_log(tmp_path / "log.csv", 1, 0.0)
+    data = np.loadtxt(tmp_path / "log.csv", delimiter=",", skiprows=1)
+    data[:, 7:] /= 2.0  # currents of motors with kt = 2 N·m/A
+    head = ["time"] + [f"enc{k}" for k in range(1, 7)] + [f"cur{k}" for k in range(1, 7)]
+    np.savetxt(tmp_path / "raw.csv", data, delimiter=",", header=",".join(head), comments="")
+    model = _coupled(tmp_path, extra="torque_constants = [2, 2, 2, 2, 2, 2]\n")
+    mapping = "t=time," + ",".join(f"qm{k}=enc{k},im{k}=cur{k}" for k in range(1, 7))
+    saved = tmp_path / "fit.json"
+    argv = ["identify", str(tmp_path / "raw.csv"), "--model", str(model), "--map", mapping]
+    argv += ["--method", "idim-ols", "--stick-threshold", "0", "--save", str(saved)]
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        assert main(argv) == 0
+    est = json.loads(saved.read_text())["parameters"]
+    assert est["Im6"] == pytest.approx(1e-4, rel=1e-3)
+    assert est["Fvm6"] == pytest.approx(1e-3, rel=1e-3)
+    assert est["Fcm6"] == pytest.approx(2e-2, rel=1e-3)

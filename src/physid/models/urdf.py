@@ -242,14 +242,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         drive["Fv"] = np.array([v or 0.0 for v in damp])
     if any(v is not None for v in fric):
         drive["Fc"] = np.array([v or 0.0 for v in fric])
-    limits = {
-        "position": np.array(
-            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
-        ),
-        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
-        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
-        "acceleration": np.full(n, math.nan),
-    }
+    limits = _urdf_limits(joints, order)
     return RigidChain(
         name=name,
         joint_names=tuple(order),
@@ -266,6 +259,18 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         parent=tuple(joints[j]["parent_body"] for j in order),
         mimic=_mimic_joints(order, joints),
     )
+
+
+def _urdf_limits(joints: dict, order: list) -> dict:
+    """The chain's ``limits`` from the joints' ``<limit>`` (no acceleration limit in URDF)."""
+    return {
+        "position": np.array(
+            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
+        ),
+        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
+        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
+        "acceleration": np.full(len(order), math.nan),
+    }
 
 
 def _mimic_joints(order: list, joints: dict) -> tuple:

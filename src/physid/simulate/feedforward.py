@@ -25,7 +25,7 @@ FEEDFORWARD = {
     "gravity": "tau = Kp (r - q) - Kd qd + g(q)",
     "gravity+friction": "tau = Kp (r - q) - Kd qd + g(q) + tau_friction(qd)",
 }
-_FRICTION = ("Fv", "Fc", "Fvp", "Fvn", "Fcp", "Fcn", "Fvm", "Fcm")
+_FRICTION = ("Fv", "Fc", "Fvp", "Fvn", "Fcp", "Fcn")  # and the transmission's motor friction
 
 
 def _check(model, kind: str) -> None:
@@ -41,8 +41,10 @@ def _check(model, kind: str) -> None:
 def _without_friction(model, theta) -> np.ndarray:
     """θ with every friction term (joint and motor side) zeroed."""
     out = np.array(theta, dtype=float)
+    tr = model.chain.transmission
+    motor = {t[2] for t in tr.terms if t[1] != "inertia"} if tr is not None else set()
     for i, name in enumerate(model.parameter_names):
-        if name.rstrip("0123456789") in _FRICTION:
+        if name in motor or name.rstrip("0123456789") in _FRICTION:
             out[i] = 0.0
     return out
 
