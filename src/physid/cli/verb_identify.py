@@ -172,6 +172,14 @@ def register(subparsers) -> None:
         help="write the result file (parameters, units, filter settings, model) that "
         "'physid validate' reads",
     )
+    p.add_argument(
+        "--joints",
+        default=None,
+        metavar="NAME,...",
+        help="identify only these joints of a rigid-body model (a connected sub-tree, e.g. one "
+        "arm of a robot that branches); the others must hold still in the log and are held at "
+        "its positions",
+    )
     p.set_defaults(func=run)
 
 
@@ -231,9 +239,31 @@ def run(args) -> int:
     method = args.method or _default_method(model)
     _check_method_options(args, method)
     recordings = read_recordings(args, args.recordings, model=model)
+    if getattr(args, "joints", None):  # a connected sub-tree, the other joints held still
+        model, recordings = _subtree(args, model, recordings)
     if method == "input-error":
         return _run_input_error(args, model, recordings)
     return _run_idim(args, model, recordings, method)
+
+
+def _subtree(args, model, recordings):
+    """``--joints``: the sub-tree model and the recordings renumbered for it."""
+    from ..errors import InputError
+    from ..models.subtree import subtree_model, subtree_recording
+
+    if not hasattr(model, "chain"):
+        raise InputError("--joints chooses joints of a rigid-body model (a URDF or sidecar).")
+    if args.save:
+        raise InputError(
+            "--joints with --save: physid validate cannot rebuild the sub-tree model from a "
+            "result file yet; validate the sub-tree by identifying on the held-out file too."
+        )
+    joints = [j.strip() for j in args.joints.split(",") if j.strip()]
+    held, recordings = subtree_recording(model, joints, recordings)
+    sub = subtree_model(model, joints, held)
+    where = ", ".join(f"{k} = {v:.6g}" for k, v in held.items()) or "none"
+    progress(f"identify: joints {', '.join(sub.joint_names)}; held still at the log's {where}")
+    return sub, recordings
 
 
 # Options that only one family of methods reads, with the value that means "not given". A flag

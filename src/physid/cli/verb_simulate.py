@@ -366,6 +366,13 @@ def _register_model(systems) -> None:
         help="derivative gains, one or one per joint (default: critically damped, 2·2π·3 Hz·M_jj)",
     )
     chain.add_argument(
+        "--feedforward",
+        choices=("none", "gravity", "gravity+friction"),
+        default="none",
+        help="rigid-body models: the controller adds the model's gravity torque (and friction) "
+        "to the PD law (default: none); the metadata's controller says which law ran",
+    )
+    chain.add_argument(
         "--duration",
         metavar="S",
         default=None,
@@ -531,6 +538,7 @@ def run_model(args) -> int:
         noise_std=noise,
         rng=seed,
         reference_grid=grid,
+        feedforward=getattr(args, "feedforward", "none"),
     )
     wall = time.perf_counter() - start  # reported on stderr, never written into the file
     path = save_recording(rec, args.out)

@@ -40,7 +40,7 @@ def code_fingerprint() -> str:
     """Hash of the modules whose code decides the base set (any edit misses the cache)."""
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for name in ("_base_cache.py", "base.py", "rigid.py"):
+    for name in ("_base_cache.py", "base.py", "rigid.py", "transmission.py"):
         try:
             digest.update((here / name).read_bytes())
         except OSError:  # pragma: no cover - zipped install: the format string still guards

@@ -19,7 +19,7 @@ from .rigid import DRIVE_NAMES, RigidChain
 
 __all__ = ["ChainKernel", "load_kernel", "model_buffer", "offset_slots"]
 
-_JS = 35
+_JS = 36
 _MAXJ = 64
 _P = ctypes.c_void_p
 
@@ -58,7 +58,7 @@ def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.
 
     Returns
     -------
-    ndarray (4 + 35 n,)
+    ndarray (4 + 36 n,)
     """
     inertia, drive = chain.split(beta)
     n = chain.n_joints
@@ -76,6 +76,7 @@ def model_buffer(chain: RigidChain, beta, coulomb_smoothing: float = 0.0) -> np.
         for c, name in enumerate(names):
             J[26 + DRIVE_NAMES.index(name)] = drive[i, c]
         J[34] = coulomb_smoothing
+        J[35] = chain.parents[i]
     return buf
 
 
@@ -150,6 +151,31 @@ class ChainKernel:
             out.ctypes.data,
         )
         return out
+
+    def mass_and_bias(self, beta, coulomb_smoothing: float = 0.0):
+        """``f(q, qd) -> (M, h)`` of one state (rigid bodies and joint drive terms), bound.
+
+        For models whose remaining terms (motor-side, through a coupling) are added in Python.
+        """
+        buf = model_buffer(self.chain, beta, coulomb_smoothing)
+        n = self.n
+        work = np.zeros(3 * n)
+        q_s, qd_s, z_s = work[:n], work[n : 2 * n], work[2 * n :]
+        M = np.zeros((n, n))
+        h_s = np.zeros(n)
+        lib, baddr = self._lib, buf.ctypes.data
+
+        def f(q, qd):
+            q_s[:] = q
+            qd_s[:] = qd
+            lib.mass_batch(baddr, 1, q_s.ctypes.data, M.ctypes.data)
+            lib.rnea_batch(
+                baddr, 1, q_s.ctypes.data, qd_s.ctypes.data, z_s.ctypes.data, h_s.ctypes.data, 1, 1
+            )
+            return M.copy(), h_s.copy()
+
+        f.buffers = (buf, work, M, h_s)
+        return f
 
     def forward_one(self, beta, coulomb_smoothing: float = 0.0):
         """``f(q, qd, tau) -> qdd`` for one state, parameters bound."""

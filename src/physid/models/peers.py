@@ -178,10 +178,21 @@ def to_pinocchio(model, params=None, *, coulomb_smoothing: float = 0.0) -> Pinoc
         }
         return PinocchioPeer(pm, friction, coulomb_smoothing)
     chain = model.chain
+    if chain.mimic:
+        raise InputError(
+            f"to_pinocchio: model {model.name!r} has mimic joints; build the peer with "
+            "pinocchio.buildModelFromUrdf(path, mimic=True) instead."
+        )
+    if chain.motor_names:
+        raise InputError(
+            f"to_pinocchio: model {model.name!r} has motor-side terms {list(chain.motor_names)} "
+            "acting through a coupling matrix; pinocchio's armature is per joint and cannot "
+            "hold them. Compare without the [transmission] motor terms."
+        )
     inertia, drive = chain.split(model.parameter_vector(params))
     pm = pin.Model()
-    parent = 0
     for i in range(chain.n_joints):
+        parent = chain.parents[i] + 1  # pinocchio's joint ids: 0 the universe, then ours in order
         a = chain.axis[i]
         if chain.joint_types[i] == "revolute":
             jm = pin.JointModelRevoluteUnaligned(float(a[0]), float(a[1]), float(a[2]))
@@ -194,7 +205,6 @@ def to_pinocchio(model, params=None, *, coulomb_smoothing: float = 0.0) -> Pinoc
             pin.Inertia.FromDynamicParameters(to_pinocchio_order(inertia[i])),
             pin.SE3.Identity(),
         )
-        parent = jid
     names = chain.drive_names
     pm.armature = (
         np.array(drive[:, names.index("Ia")]) if "Ia" in names else np.zeros(chain.n_joints)

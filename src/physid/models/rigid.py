@@ -1,14 +1,17 @@
-"""Rigid-body serial chains: vectorised recursive Newton–Euler, its regressor and the mass matrix.
+"""Rigid-body chains and trees: vectorised recursive Newton–Euler, its regressor and M(q).
 
 A chain of n joints (revolute or prismatic), each joint frame placed at a constant transform
-``X_i = (R_i, p_i)`` in its parent link's frame (the parent is the previous joint, or the base),
+``X_i = (R_i, p_i)`` in its parent link's frame (the parent is the previous joint, or the base;
+in a kinematic tree, ``parent[i]`` names it, parents before children),
 moving about/along a unit ``axis_i`` in that frame. Link i is rigidly attached to joint frame i;
 its 10 standard inertial parameters (`physid.models.inertial`) are given in a *link frame* that
 may differ from the joint frame by a constant transform (a DH frame sits at the end of the link;
 a URDF link frame is the joint frame) — the map between the two is linear (``A_i``, 10 × 10).
 
 Drive terms per joint: armature ``Ia`` q̈, viscous ``Fv`` q̇, Coulomb ``Fc`` sign(q̇), asymmetric
-``Fvp`` q̇·[q̇>0], ``Fvn`` q̇·[q̇<0], ``Fcp``·[q̇>0], ``−Fcn``·[q̇<0], and a constant ``OF``.
+``Fvp`` q̇·[q̇>0], ``Fvn`` q̇·[q̇<0], ``Fcp``·[q̇>0], ``−Fcn``·[q̇<0], and a constant ``OF``; a
+`physid.models.transmission.Transmission` adds motor-side terms through its coupling matrix
+(their parameters follow all the joints' ones).
 
 The dynamics are linear in these parameters (τ = Y(q, q̇, q̈) β), so nothing is derived
 symbolically: inverse dynamics is Newton–Euler over arrays of samples (numpy, or the generic C
@@ -74,6 +77,16 @@ class RigidChain:
         where unknown.
     source : str
         Where the description came from (file name), for messages.
+    parent : tuple of int
+        Parent joint of each joint (-1: the base), parents first; ``()``: a serial chain.
+    transmission : Transmission or None
+        Motors and their coupling (`physid.models.transmission`).
+    notes : tuple of str
+        What the reader changed or ignored (shown when the model is loaded).
+    mimic : tuple of (int, int, float, float)
+        Mimic joints ``(follower, leader, multiplier, offset)``: q_follower = multiplier ·
+        q_leader + offset. The model's coordinates are the other joints' (`independent`); the
+        dynamics functions take and return those (τ = Gᵀ τ_all, M = Gᵀ M_all G).
     """
 
     name: str
@@ -90,12 +103,57 @@ class RigidChain:
     source: str = "<built-in>"
     description: str = ""
     identify: tuple = ()
+    parent: tuple = ()
+    transmission: object = None
+    notes: tuple = ()
+    mimic: tuple = ()
 
     def __post_init__(self):
         for name in ("rotation", "translation", "axis", "standard", "link_to_joint", "gravity"):
             arr = np.array(getattr(self, name), dtype=float)
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
+        parent = tuple(int(p) for p in self.parent)
+        if parent == tuple(range(-1, len(self.joint_types) - 1)):
+            parent = ()  # a serial chain, however it was written
+        if parent and (
+            len(parent) != len(self.joint_types)
+            or any(not (-1 <= p < i) for i, p in enumerate(parent))
+        ):
+            raise ValueError(f"parent must list each joint's parent before it; got {parent}")
+        object.__setattr__(self, "parent", parent)
+
+    @property
+    def parents(self) -> tuple:
+        """Parent joint of each joint (-1: the base)."""
+        return self.parent or tuple(range(-1, self.n_joints - 1))
+
+    @property
+    def is_serial(self) -> bool:
+        """Whether each joint's parent is the previous one."""
+        return not self.parent
+
+    @property
+    def independent(self) -> tuple:
+        """Indices of the joints that are coordinates (all but the mimic followers)."""
+        followers = {m[0] for m in self.mimic}
+        return tuple(i for i in range(self.n_joints) if i not in followers)
+
+    def mimic_map(self):
+        """``(G, o)``: q_all = G q + o, G (n_all, n_independent), o (n_all,)."""
+        ind = self.independent
+        G = np.zeros((self.n_joints, len(ind)))
+        G[ind, np.arange(len(ind))] = 1.0
+        o = np.zeros(self.n_joints)
+        for f, leader, mult, off in self.mimic:
+            G[f, ind.index(leader)] = mult
+            o[f] = off
+        return G, o
+
+    @property
+    def motor_names(self) -> tuple:
+        """Names of the motor-side parameters (empty without a transmission)."""
+        return self.transmission.names() if self.transmission is not None else ()
 
     @property
     def n_joints(self) -> int:
@@ -118,7 +176,7 @@ class RigidChain:
         for j in range(self.n_joints):
             out += [f"{s}{j + 1}" for s in inertial.STANDARD_NAMES]
             out += [f"{d}{j + 1}" for d in self.drive_names]
-        return tuple(out)
+        return tuple(out) + self.motor_names
 
     def parameter_units(self) -> tuple:
         """SI unit of each parameter (prismatic joints: N, N·s/m, kg)."""
@@ -131,6 +189,8 @@ class RigidChain:
                 if kind == "prismatic":
                     u = {"kg*m^2": "kg", "N*m*s/rad": "N*s/m", "N*m": "N"}[u]
                 out.append(u)
+        if self.transmission is not None:
+            out += list(self.transmission.units())
         return tuple(out)
 
     def nominal_vector(self) -> np.ndarray:
@@ -139,14 +199,21 @@ class RigidChain:
         for j in range(self.n_joints):
             out += list(self.standard[j])
             out += [float(self.drive[d][j]) for d in self.drive_names]
+        if self.transmission is not None:
+            out += list(self.transmission.nominal())
         return np.array(out, dtype=float)
 
     def split(self, beta):
         """(n, 10) joint-frame inertial parameters and (n, n_drive) drive terms of a vector."""
-        b = np.asarray(beta, dtype=float).reshape(self.n_joints, self.per_joint)
+        b = np.asarray(beta, dtype=float)[: self.n_joints * self.per_joint]
+        b = b.reshape(self.n_joints, self.per_joint)
         link = b[:, :10]
         joint_frame = np.einsum("nij,nj->ni", self.link_to_joint, link)
         return joint_frame, b[:, 10:]
+
+    def motor_values(self, beta) -> np.ndarray:
+        """The motor-side parameters of a vector (after the joints' ones)."""
+        return np.asarray(beta, dtype=float)[self.n_joints * self.per_joint :]
 
     def content(self) -> dict:
         """JSON-ready description (keys a cache of compiled code)."""
@@ -157,6 +224,13 @@ class RigidChain:
             "axis": self.axis.round(15).tolist(),
             "drive": list(self.drive_names),
             "gravity": self.gravity.tolist(),
+            **({"parent": list(self.parent)} if self.parent else {}),
+            **({"mimic": [list(m) for m in self.mimic]} if self.mimic else {}),
+            **(
+                {"transmission": self.transmission.content()}
+                if self.transmission is not None
+                else {}
+            ),
         }
 
 
@@ -212,11 +286,15 @@ def _kinematics(chain, q, qd, qdd, gravity: bool = True):
     """Angular velocity, angular acceleration and origin acceleration of each joint frame."""
     N = q.shape[0]
     X = _joint_transforms(chain, q)
-    w = np.zeros((N, 3))
-    dw = np.zeros((N, 3))
-    acc = np.broadcast_to(-chain.gravity if gravity else np.zeros(3), (N, 3))
+    base = (
+        np.zeros((N, 3)),
+        np.zeros((N, 3)),
+        np.broadcast_to(-chain.gravity if gravity else np.zeros(3), (N, 3)),
+    )
     out = []
     for i, kind in enumerate(chain.joint_types):
+        pi = chain.parents[i]
+        w, dw, acc = base if pi < 0 else out[pi]
         R, p = X[i]
         a = chain.axis[i]
         acc_p = acc + _cross(dw, p) + _cross(w, _cross(w, p))
@@ -270,21 +348,24 @@ def _rnea_block(chain, inertia, drive, q, qd, qdd, gravity=True, with_drive=True
     """Newton–Euler torques (N, n) for joint-frame inertial parameters (n, 10)."""
     N, n = q.shape
     X, kin = _kinematics(chain, q, qd, qdd, gravity)
-    f_child = np.zeros((N, 3))
-    n_child = np.zeros((N, 3))
+    f_child = np.zeros((n, N, 3))  # wrenches of each joint's children, in its frame
+    n_child = np.zeros((n, N, 3))
     tau = np.empty((N, n))
     for i in range(n - 1, -1, -1):
         w, dw, acc = kin[i]
         m, h = inertial_split(inertia[i])
         Io = inertial.inertia_matrix(inertia[i, 4:])
-        f = m * acc + _cross(dw, h) + _cross(w, _cross(w, h)) + f_child
+        f = m * acc + _cross(dw, h) + _cross(w, _cross(w, h)) + f_child[i]
         Iw = w @ Io  # symmetric
-        nn = dw @ Io + _cross(w, Iw) + _cross(h, acc) + n_child
+        nn = dw @ Io + _cross(w, Iw) + _cross(h, acc) + n_child[i]
         a = chain.axis[i]
         tau[:, i] = (nn if chain.joint_types[i] == "revolute" else f) @ a
-        R, p = X[i]
-        f_child = _mv(R, f)
-        n_child = _mv(R, nn) + _cross(p, f_child)
+        pi = chain.parents[i]
+        if pi >= 0:  # the wrench this link takes from its parent, in the parent's frame
+            R, p = X[i]
+            fp = _mv(R, f)
+            f_child[pi] += fp
+            n_child[pi] += _mv(R, nn) + _cross(p, fp)
     if with_drive and drive.shape[1]:
         tau += _drive_torque(chain, drive, qd, qdd, smoothing)
     return tau
@@ -305,6 +386,7 @@ def rnea(
     gravity: bool = True,
     drive: bool = True,
     smoothing: float = 0.0,
+    motor_smoothing: float | None = None,
 ):
     """Inverse dynamics τ (N, n) [N·m or N] by Newton–Euler over all samples, in blocks.
 
@@ -319,12 +401,16 @@ def rnea(
         Include gravity / the drive and friction terms.
     smoothing : float [rad/s]
         0: exact sign(q̇) in the Coulomb terms; > 0: tanh(q̇ / smoothing) (simulation).
+    motor_smoothing : float [rad/s], optional
+        The same for the motor-side Coulomb terms, on θ̇m (default ``smoothing``).
 
     Returns
     -------
     ndarray (N, n)
     """
     inertia, drv = chain.split(beta)
+    motor = chain.motor_values(beta)
+    qa, qda, qdda = _expand(chain, q, qd, qdd)
     N = q.shape[0]
     out = np.empty((N, chain.n_joints))
     for s in range(0, N, BLOCK):
@@ -333,14 +419,31 @@ def rnea(
             chain,
             inertia,
             drv,
-            q[sl],
-            qd[sl],
-            qdd[sl],
+            qa[sl],
+            qda[sl],
+            qdda[sl],
             gravity=gravity,
             with_drive=drive,
             smoothing=smoothing,
         )
+    if chain.mimic:  # virtual work: τ = Gᵀ τ_all
+        out = out @ chain.mimic_map()[0]
+    if drive and motor.size:  # motor-side terms through the coupling (rigid.transmission)
+        eps = smoothing if motor_smoothing is None else motor_smoothing
+        out += chain.transmission.torque(motor, qd, qdd, eps)
     return out
+
+
+def _expand(chain, q, qd=None, qdd=None):
+    """All joints' q, q̇, q̈ from the coordinates (mimic joints follow their leaders)."""
+    if not chain.mimic:
+        return q, qd, qdd
+    G, o = chain.mimic_map()
+    return (
+        q @ G.T + o,
+        None if qd is None else qd @ G.T,
+        None if qdd is None else qdd @ G.T,
+    )
 
 
 def mass_matrix(chain: RigidChain, beta, q):
@@ -357,6 +460,7 @@ def mass_matrix(chain: RigidChain, beta, q):
     ndarray (N, n, n) [kg·m² | kg]
     """
     inertia, drv = chain.split(beta)
+    q = _expand(chain, q)[0]
     N, n = q.shape
     M = np.empty((N, n, n))
     zeros = np.zeros((0, 0))
@@ -381,6 +485,11 @@ def mass_matrix(chain: RigidChain, beta, q):
     if "Ia" in chain.drive:
         c = chain.drive_names.index("Ia")
         M[:, np.arange(n), np.arange(n)] += drv[:, c]
+    if chain.mimic:
+        G = chain.mimic_map()[0]
+        M = np.einsum("fi,nfg,gj->nij", G, M, G)  # Gᵀ M G
+    if chain.motor_names:  # rotors: Kᵀ diag(Im) K
+        M += chain.transmission.mass(chain.motor_values(beta))
     return 0.5 * (M + M.transpose(0, 2, 1))
 
 
@@ -429,13 +538,24 @@ def regressor(chain: RigidChain, q, qd, qdd, out=None):
     -------
     ndarray (N, n, n_parameters)
     """
-    N, n = q.shape
+    N, m = q.shape
+    n = chain.n_joints
     P = chain.per_joint
+    n_motor = len(chain.motor_names)
     if out is None:
-        out = np.empty((N, n, n * P))
+        out = np.empty((N, m, n * P + n_motor))
+    block = _regressor_block if chain.is_serial else _regressor_block_tree
+    qa, qda, qdda = _expand(chain, q, qd, qdd)
+    G = chain.mimic_map()[0] if chain.mimic else None
     for s in range(0, N, BLOCK):
         sl = slice(s, s + BLOCK)
-        _regressor_block(chain, q[sl], qd[sl], qdd[sl], out[sl])
+        if G is None:
+            block(chain, qa[sl], qda[sl], qdda[sl], out[sl, :, : n * P])
+        else:  # Y = Gᵀ Y_all
+            full = block(chain, qa[sl], qda[sl], qdda[sl], np.empty((qa[sl].shape[0], n, n * P)))
+            out[sl, :, : n * P] = np.einsum("fi,nfp->nip", G, full)
+        if n_motor:
+            out[sl, :, n * P :] = chain.transmission.columns(qd[sl], qdd[sl])
     return out
 
 
@@ -459,7 +579,35 @@ def _regressor_block(chain, q, qd, qdd, out):
             f = np.matmul(R, U[:, 0:3])
             nn = np.matmul(R, U[:, 3:6]) + _cross_cols(p, f)
             U = np.concatenate([f, nn], axis=1)
-    # link-frame parameters: Y_link = Y_joint A
+    _finish_regressor(chain, qd, qdd, out)
+    return out
+
+
+def _regressor_block_tree(chain, q, qd, qdd, out):
+    """`_regressor_block` of a tree: each link's wrench columns carried up to the base."""
+    N, n = q.shape
+    P = chain.per_joint
+    X, kin = _kinematics(chain, q, qd, qdd, True)
+    out[...] = 0.0
+    for k in range(n):
+        U = _wrench_columns(*kin[k])  # (N, 6, 10) in frame k
+        i = k
+        while i >= 0:
+            rows = U[:, 3:6] if chain.joint_types[i] == "revolute" else U[:, 0:3]
+            out[:, i, k * P : k * P + 10] = np.einsum("nrc,r->nc", rows, chain.axis[i])
+            if chain.parents[i] >= 0:
+                R, p = X[i]
+                f = np.matmul(R, U[:, 0:3])
+                U = np.concatenate([f, np.matmul(R, U[:, 3:6]) + _cross_cols(p, f)], axis=1)
+            i = chain.parents[i]
+    _finish_regressor(chain, qd, qdd, out)
+    return out
+
+
+def _finish_regressor(chain, qd, qdd, out):
+    """Link-frame parameters (Y_link = Y_joint A) and the drive columns, in place."""
+    n = chain.n_joints
+    P = chain.per_joint
     for k in range(n):
         A = chain.link_to_joint[k]
         if not np.array_equal(A, np.eye(10)):

@@ -17,7 +17,10 @@ from ..errors import InputError, ModelFileError
 from . import rigid
 from .chain import ChainModel
 
-__all__ = ["RigidBodyModel"]
+__all__ = ["RigidBodyModel", "MOTOR_COULOMB_SMOOTHING"]
+
+#: Smoothing velocity [rad/s, motor side] of motor-side Coulomb terms in exact-Coulomb simulation.
+MOTOR_COULOMB_SMOOTHING = 1.0
 
 
 class RigidBodyModel(ChainModel):
@@ -45,7 +48,8 @@ class RigidBodyModel(ChainModel):
         self._chain = chain
         self._spec = chain
         self.name = chain.name
-        self.n_joints = chain.n_joints
+        ind = list(chain.independent)  # mimic joints follow their leaders: not coordinates
+        self.n_joints = len(ind)
         self.parameter_names = chain.parameter_names()
         self._nominal = chain.nominal_vector()
         self.units = dict(zip(self.parameter_names, chain.parameter_units(), strict=True))
@@ -62,9 +66,9 @@ class RigidBodyModel(ChainModel):
             self.unknown = self.parameter_names
         self.kinetic = "exact"
         self.gravity = tuple(float(g) for g in chain.gravity)
-        self.joint_names = tuple(chain.joint_names)
-        self.joint_types = tuple(chain.joint_types)
-        self.limits = {k: np.array(v, dtype=float) for k, v in chain.limits.items()}
+        self.joint_names = tuple(chain.joint_names[i] for i in ind)
+        self.joint_types = tuple(chain.joint_types[i] for i in ind)
+        self.limits = {k: np.array(v, dtype=float)[ind] for k, v in chain.limits.items()}
         n = self.n_joints
         self.limits.setdefault("position", np.full((n, 2), np.nan))
         for key in ("velocity", "effort", "acceleration"):
@@ -77,8 +81,21 @@ class RigidBodyModel(ChainModel):
         self._regressor = None
         self._kernel = None
         self._kernel_tried = False
-        if check:
-            self._check_mass_matrix()
+        #: Why M(q) is singular at the nominal parameters ("" when regular): such a model
+        #: loads (identification needs the regressor, not M(q)⁻¹) and simulation refuses it.
+        self.singular_reason = self._mass_matrix_problem(self._nominal) if check else ""
+        if self.singular_reason:
+            import warnings
+
+            from .urdf import ModelWarning
+
+            warnings.warn(
+                f"{self.singular_reason} The model loads for identification (which needs the "
+                "regressor, not M(q)⁻¹); simulating it needs an invertible M(q): give those "
+                "links a mass and inertia, or the joint an armature (or a motor inertia).",
+                ModelWarning,
+                stacklevel=2,
+            )
         self.load_seconds = time.perf_counter() - start
 
     # -- description ------------------------------------------------------------------------
@@ -114,37 +131,99 @@ class RigidBodyModel(ChainModel):
             f"joint_types={self.joint_types}, n_parameters={len(self.parameter_names)})"
         )
 
-    def _check_mass_matrix(self):
-        """Refuse a model whose M(q) is singular at the nominal parameters (random states)."""
+    def _mass_matrix_problem(self, beta, what="the nominal parameters") -> str:
+        """Why M(q) is singular at ``beta`` (random states), or "" when it is regular."""
         rng = np.random.default_rng(7)
         n = self.n_joints
         q = rng.uniform(-np.pi, np.pi, (4, n))
         for j, kind in enumerate(self.joint_types):
             if kind == "prismatic":
                 q[:, j] = rng.uniform(0.0, 0.5, 4)
-        M = rigid.mass_matrix(self._chain, self._nominal, q)
+        M = rigid.mass_matrix(self._chain, beta, q)
         for s in range(M.shape[0]):
             ev = np.linalg.eigvalsh(M[s])
             scale = max(float(np.abs(ev).max()), 1e-300)
             if ev[0] <= 1e-12 * scale:
                 d = np.diag(M[s])
                 j = int(np.argmin(d))
-                raise ModelFileError(
-                    f"{self._chain.source}: the mass matrix is singular at the nominal parameters "
+                return (
+                    f"{self._chain.source}: the mass matrix is singular at {what} "
                     f"(smallest eigenvalue {ev[0]:.3g}, largest {ev[-1]:.3g}): joint "
                     f"{j + 1} ({self.joint_names[j]!r}) moves no mass or inertia (a zero-length "
-                    "link, or a point mass on its axis). Give the links it moves a mass and "
-                    "inertia, or an armature for that joint."
+                    "link, a massless link, or a point mass on its axis)."
                 )
+        return ""
+
+    def check_simulable(self, params=None) -> None:
+        """Refuse to simulate where M(q) is singular (forward dynamics needs M(q)⁻¹).
+
+        Parameters
+        ----------
+        params : dict or array_like, optional
+            The parameters the simulation uses (default nominal).
+
+        Raises
+        ------
+        ModelFileError
+            M(q) is singular at those parameters, with the joint that moves no mass.
+        """
+        if not getattr(self, "singular_reason", ""):
+            return
+        beta = self.parameter_vector(params)
+        problem = self._mass_matrix_problem(beta, "these parameters")
+        if problem:
+            raise ModelFileError(
+                f"cannot simulate: {problem} Simulation solves M(q) q̈ = τ − h and needs an "
+                "invertible M(q) (identification does not). Give those links a mass and "
+                "inertia, or the joint an armature (Ia) or a motor inertia."
+            )
+
+    def joint_side_channels(self, names, column, source: str = "the recording") -> tuple:
+        """Joint channels (q, tau) from motor-side ones (qm, taum, im) through the model's
+        ``[transmission]`` (`physid.models.transmission.Transmission.joint_side`).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Channel names of the recording.
+        column : callable
+            ``column(name) -> ndarray (n_samples,)``.
+        source : str
+
+        Returns
+        -------
+        (dict, dict)
+            New columns and their units; empty without a transmission or motor channels.
+        """
+        tr = self._chain.transmission
+        if tr is None:
+            return {}, {}
+        return tr.joint_side(names, column, source)
 
     # -- kernels ----------------------------------------------------------------------------
     def _c_kernel(self):
-        if not self._kernel_tried:
+        """The C kernel of the whole model, or None (no compiler, or motor-side terms, which
+        the kernel's single-state functions do not hold: simulation then runs in numpy)."""
+        if self._chain.motor_names:
+            return None
+        return self._core_kernel()
+
+    def _core_kernel(self):
+        """The C kernel of the rigid bodies and joint-side drive terms (batched functions)."""
+        if self._chain.mimic:  # the kernel moves every joint on its own
+            return None
+        if not getattr(self, "_kernel_tried", False):
             self._kernel_tried = True
             from .ckernel import load_kernel
 
             self._kernel = load_kernel(self._chain)
         return self._kernel
+
+    def _motor_torque(self, beta, QD, QDD):
+        """Joint torques of the motor-side terms (zeros without a transmission)."""
+        if not self._chain.motor_names:
+            return 0.0
+        return self._chain.transmission.torque(self._chain.motor_values(beta), QD, QDD)
 
     def _arrays(self, *pairs):
         n, cols = self._states(*pairs)
@@ -167,9 +246,9 @@ class RigidBodyModel(ChainModel):
         """
         _, (Q, QD, QDD) = self._arrays((q, "q"), (qd, "qd"), (qdd, "qdd"))
         beta = self.parameter_vector(params)
-        k = self._c_kernel()
+        k = self._core_kernel()
         if k is not None:
-            return k.rnea(beta, Q, QD, QDD)
+            return k.rnea(beta, Q, QD, QDD) + self._motor_torque(beta, QD, QDD)
         return rigid.rnea(self._chain, beta, Q, QD, QDD)
 
     def mass_matrix(self, q, params=None) -> np.ndarray:
@@ -186,9 +265,12 @@ class RigidBodyModel(ChainModel):
         """
         _, (Q,) = self._arrays((q, "q"))
         beta = self.parameter_vector(params)
-        k = self._c_kernel()
+        k = self._core_kernel()
         if k is not None:
-            return k.mass(beta, Q)
+            M = k.mass(beta, Q)
+            if self._chain.motor_names:  # rotors: Kᵀ diag(Im) K
+                M += self._chain.transmission.mass(self._chain.motor_values(beta))
+            return M
         return rigid.mass_matrix(self._chain, beta, Q)
 
     def bias_forces(self, q, qd, params=None) -> np.ndarray:
@@ -240,8 +322,11 @@ class RigidBodyModel(ChainModel):
         ------
         InputError
             M(q) is singular at some sample.
+        ModelFileError
+            M(q) is singular at these parameters (`check_simulable`).
         """
         _, (Q, QD, TAU) = self._arrays((q, "q"), (qd, "qd"), (tau, "tau"))
+        self.check_simulable(params)
         M = self.mass_matrix(Q, params)
         rhs = TAU - self.bias_forces(Q, QD, params)
         try:
@@ -299,10 +384,17 @@ class RigidBodyModel(ChainModel):
         shape = (n, self.n_joints, len(self.parameter_names))
         if out is not None and (out.shape != shape or out.dtype != np.float64):
             raise InputError(f"out must be a float64 array of shape {shape}; got {out.shape}.")
-        k = self._c_kernel()
-        if k is not None:
+        k = self._core_kernel()
+        if k is None:
+            return rigid.regressor(self._chain, Q, QD, QDD, out=out)
+        if not self._chain.motor_names:
             return k.regressor(Q, QD, QDD, out=out)
-        return rigid.regressor(self._chain, Q, QD, QDD, out=out)
+        if out is None:
+            out = np.empty(shape)
+        nb = self.n_joints * self._chain.per_joint
+        out[:, :, :nb] = k.regressor(Q, QD, QDD)
+        out[:, :, nb:] = self._chain.transmission.columns(QD, QDD)
+        return out
 
     def parameter_jacobian(self, q, qd, qdd, params=None) -> np.ndarray:
         """∂τ/∂θ = Y(q, q̇, q̈), shape (n_samples, n_joints, n_parameters).
@@ -397,6 +489,7 @@ class RigidBodyModel(ChainModel):
         -------
         callable
         """
+        self.check_simulable(params)
         beta = self.parameter_vector(params)
         k = self._c_kernel()
         n = self.n_joints
@@ -404,14 +497,59 @@ class RigidBodyModel(ChainModel):
         if k is not None:
             return k.forward_one(beta, eps)
         chain = self._chain
+        motor_eps = self._motor_coulomb_smoothing(beta, eps)
+        core = self._core_kernel()
+        if core is not None and chain.transmission is not None:
+            parts = core.mass_and_bias(beta, eps)  # C for the bodies, the motors in numpy
+            tr, motor = chain.transmission, chain.motor_values(beta)
+            M_motor = tr.mass(motor)
+
+            def rhs_mixed(q, qd, tau):
+                M, h = parts(q, qd)
+                qd1 = np.reshape(qd, (1, n))
+                h = h + tr.torque(motor, qd1, np.zeros((1, n)), motor_eps)[0]
+                return np.linalg.solve(M + M_motor, np.asarray(tau, dtype=float) - h)
+
+            return rhs_mixed
 
         def rhs_np(q, qd, tau):
             q1, qd1 = np.reshape(q, (1, n)), np.reshape(qd, (1, n))
             M = rigid.mass_matrix(chain, beta, q1)[0]
-            h = rigid.rnea(chain, beta, q1, qd1, np.zeros((1, n)), smoothing=eps)[0]
+            h = rigid.rnea(
+                chain, beta, q1, qd1, np.zeros((1, n)), smoothing=eps, motor_smoothing=motor_eps
+            )[0]
             return np.linalg.solve(M, np.asarray(tau, dtype=float) - h)
 
         return rhs_np
+
+    def _motor_coulomb_smoothing(self, beta, eps: float) -> float:
+        """The smoothing [rad/s, motor side] of the motor-side Coulomb terms in simulation.
+
+        The event-driven exact Coulomb simulation (`physid.simulate.coulomb`) freezes the
+        joints' own Coulomb torques; a motor's Coulomb torque on θ̇m = K q̇ is not one joint's,
+        and sign(θ̇m) would stall an ODE integrator at each reversal. With ``eps`` = 0 such
+        terms use tanh(θ̇m / `MOTOR_COULOMB_SMOOTHING`) (a band of 1 rad/s at the motor, a few
+        hundredths of a rad/s at the joint through a gear), and a note says so.
+        """
+        tr = self._chain.transmission
+        if eps > 0 or tr is None:
+            return eps
+        values = self._chain.motor_values(beta)
+        used = [t[2] for t, v in zip(tr.terms, values, strict=True) if t[1] == "coulomb" and v]
+        if not used:
+            return eps
+        import warnings
+
+        from .urdf import ModelWarning
+
+        warnings.warn(
+            f"simulating {self.name!r}: the motor-side Coulomb terms {used} use "
+            f"tanh(θ̇m / {MOTOR_COULOMB_SMOOTHING:g} rad/s) instead of sign(θ̇m) (the exact "
+            "Coulomb simulation freezes the joints' own friction only).",
+            ModelWarning,
+            stacklevel=3,
+        )
+        return MOTOR_COULOMB_SMOOTHING
 
     def make_state_rhs(self, params=None):
         """``f(y, tau) -> ẏ`` for the state y = [q, q̇] (length 2·n_joints).

@@ -49,6 +49,7 @@ _TOP = {
     "parameters",
     "joints",
     "strict",
+    "transmission",  # motors and their coupling (physid.models.transmission)
 }
 
 
@@ -221,6 +222,9 @@ def parse_rigid_chain(data: dict, text: str, source: str, name: str, params, *, 
         description=str(data.get("description", "")),
         identify=(),
     )
+    from .transmission import attach_transmission
+
+    chain = attach_transmission(chain, data.get("transmission"), source)
     if held:  # identify = false: model.unknown is every other model parameter
         chain = _hold(chain, held, text, source)
     return chain

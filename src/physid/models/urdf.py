@@ -1,12 +1,16 @@
 """URDF files and rigid-body TOML chains → `physid.models.rigid.RigidChain`.
 
 URDF (read with the standard library's XML parser; no ROS): ``revolute``, ``continuous`` and
-``prismatic`` joints become the chain's joints in the order of the tree from its root; ``fixed``
-joints are merged (the child link's inertia is moved into the parent's frame and added);
-``<origin xyz rpy>``, ``<axis>``, ``<inertial>`` (origin, mass, inertia about the centre of mass),
-``<limit>`` (position, velocity, effort) and ``<dynamics damping friction>`` (viscous and Coulomb
-friction) are read; visuals, collisions, meshes, transmissions and gazebo tags are ignored.
-``<mimic>``, ``planar`` and ``floating`` joints are refused with a message.
+``prismatic`` joints become the model's joints in depth-first order of the tree from its root (as
+pinocchio orders them; a branching robot is a kinematic tree, each joint's parent recorded);
+``fixed`` joints are merged (the child link's inertia is moved into the parent's frame and
+added); ``<origin xyz rpy>``, ``<axis>``, ``<inertial>`` (origin, mass, inertia about the centre
+of mass), ``<limit>`` (position, velocity, effort) and ``<dynamics damping friction>`` (viscous
+and Coulomb friction) are read; visuals, collisions, meshes, transmissions and gazebo tags are
+ignored. A ``<mimic joint multiplier offset>`` joint follows its leader (q = multiplier ·
+q_leader + offset, as pinocchio's ``mimic=True``): it is no coordinate of the model, but its link
+and drive terms act through the leader; on a fixed joint the tag is ignored with a note.
+``planar`` and ``floating`` joints are refused with a message.
 
 A sidecar TOML file (``extends = "robot.urdf"``) adds drive terms per joint and chooses what to
 identify (docs/model-files.md, "URDF and inertial parameters").
@@ -196,8 +200,8 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
     ------
     ModelFileError
         Not XML, no ``<robot>``, a loop or several roots, a missing parent/child link, a negative
-        mass, a zero-length axis, an unsupported joint type or a mimic joint, a branching tree of
-        movable joints.
+        mass, a zero-length axis, an unsupported joint type, a mimic joint whose leader is
+        missing, fixed, of another type or a mimic joint itself.
     """
     if not isinstance(text, str) or not text.strip():
         raise ModelFileError(f"{source}: the URDF file is empty; give a <robot> document.")
@@ -228,7 +232,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
             f"{source}: the URDF has {len(roots)} root links {roots[:6]} (links that are no "
             "joint's child); connect them with joints so that one root remains."
         )
-    order, bodies_inertia = _serial_order(roots[0], links, joints, children, source)
+    order, bodies_inertia = _tree_order(roots[0], links, joints, children, source)
     n = len(order)
     standard = np.array([bodies_inertia.get(k, np.zeros(10)) for k in range(n)])
     drive = {}
@@ -238,14 +242,7 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         drive["Fv"] = np.array([v or 0.0 for v in damp])
     if any(v is not None for v in fric):
         drive["Fc"] = np.array([v or 0.0 for v in fric])
-    limits = {
-        "position": np.array(
-            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
-        ),
-        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
-        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
-        "acceleration": np.full(n, math.nan),
-    }
+    limits = _urdf_limits(joints, order)
     return RigidChain(
         name=name,
         joint_names=tuple(order),
@@ -259,7 +256,50 @@ def parse_urdf(text: str, source: str = "<string>", *, strict: bool = False) -> 
         gravity=np.array([0.0, 0.0, -9.81]),
         limits=limits,
         source=source,
+        parent=tuple(joints[j]["parent_body"] for j in order),
+        mimic=_mimic_joints(order, joints),
     )
+
+
+def _urdf_limits(joints: dict, order: list) -> dict:
+    """The chain's ``limits`` from the joints' ``<limit>`` (no acceleration limit in URDF)."""
+    return {
+        "position": np.array(
+            [[joints[j]["limits"]["lower"], joints[j]["limits"]["upper"]] for j in order]
+        ),
+        "velocity": np.array([joints[j]["limits"]["velocity"] for j in order]),
+        "effort": np.array([joints[j]["limits"]["effort"] for j in order]),
+        "acceleration": np.full(len(order), math.nan),
+    }
+
+
+def _mimic_joints(order: list, joints: dict) -> tuple:
+    """``(follower, leader, multiplier, offset)`` of each movable mimic joint, checked."""
+    out = []
+    for k, jname in enumerate(order):
+        spec = joints[jname].get("mimic")
+        if spec is None:
+            continue
+        leader, mult, off = spec
+        w = joints[jname]["where"]
+        if leader not in order:
+            what = "a fixed joint" if leader in joints else "not a joint of the robot"
+            raise ModelFileError(
+                f"{w}: joint {jname!r} mimics {leader!r}, which is {what}; a mimic joint "
+                f"follows a movable joint (the movable ones: {order[:8]})."
+            )
+        if joints[leader].get("mimic") is not None:
+            raise ModelFileError(
+                f"{w}: joint {jname!r} mimics {leader!r}, itself a mimic joint; make it mimic "
+                f"{joints[leader]['mimic'][0]!r} (multiplying the multipliers)."
+            )
+        if joints[leader]["type"] != joints[jname]["type"]:
+            raise ModelFileError(
+                f"{w}: joint {jname!r} ({joints[jname]['type']}) mimics {leader!r} "
+                f"({joints[leader]['type']}); a mimic joint must be of its leader's type."
+            )
+        out.append((k, order.index(leader), mult, off))
+    return tuple(out)
 
 
 def _urdf_links(root, source: str, strict: bool) -> dict:
@@ -299,13 +339,19 @@ def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> t
         raise ModelFileError(
             f"{w}: unknown joint type {jtype!r}; use revolute, continuous, prismatic or fixed."
         )
-    if el.find("mimic") is not None:
-        raise ModelFileError(
-            f"{w}: joint {jname!r} mimics joint "
-            f"{el.find('mimic').get('joint')!r}; mimic joints are not supported (their "
-            "coordinate is not independent). Make it 'fixed', or remove <mimic> to identify "
-            "it as a joint of its own."
+    if el.find("mimic") is not None and jtype == "fixed":
+        warnings.warn(
+            f"{w}: note: the fixed joint {jname!r} carries a <mimic> tag; a fixed joint has no "
+            "coordinate to copy, so the tag is ignored.",
+            ModelWarning,
+            stacklevel=4,
         )
+    mimic = None
+    if el.find("mimic") is not None and jtype != "fixed":
+        me = el.find("mimic")
+        if not me.get("joint"):
+            raise ModelFileError(f'{w}: <mimic> needs joint="LEADER", the joint it follows.')
+        mimic = (me.get("joint"), _float(me, "multiplier", w, 1.0), _float(me, "offset", w, 0.0))
     parent, child = _joint_links(el, w, jname, links, child_of)
     R, p = _origin(el, w)
     axis = np.array([1.0, 0.0, 0.0])
@@ -341,6 +387,7 @@ def _urdf_joint(el, source: str, links: dict, joints: dict, child_of: dict) -> t
         "damping": damping,
         "friction": friction,
         "where": w,
+        "mimic": mimic,
     }
 
 
@@ -368,57 +415,48 @@ def _joint_links(el, w: str, jname: str, links: dict, child_of: dict) -> tuple:
     return parent, child
 
 
-def _serial_order(root: str, links: dict, joints: dict, children: dict, source: str) -> tuple:
-    """The movable joints in tree order from ``root`` (their ``placement`` and ``parent_body``
-    set), and each body's standard parameters with its fixed links folded in; refuses a branch.
+def _tree_order(root: str, links: dict, joints: dict, children: dict, source: str) -> tuple:
+    """The movable joints in depth-first order from ``root`` (their ``placement`` and
+    ``parent_body`` set), and each body's standard parameters with its fixed links folded in.
 
     Bodies are the root (the base, -1) and each movable joint's child, with the links fixed to it.
+    Depth first, children in document order: pinocchio's order, and the joints of one arm of a
+    branching robot stay together.
     """
     body_of = {root: (-1, np.eye(4))}  # link -> (body index, T_body_link)
     order = []  # movable joints in tree order
     bodies_inertia = {}
     stack = [root]
     seen = set()
+    child_joint = {}  # link -> the joint whose child it is
     while stack:
-        lk = stack.pop(0)
+        lk = stack.pop()
         if lk in seen:
             raise ModelFileError(f"{source}: link {lk!r} is reached twice (a loop).")
         seen.add(lk)
         b, T = body_of[lk]
+        if lk != root:
+            jname = child_joint[lk]
+            j = joints[jname]
+            if j["type"] != "fixed":
+                j["parent_body"] = b
+                j["placement"] = T
+                order.append(jname)
+                b, T = len(order) - 1, np.eye(4)
+                body_of[lk] = (b, T)
         bodies_inertia.setdefault(b, np.zeros(10))
         bodies_inertia[b] = bodies_inertia[b] + inertial.transform_standard(
             links[lk], T[:3, :3], T[:3, 3]
         )
-        for jname in children.get(lk, []):
+        for jname in reversed(children.get(lk, [])):  # popped in document order
             j = joints[jname]
-            Tj = T @ _homogeneous(j["R"], j["p"])
-            if j["type"] == "fixed":
-                body_of[j["child"]] = (b, Tj)
-            else:
-                parent_body = b
-                if any(joints[o]["parent_body"] == parent_body for o in order):
-                    other = next(o for o in order if joints[o]["parent_body"] == parent_body)
-                    raise ModelFileError(
-                        f"{j['where']}: joints {other!r} and {jname!r} both move from the same "
-                        "body: the robot branches. physid models serial chains; make the joints "
-                        "of one branch 'fixed' (e.g. the fingers of a gripper)."
-                    )
-                j["parent_body"] = parent_body
-                j["placement"] = Tj
-                order.append(jname)
-                body_of[j["child"]] = (len(order) - 1, np.eye(4))
+            body_of[j["child"]] = (b, T @ _homogeneous(j["R"], j["p"]))
+            child_joint[j["child"]] = jname
             stack.append(j["child"])
     if not order:
         raise ModelFileError(
             f"{source}: the robot has no revolute, continuous or prismatic joint; nothing moves."
         )
-    for k, jname in enumerate(order):
-        pb = joints[jname]["parent_body"]
-        if pb != k - 1:
-            raise ModelFileError(
-                f"{joints[jname]['where']}: joint {jname!r} does not continue the chain from the "
-                "previous movable joint (the tree branches); physid models serial chains."
-            )
     return order, bodies_inertia
 
 
@@ -565,6 +603,7 @@ _SIDECAR_TOP = {
     "name", "kind", "description", "extends", "gravity", "joints", "identify", "strict",
     "recording",  # the channel map of the robot's logs (read by spec.read_recording_map)
 }  # fmt: skip
+_SIDECAR_TOP |= {"transmission"}  # motors and their coupling (physid.models.transmission)
 _SIDECAR_JOINT = set(DRIVE_KEYS) | set(STANDARD_KEYS) | set(PHYSICAL_KEYS) | {"acceleration"}
 
 
@@ -627,22 +666,34 @@ def read_sidecar(data: dict, source: str, *, strict: bool = False) -> RigidChain
             f"{source}: identify must be a list of parameter names; got {identify!r}."
         )
     name = data.get("name", chain.name)
-    return RigidChain(
-        name=str(name),
-        joint_names=chain.joint_names,
-        joint_types=chain.joint_types,
-        rotation=chain.rotation,
-        translation=chain.translation,
-        axis=chain.axis,
-        standard=standard,
-        link_to_joint=chain.link_to_joint,
-        drive=drive,
-        gravity=gravity,
-        limits=limits,
-        source=source,
-        description=str(data.get("description", "")),
-        identify=tuple(identify),
+    return _with_transmission(
+        data,
+        source,
+        RigidChain(
+            name=str(name),
+            joint_names=chain.joint_names,
+            joint_types=chain.joint_types,
+            rotation=chain.rotation,
+            translation=chain.translation,
+            axis=chain.axis,
+            standard=standard,
+            link_to_joint=chain.link_to_joint,
+            drive=drive,
+            gravity=gravity,
+            limits=limits,
+            source=source,
+            description=str(data.get("description", "")),
+            identify=tuple(identify),
+            parent=chain.parent,
+        ),
     )
+
+
+def _with_transmission(data: dict, source: str, chain: RigidChain) -> RigidChain:
+    """The sidecar's chain with its ``[transmission]`` table, if any."""
+    from .transmission import attach_transmission
+
+    return attach_transmission(chain, data.get("transmission"), source)
 
 
 def _sidecar_target(data: dict, source: str) -> Path:

@@ -96,6 +96,7 @@ def _compiled_rhs(model, params, kp_a, kd_a, reference, coulomb_smoothing):
     uniform grid); another model its equations compiled by `physid.simulate.compiled`.
     """
     if hasattr(model, "chain") and hasattr(model, "_c_kernel"):
+        model.check_simulable(params)  # M(q)⁻¹ must exist (a massless link refuses)
         kernel = model._c_kernel()  # rigid-body chain: the generic C kernel
         if kernel is None:
             return None
@@ -320,6 +321,7 @@ def simulate_closed_loop(
     reference_grid=None,
     metadata: Mapping[str, Any] | None = None,
     coulomb_smoothing: float = 0.0,
+    feedforward: str = "none",
 ) -> ClosedLoopRecording:
     """Simulate ``M(q) q̈ + h(q, q̇) = Kp (r − q) − Kd q̇`` and sample it on a uniform grid.
 
@@ -356,6 +358,10 @@ def simulate_closed_loop(
         in the metadata). > 0: the smoothed law Fc·tanh(q̇ / coulomb_smoothing) in one
         integration (a smoothing of 0.01 rad/s already biases an IDIM fit of Fc and Fv by
         several per cent). Recorded in the metadata.
+    feedforward : {"none", "gravity", "gravity+friction"}
+        Rigid-body models: the controller adds the model's gravity torque g(q) (and friction
+        τ_f(q̇)) at the simulated parameters to the PD law (`physid.simulate.feedforward`);
+        the law simulated is the metadata's ``controller``.
 
     Returns
     -------
@@ -391,15 +397,19 @@ def simulate_closed_loop(
         raise InputError(
             f"coulomb_smoothing must be a velocity >= 0 [rad/s]; got {coulomb_smoothing!r}."
         )
+    from .feedforward import FEEDFORWARD, compensated_plant, feedforward_torque
+
+    plant, plant_theta = compensated_plant(model, theta, feedforward)
     y, coulomb, (nfev, used, message) = _run(
-        model, theta, kp_a, kd_a, ref, params, backend, coulomb_smoothing, t, y0,
-        method, rtol, atol,
+        plant, plant_theta, kp_a, kd_a, ref, params if plant is model else plant_theta, backend,
+        coulomb_smoothing, t, y0, method, rtol, atol,
     )  # fmt: skip
     q, qd = y[:, :n], y[:, n:]
     if not np.all(np.isfinite(y)):
         raise SimulationError("the simulated state is not finite; the closed loop is unstable.")
     r = ref.sample(t) if isinstance(ref, ReferenceTrajectory) else np.array([ref(tk) for tk in t])
     tau = kp_a * (r - q) - kd_a * qd  # τ = Kp (r − q) − Kd q̇, on the true state
+    tau = tau + feedforward_torque(model, theta, feedforward, q, qd)  # + g(q) [+ τ_f(q̇)]
 
     meta = _metadata(
         model, theta, kp_a, kd_a, coulomb_smoothing, coulomb, period,
@@ -414,6 +424,8 @@ def simulate_closed_loop(
             "std": as_1d(noise_std, "noise_std").tolist(),
             "seed": int(rng) if isinstance(rng, (int, np.integer)) else None,
         }
+    meta["controller"] = FEEDFORWARD[feedforward]
+    meta["feedforward"] = feedforward  # validate re-simulates the same controller
     meta.update(dict(metadata or {}))
     units = _joint_units(model)
     return ClosedLoopRecording.from_columns(

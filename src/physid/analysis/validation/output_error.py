@@ -92,6 +92,7 @@ def _chain_output_error(loaded, recording, series):
             t=t,
             q0=q0,
             params=params,
+            feedforward=str(meta.get("feedforward", "none")),  # the log's controller
         )
     except Exception as exc:  # a diverging identified model: report, do not crash
         return {}, {}, f"(b) closed-loop re-simulation failed: {exc}"
@@ -104,4 +105,11 @@ def _chain_output_error(loaded, recording, series):
         rel[n] = _relative(y - y_hat, y)
         data[n] = (y, y_hat)
     series["output"] = (t, data)
-    return fits, rel, f"(b) {what} with the recording's kp, kd and reference"
+    return (
+        fits,
+        rel,
+        (
+            f"(b) {what} with the recording's kp, kd and reference; controller "
+            f"{sim.metadata.get('controller', 'tau = Kp (r - q) - Kd qd')}"
+        ),
+    )

@@ -1,17 +1,18 @@
 /* physid generic rigid-chain kernel: Newton-Euler, mass matrix, regressor, PD closed loop.
  *
- * One fixed source for every serial chain; the chain is data (a double buffer):
+ * One fixed source for every chain or tree; the chain is data (a double buffer):
  *   model = [n, gx, gy, gz, joint_0 (JS doubles), joint_1, ...]
  *   joint = [type (0 revolute, 1 prismatic), R0 (9, row-major), p0 (3), axis (3),
  *            inertia in the joint frame (10: m mcx mcy mcz XX XY XZ YY YZ ZZ),
- *            drive (8: Ia Fv Fc Fvp Fvn Fcp Fcn OF), Coulomb smoothing velocity (1; 0: exact)]
+ *            drive (8: Ia Fv Fc Fvp Fvn Fcp Fcn OF), Coulomb smoothing velocity (1; 0: exact),
+            parent joint (1; -1: the base; parents come before their children)]
  * With a smoothing velocity v_s > 0 (simulation only), sign(q̇) becomes tanh(q̇ / v_s) and the
  * one-sided indicators [q̇ > 0], [q̇ < 0] become (1 ± tanh(q̇ / v_s)) / 2.
  * Built once with cc -O2 and loaded with ctypes (physid.models.ckernel). */
 #include <math.h>
 #include <string.h>
 
-#define JS 35
+#define JS 36
 #define MAXJ 64
 
 typedef struct {
@@ -62,12 +63,15 @@ static void joint_tf(const double *J, double q, double *R, double *p) {
 static void kinematics(const double *model, const double *q, const double *qd, const double *qdd,
                        int grav, kin_t *K) {
     int n = (int)model[0], i;
-    double w[3] = {0, 0, 0}, dw[3] = {0, 0, 0}, acc[3];
-    for (i = 0; i < 3; i++) acc[i] = grav ? -model[1 + i] : 0.0;
+    double w0[3] = {0, 0, 0}, acc0[3];
+    for (i = 0; i < 3; i++) acc0[i] = grav ? -model[1 + i] : 0.0;
     for (i = 0; i < n; i++) {
         const double *J = model + 4 + i * JS, *a = J + 13;
-        double *R = K->R[i], *p = K->p[i], t1[3], t2[3], accp[3], win[3];
-        int c;
+        double *R = K->R[i], *p = K->p[i], t1[3], t2[3], accp[3], win[3], w[3], dw[3], acc[3];
+        int c, pi = (int)J[35];
+        memcpy(w, pi < 0 ? w0 : K->w[pi], sizeof w);      /* the parent's motion (or the base's) */
+        memcpy(dw, pi < 0 ? w0 : K->dw[pi], sizeof dw);
+        memcpy(acc, pi < 0 ? acc0 : K->acc[pi], sizeof acc);
         joint_tf(J, q[i], R, p);
         cross(dw, p, t1);
         cross(w, p, t2);
@@ -112,9 +116,13 @@ static double drive_torque(const double *D, double qd, double qdd) {
 static void rnea_k(const double *model, const kin_t *K, const double *qd, const double *qdd,
                    int drv, double *tau) {
     int n = (int)model[0], i, c;
-    double fc[3] = {0, 0, 0}, nc[3] = {0, 0, 0};
+    double FC[MAXJ][3], NC[MAXJ][3];  /* wrenches of each joint's children, in its frame */
+    memset(FC, 0, sizeof(double) * 3 * (size_t)n);
+    memset(NC, 0, sizeof(double) * 3 * (size_t)n);
     for (i = n - 1; i >= 0; i--) {
         const double *J = model + 4 + i * JS, *a = J + 13, *P = J + 16, *D = J + 26;
+        const double *fc = FC[i], *nc = NC[i];
+        int pi = (int)J[35];
         const double *w = K->w[i], *dw = K->dw[i], *acc = K->acc[i];
         double m = P[0], h[3] = {P[1], P[2], P[3]};
         double I[9] = {P[4], P[5], P[6], P[5], P[7], P[8], P[6], P[8], P[9]};
@@ -131,10 +139,16 @@ static void rnea_k(const double *model, const kin_t *K, const double *qd, const 
         tau[i] = J[0] == 0.0 ? a[0] * nn[0] + a[1] * nn[1] + a[2] * nn[2]
                              : a[0] * f[0] + a[1] * f[1] + a[2] * f[2];
         if (drv) tau[i] += drive_torque(D, qd[i], qdd[i]);
-        mv(K->R[i], f, fc);
-        mv(K->R[i], nn, nc);
-        cross(K->p[i], fc, t1);
-        for (c = 0; c < 3; c++) nc[c] += t1[c];
+        if (pi >= 0) {
+            double fp[3], np_[3];
+            mv(K->R[i], f, fp);
+            mv(K->R[i], nn, np_);
+            cross(K->p[i], fp, t1);
+            for (c = 0; c < 3; c++) {
+                FC[pi][c] += fp[c];
+                NC[pi][c] += np_[c] + t1[c];
+            }
+        }
     }
 }
 
@@ -249,7 +263,7 @@ void regressor_batch(const double *model, const double *A, const double *mask, l
                     for (r = 0; r < 3; r++) Nn[r][4 + c] = Ld[r][c] + t[r];
                 }
             }
-            for (i = k; i >= 0; i--) {
+            for (i = k; i >= 0; i = (int)model[4 + i * JS + 35]) {
                 const double *J = model + 4 + i * JS, *a = J + 13;
                 double (*S)[10] = J[0] == 0.0 ? Nn : F;
                 for (c = 0; c < 10; c++) YJ[c] = a[0] * S[0][c] + a[1] * S[1][c] + a[2] * S[2][c];
@@ -263,7 +277,8 @@ void regressor_batch(const double *model, const double *A, const double *mask, l
                         row[c] = acc2;
                     }
                 }
-                if (i > 0) {  /* to the parent frame; F is zero beyond column 3 (m, m·c) */
+                if (model[4 + i * JS + 35] >= 0) {  /* to the parent frame; F is zero beyond
+                                                      column 3 (m, m·c) */
                     const double *R = K.R[i], *p = K.p[i];
                     for (c = 0; c < 10; c++) {
                         double nn[3] = {Nn[0][c], Nn[1][c], Nn[2][c]};
