@@ -174,21 +174,9 @@ class RecursiveLeastSquares(EstimatorMixin):
         known_values = {k: float(v) for k, v in values.items() if k not in reg.names}
         known_values = {k: v for k, v in known_values.items() if k in spec.coefficient_names}
         lost = int(np.count_nonzero(~ok_rows[M:]))
-        success, message, fit = _verdict(
+        success, message, fit = self._checked_verdict(
             spec, {**known_values, **fitted}, reg.names, recording, (in_name, out_name), lost
         )
-        if success:
-            success, message = gate(
-                success,
-                message,
-                linear_ode_problems(
-                    spec,
-                    {**known_values, **fitted},
-                    recording.t,
-                    recording[in_name],
-                    recording[out_name],
-                ),
-            )
         if not success:
             stderr, stderr_reason = None, "no trustworthy estimate"
         cov_final = None if stderr is None else np.array(cov_final, dtype=float)
@@ -209,6 +197,18 @@ class RecursiveLeastSquares(EstimatorMixin):
         )
         self.regression_ = reg
         return self
+
+    @staticmethod
+    def _checked_verdict(spec, values, names, recording, channels, lost):
+        """The fit's verdict (`_verdict`), then the plausibility gate on a success."""
+        success, message, fit = _verdict(spec, values, names, recording, channels, lost)
+        if success:
+            in_name, out_name = channels
+            problems = linear_ode_problems(
+                spec, values, recording.t, recording[in_name], recording[out_name]
+            )
+            success, message = gate(success, message, problems)
+        return success, message, fit
 
     def _channels(self, recording) -> tuple[LinearODEModel, str, str]:
         """The model and the recording's input and output channel names, checked."""
