@@ -74,16 +74,7 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
             "is measured, not computed from the model",
         )
 
-    def xcorr(a, b):  # r_ab(k) = Σ a(t+k) b(t) / √(Σa² Σb²), k = −L..L (biased, as resid)
-        # only the 2L+1 lags used, one dot product each: O(n·L) time, O(n) memory (the full
-        # correlation, np.correlate(mode="full"), is O(n²): 8 s at 8e4 samples)
-        seg = np.array(
-            [float(a[k:] @ b[: n - k]) if k >= 0 else float(a[: n + k] @ b[-k:]) for k in lags]
-        )
-        den = np.sqrt(float(a @ a) * float(b @ b))
-        return seg / den if den > 0 else np.full(seg.size, np.nan)
-
-    auto = [xcorr(e[:, j], e[:, j])[max_lag:] for j in range(e.shape[1])]
+    auto = [_xcorr(e[:, j], e[:, j], lags)[max_lag:] for j in range(e.shape[1])]
     auto_out = [int(np.count_nonzero(np.abs(a[1:]) > band)) for a in auto]
     cross, cross_out = [], []
     if inputs is not None:
@@ -92,7 +83,7 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
         u = u - u.mean(axis=0)
         for j in range(e.shape[1]):
             for k in range(u.shape[1]):
-                c = xcorr(e[:, j], u[:, k])
+                c = _xcorr(e[:, j], u[:, k], lags)
                 cross.append(c)
                 cross_out.append(int(np.count_nonzero(np.abs(c) > band)))
     # With 25 (51) independent lags, a white residual leaves about 0.25 (0.5) of them outside the
@@ -108,21 +99,7 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
 
     white = not any(fails(a[1:], max_lag) for a in auto)
     independent = not any(fails(c, 2 * max_lag + 1) for c in cross)
-    if white and independent:
-        verdict = (
-            "residual is white and uncorrelated with the input (99 % band): the model explains "
-            "the data"
-        )
-    elif not independent:
-        verdict = (
-            "residual is correlated with the input (outside the 99 % band at "
-            f"{max(cross_out)} lags): the model misses part of the input-output dynamics"
-        )
-    else:
-        verdict = (
-            f"residual is not white (autocorrelation outside the 99 % band at {max(auto_out)} "
-            "lags): unmodelled dynamics or coloured noise; the input-output part may be fine"
-        )
+    verdict = _verdict_text(white, independent, auto_out, cross_out)
     return {
         "lags": lags,
         "band": float(band),
@@ -134,6 +111,38 @@ def residual_analysis(residual, inputs=None, *, max_lag: int = MAX_LAG) -> dict[
         "independent": bool(independent),
         "verdict": verdict,
     }
+
+
+def _xcorr(a, b, lags) -> np.ndarray:
+    """r_ab(k) = Σ a(t+k) b(t) / √(Σa² Σb²) at ``lags`` (biased, as MATLAB's resid).
+
+    Only the 2L+1 lags used, one dot product each: O(n·L) time, O(n) memory (the full
+    correlation, np.correlate(mode="full"), is O(n²): 8 s at 8e4 samples).
+    """
+    n = a.shape[0]
+    seg = np.array(
+        [float(a[k:] @ b[: n - k]) if k >= 0 else float(a[: n + k] @ b[-k:]) for k in lags]
+    )
+    den = np.sqrt(float(a @ a) * float(b @ b))
+    return seg / den if den > 0 else np.full(seg.size, np.nan)
+
+
+def _verdict_text(white: bool, independent: bool, auto_out, cross_out) -> str:
+    """The residual test's verdict in words."""
+    if white and independent:
+        return (
+            "residual is white and uncorrelated with the input (99 % band): the model explains "
+            "the data"
+        )
+    if not independent:
+        return (
+            "residual is correlated with the input (outside the 99 % band at "
+            f"{max(cross_out)} lags): the model misses part of the input-output dynamics"
+        )
+    return (
+        f"residual is not white (autocorrelation outside the 99 % band at {max(auto_out)} "
+        "lags): unmodelled dynamics or coloured noise; the input-output part may be fine"
+    )
 
 
 def _untestable(lags, band: float, verdict: str) -> dict:
