@@ -17,14 +17,8 @@ from __future__ import annotations
 import sys
 
 from ..errors import InputError
-from ._common import (
-    add_recording_options,
-    assignments,
-    cli_words,
-    print_json,
-    progress,
-    read_recording,
-)
+from ._common import assignments, cli_words, print_json, progress
+from ._recordings import add_recording_options, read_recording
 
 ORDER = 40
 

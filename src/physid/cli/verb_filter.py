@@ -11,7 +11,8 @@ import math
 import re
 
 from ..errors import InputError, PhysidError
-from ._common import add_recording_options, progress, read_recording
+from ._common import progress
+from ._recordings import add_recording_options, read_recording
 
 ORDER = 60
 

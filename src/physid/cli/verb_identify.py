@@ -13,17 +13,15 @@ import argparse
 import warnings
 
 from ._common import (
-    add_recording_options,
     assignments,
     cli_words,
     float_list,
     print_json,
     progress,
-    read_recordings,
     report_warnings,
     torque_fit_line,
-    warn_implausible_estimates,
 )
+from ._recordings import add_recording_options, read_recordings, warn_implausible_estimates
 
 ORDER = 30
 

@@ -18,13 +18,8 @@ import re
 import time
 
 from ..errors import InputError
-from ._common import (
-    add_recording_options,
-    check_recording_path,
-    float_list,
-    progress,
-    read_recording,
-)
+from ._common import check_recording_path, float_list, progress
+from ._recordings import add_recording_options, read_recording
 
 ORDER = 20
 

@@ -12,14 +12,8 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 from __future__ import annotations
 
 from ..errors import InputError
-from ._common import (
-    add_recording_options,
-    check_output_folder,
-    cli_words,
-    print_json,
-    progress,
-    read_recording,
-)
+from ._common import check_output_folder, cli_words, print_json, progress
+from ._recordings import add_recording_options, read_recording
 
 ORDER = 45
 

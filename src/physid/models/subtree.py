@@ -18,7 +18,7 @@ import dataclasses
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, arg
 from . import inertial
 
 __all__ = ["subtree_model", "subtree_recording", "HOLD_TOLERANCE"]
@@ -44,17 +44,17 @@ def _chosen(chain, joints) -> list:
     unknown = [j for j in joints if j not in names]
     if unknown:
         raise InputError(
-            f"--joints names {unknown}, which model {chain.name!r} does not have; its joints: "
+            f"{arg('joints')} names {unknown}, which model {chain.name!r} does not have; its joints: "
             f"{names}."
         )
     if len(set(joints)) != len(joints):
-        raise InputError(f"--joints names a joint twice: {list(joints)}.")
+        raise InputError(f"{arg('joints')} names a joint twice: {list(joints)}.")
     idx = sorted(names.index(j) for j in joints)
     parents = chain.parents
     roots = [i for i in idx if parents[i] not in idx]
     if len(roots) > 1:
         raise InputError(
-            f"--joints {','.join(joints)} is not a connected sub-tree of {chain.source}: "
+            f"{arg('joints')} {','.join(joints)} is not a connected sub-tree of {chain.source}: "
             f"{[names[r] for r in roots]} each start a separate piece (their parents "
             f"{[names[parents[r]] if parents[r] >= 0 else 'the base' for r in roots]} are not "
             "chosen). Add the joints that connect them, or identify each piece on its own."
@@ -89,7 +89,7 @@ def subtree_model(model, joints, held: dict):
     chain = model.chain
     if chain.mimic:
         raise InputError(
-            f"--joints: model {chain.name!r} has mimic joints; choosing a sub-tree of it is not "
+            f"{arg('joints')}: model {chain.name!r} has mimic joints; choosing a sub-tree of it is not "
             "supported. Identify the whole robot."
         )
     idx = _chosen(chain, list(joints))
@@ -150,7 +150,7 @@ def _sub_transmission(chain, idx):
     rest = [j for j in range(chain.n_joints) if j not in idx]
     if np.any(K[np.ix_(idx, rest)]) or np.any(K[np.ix_(rest, idx)]):
         raise InputError(
-            "--joints: the [transmission] couples a chosen joint with one held still (a motor "
+            f"{arg('joints')}: the [transmission] couples a chosen joint with one held still (a motor "
             "that turns both); choose the coupled joints together."
         )
     terms = tuple((idx.index(k), kind, name, v) for (k, kind, name, v) in tr.terms if k in idx)
@@ -204,10 +204,10 @@ def subtree_recording(model, joints, recordings, *, tolerance: float = HOLD_TOLE
             mid = float(np.median(col))
             if spread > tolerance or (r and abs(mid - held[names[j]]) > tolerance):
                 raise InputError(
-                    f"--joints: joint {names[j]!r} (q{j + 1}) is held still in the sub-tree "
+                    f"{arg('joints')}: joint {names[j]!r} (q{j + 1}) is held still in the sub-tree "
                     f"model, but it moves in recording {r + 1} (range {spread:.3g}, median "
                     f"{mid:.6g}; tolerance {tolerance:g}): it carries or is carried by the "
-                    "chosen joints, so its motion matters. Add it to --joints, or use a log "
+                    f"chosen joints, so its motion matters. Add it to {arg('joints')}, or use a log "
                     "in which it holds still."
                 )
             held.setdefault(names[j], mid)

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelFileError
+from ..errors import ModelFileError, arg
 
 __all__ = ["Transmission", "MOTOR_TERMS", "parse_transmission", "attach_transmission"]
 
@@ -220,7 +220,7 @@ class Transmission:
             if clash:
                 raise ModelFileError(
                     f"{source}: both motor-side {stem}1..{stem}{n} and {clash} are given for "
-                    "the same quantity; map one of them (--map)."
+                    f"the same quantity; map one of them ({arg('channels')})."
                 )
             data = np.column_stack([np.asarray(column(w), dtype=float) for w in wanted])
             if stem == "qm":
