@@ -58,6 +58,9 @@ def run(args) -> int:
     from ..analysis.validation import load_result, validate
 
     check_output_folder(args.plot, "--plot")  # before any work
+    structure = _structure_result(args)
+    if structure is not None:
+        return structure
     loaded = load_result(args.result, model=args.model)
     # the held-out file is read like the fit's (--map, units, --detrend; checked against the
     # model), with the [recording] table of the model file the result names when --model is not
@@ -77,4 +80,46 @@ def run(args) -> int:
         print_json(report.to_dict())
     else:
         print(report.summary())
+    return 0
+
+
+def _structure_result(args):
+    """Validate an equation-error / output-error result of a structure: fit [%] per output of
+    the model simulated on the held-out forces. None when the file is another kind."""
+    import json
+
+    from ..errors import DataFileError
+
+    try:
+        data = json.loads(open(args.result, encoding="utf-8").read())
+    except (OSError, ValueError) as exc:
+        raise DataFileError(f"cannot read result file {args.result!r}: {exc}.") from None
+    if data.get("method") not in ("equation-error", "output-error"):
+        return None
+    from ..estimators.equation_error import StructureResult
+    from ..models import load_model
+
+    model = load_model(args.model or data.get("model"))
+    rec = read_recording(args, args.file, model=model)
+    known = {k: v for k, v in (data.get("known") or {}).items() if k in model.parameters}
+    result = StructureResult(
+        method=data["method"],
+        names=tuple(data["names"]),
+        parameters=data["parameters"],
+        stderr=data.get("stderr"),
+        stderr_reason=data.get("stderr_reason"),
+        units={},
+        success=bool(data.get("success")),
+        message="",
+        known=known,
+        model=model,
+    )
+    fits = result.fit_to(rec)
+    progress(f"validate: {data['method']} result on {args.file} ({rec.n_samples} samples)")
+    if args.json:
+        print_json({"fit_percent": fits, "notes": ["simulated from rest on the held-out forces"]})
+    else:
+        print("fit [%] per output (simulated from rest on the held-out forces):")
+        for k, v in fits.items():
+            print(f"  {k}: {v:.2f}")
     return 0

@@ -222,7 +222,7 @@ def _structure(model):
         model = load_model(model)
     if not hasattr(model, "nodes") or not hasattr(model, "regression"):
         raise InputError(
-            f"{arg('model')} must be a structure model (a kind = \"structure\" file); got "
+            f'{arg("model")} must be a structure model (a kind = "structure" file); got '
             f"{type(model).__name__}."
         )
     return model
@@ -341,7 +341,9 @@ class EquationErrorEstimator(EstimatorMixin):
         target = U0 @ model.input_matrix.T - phi0  # (rows, n)
         R = r = None
         how = "least squares"
-        taps = np.array([f.taps for f in design_filter_bank(half, omega, recording.dt, "consistent")])
+        taps = np.array(
+            [f.taps for f in design_filter_bank(half, omega, recording.dt, "consistent")]
+        )
         unit_reg = _unit_regression(model, unknown)
         out_var = np.array([noise[model.output_names[c]]["variance"] or 0.0 for c in order])
         in_var = np.array([noise[c]["variance"] or 0.0 for c in model.input_names])

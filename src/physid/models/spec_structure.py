@@ -318,8 +318,10 @@ def _parse_matrices(table, text, source, names) -> tuple:
     for key in ("M", "C", "K"):
         rows = table.get(key, [["0"] * n for _ in range(n)] if key == "C" else None)
         kwhere = _where(source, text, f"matrices.{key}", key, table="matrices")
-        if not isinstance(rows, list) or len(rows) != n or any(
-            not isinstance(r, list) or len(r) != n for r in rows
+        if (
+            not isinstance(rows, list)
+            or len(rows) != n
+            or any(not isinstance(r, list) or len(r) != n for r in rows)
         ):
             raise ModelFileError(
                 f"{kwhere}: {key} must be {n}×{n} (one row per node {nodes}), as lists of "
@@ -374,7 +376,7 @@ def _parse_outputs(data, text, source, nodes) -> tuple:
         if key == "acceleration" and (not isinstance(note, str) or not note.strip()):
             raise ModelFileError(
                 f"{where}: an acceleration output needs an anti_aliasing note (the analog "
-                "low-pass before sampling, e.g. anti_aliasing = \"4-pole Butterworth at 200 Hz\"): "
+                'low-pass before sampling, e.g. anti_aliasing = "4-pole Butterworth at 200 Hz"): '
                 "an accelerometer sees the high-frequency modes that a displacement sensor does "
                 "not, and without a filter they fold into the band the model is fitted in."
             )

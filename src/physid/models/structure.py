@@ -384,6 +384,29 @@ class StructureModel:
             out[:, t.row] += fc * (np.sign(v) if smooth is None else np.tanh(v / smooth))
         return out
 
+    def nonlinear_terms(self, params=None) -> tuple[list, list]:
+        """The nonlinear terms as numbers: [(node a, node b, k3)] (−1: ground) and
+        [(node, Fc)].
+
+        Parameters
+        ----------
+        params : mapping, optional
+
+        Returns
+        -------
+        cubic, friction : list of tuple
+        """
+        from ..expressions import evaluate_expression
+
+        vals = self.values(params)
+        cubic = [
+            (t.row, t.col, float(evaluate_expression(t.text, vals))) for t in self._terms["cubic"]
+        ]
+        friction = [
+            (t.row, float(evaluate_expression(t.text, vals))) for t in self._terms["friction"]
+        ]
+        return cubic, friction
+
     def state_space(self, params=None):
         """The linear part as ẋ = A x + B_s u, y = C_s x + D_s u with x = [q, q̇].
 

@@ -9,8 +9,9 @@ in the modal coordinates z = V⁻¹x of ẋ = A x + B_s u (A = V Λ V⁻¹) each
 `scipy.signal.lfilter` runs over the whole record (no Python loop over samples). A defective A
 (repeated eigenvalues without a full set of eigenvectors) falls back to the same FOH map in
 matrix form, from `scipy.linalg.expm` of the augmented matrix. Nonlinear structures (cubic
-springs, Coulomb friction as Fc·tanh(q̇/v_ε)) go through `scipy.integrate.solve_ivp` with tight
-tolerances, the input interpolated linearly.
+springs) are integrated by classical Runge–Kutta with 4 steps per sample; Coulomb friction, as
+Fc·tanh(q̇/v_ε) (stiff), by `scipy.integrate.solve_ivp` (LSODA); the input is interpolated
+linearly.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..errors import InputError, SimulationError, arg
 
-__all__ = ["simulate_structure", "structure_response"]
+__all__ = ["simulate_structure", "structure_response", "nonlinear_batch"]
 
 
 def _phi(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,38 +127,131 @@ def _acc_rows(model, n) -> np.ndarray:
 
 
 def _nonlinear_states(model, t, u, params, x0, rtol) -> np.ndarray:
+    """States of the nonlinear structure: RK4 (cubic springs) or LSODA (friction)."""
+    return nonlinear_batch(model, t, u, [params], x0, rtol)[0]
+
+
+def _batch_parts(model, param_sets):
+    """Per parameter set: A, B_s, M⁻¹·(incidence of the cubic springs), k3, M⁻¹ columns of the
+    friction nodes times Fc; stacked along a leading batch axis."""
+    n = model.n
+    parts = []
+    for params in param_sets:
+        A, Bs, _, _ = model.state_space(params)
+        Minv = np.linalg.inv(model.matrices(params)[0])  # n×n, applied at every step
+        cubic, friction = model.nonlinear_terms(params)  # numbers, evaluated once
+        inc = np.zeros((n, len(cubic)))  # force k3·d³ on node b, −k3·d³ on node a (−1: ground)
+        D = np.zeros((len(cubic), n))  # d = D q
+        for j, (a, b, _) in enumerate(cubic):
+            if b >= 0:
+                inc[b, j], D[j, b] = 1.0, 1.0
+            if a >= 0:
+                inc[a, j], D[j, a] = -1.0, -1.0
+        f_idx = [f[0] for f in friction]
+        MinvF = Minv[:, f_idx] * np.array([f[1] for f in friction]) if friction else None
+        k3 = np.array([c[2] for c in cubic])
+        parts.append((A, Bs, Minv @ inc, D, k3, MinvF, f_idx))
+    return parts
+
+
+def nonlinear_batch(model, t, u, param_sets, x0=None, rtol=1e-9) -> np.ndarray:
+    """States (n_sets, n_samples, 2n) of a nonlinear structure for several parameter sets.
+
+    Cubic springs only: classical Runge–Kutta, 4 steps per sample, all sets advanced together
+    (one recursion over the samples; a finite-difference Jacobian costs one run). With Coulomb
+    friction (Fc·tanh(q̇/v_ε), stiff): LSODA per set.
+
+    Parameters
+    ----------
+    model : StructureModel
+    t : ndarray (n_samples,) [s]
+    u : ndarray (n_samples, n_inputs) [N]
+    param_sets : sequence of mapping
+    x0 : ndarray (2n,), optional
+    rtol : float
+        LSODA's relative tolerance.
+
+    Returns
+    -------
+    ndarray (n_sets, n_samples, 2n)
+    """
     from scipy.integrate import solve_ivp
 
     n = model.n
-    A, Bs, _, _ = model.state_space(params)
-    Minv = np.linalg.inv(model.matrices(params)[0])  # n×n, applied at every step
-    friction = bool(model.friction_nodes)
+    x0 = np.zeros(2 * n) if x0 is None else np.asarray(x0, dtype=float)
+    parts = _batch_parts(model, param_sets)
+    if model.friction_nodes:
+        out = []
+        slope = np.diff(u, axis=0) / np.diff(t)[:, None]
+        dt = t[1] - t[0]
+        for A, Bs, MinvInc, D, k3, MinvF, f_idx in parts:
 
-    def rhs(tau, x):
-        k = min(max(np.searchsorted(t, tau) - 1, 0), t.size - 2)
-        frac = (tau - t[k]) / (t[k + 1] - t[k])
-        uk = u[k] + frac * (u[k + 1] - u[k])
-        dx = A @ x + Bs @ uk
-        f = model.nonlinear_forces(x[None, :n], x[None, n:], params, smooth=_V_EPS)[0]
-        dx[n:] -= Minv @ f
+            def rhs(tau, x, A=A, Bs=Bs, MinvInc=MinvInc, D=D, k3=k3, MinvF=MinvF, f_idx=f_idx):
+                k = min(max(int((tau - t[0]) / dt), 0), t.size - 2)
+                dx = A @ x + Bs @ (u[k] + (tau - t[k]) * slope[k])
+                dx[n:] -= MinvInc @ (k3 * (D @ x[:n]) ** 3)
+                dx[n:] -= MinvF @ np.tanh(x[n + np.array(f_idx)] / _V_EPS)
+                return dx
+
+            sol = solve_ivp(
+                rhs,
+                (t[0], t[-1]),
+                x0,
+                t_eval=t,
+                method="LSODA",
+                rtol=rtol,
+                atol=1e-12,
+                max_step=5 * dt,
+            )
+            if not sol.success or sol.y.shape[1] != t.size:
+                raise SimulationError(
+                    f"the nonlinear simulation of {model.name!r} failed: {sol.message}."
+                )
+            out.append(sol.y.T)
+        return np.array(out)
+    A = np.array([p[0] for p in parts])
+    Bs = np.array([p[1] for p in parts])
+    MinvInc = np.array([p[2] for p in parts])
+    D = np.array([p[3] for p in parts])
+    k3 = np.array([p[4] for p in parts])
+
+    def rhs(x, uk):  # x: (sets, 2n), uk: (n_inputs,)
+        dx = np.einsum("bij,bj->bi", A, x) + Bs @ uk
+        d3 = k3 * np.einsum("bij,bj->bi", D, x[:, :n]) ** 3
+        dx[:, n:] -= np.einsum("bij,bj->bi", MinvInc, d3)
         return dx
 
-    sol = solve_ivp(
-        rhs,
-        (t[0], t[-1]),
-        x0,
-        t_eval=t,
-        method="LSODA" if friction else "DOP853",
-        rtol=rtol,
-        atol=1e-12,
-        max_step=5 * (t[1] - t[0]),
-    )
-    if not sol.success or sol.y.shape[1] != t.size:
+    return _rk4(rhs, t, u, np.tile(x0, (len(parts), 1)), substeps=4)
+
+
+def _rk4(rhs, t, u, x0, substeps: int) -> np.ndarray:
+    """Classical Runge–Kutta, ``substeps`` steps per sample (a true recursion over samples;
+    the input at every stage is precomputed on the whole grid).
+
+    Smooth right-hand sides only (cubic springs): the global error is O((ω h)⁴), ~1e-8
+    relative for a 10 Hz mode at 1 kHz with 4 steps per sample.
+    """
+    h = (t[1] - t[0]) / substeps
+    frac = np.arange(2 * substeps + 1) / (2 * substeps)  # stage times within a sample
+    grid = u[:-1, None, :] + frac[None, :, None] * (u[1:] - u[:-1])[:, None, :]
+    x = np.empty((x0.shape[0], t.size, x0.shape[1]))
+    x[:, 0] = x0
+    xk = x0.astype(float)
+    for k in range(t.size - 1):
+        g = grid[k]
+        for s in range(substeps):
+            a = rhs(xk, g[2 * s])
+            b = rhs(xk + h / 2 * a, g[2 * s + 1])
+            c = rhs(xk + h / 2 * b, g[2 * s + 1])
+            d = rhs(xk + h * c, g[2 * s + 2])
+            xk = xk + h / 6 * (a + 2 * b + 2 * c + d)
+        x[:, k + 1] = xk
+    if not np.all(np.isfinite(xk)):
         raise SimulationError(
-            f"the nonlinear simulation of {model.name!r} failed: {sol.message}. Check the "
-            "parameter values (a negative k3 makes the Duffing spring unstable at large motion)."
+            "the nonlinear simulation diverged; check the parameter values (a negative cubic "
+            "stiffness makes the spring soften without bound)."
         )
-    return sol.y.T
+    return x
 
 
 def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool = False):
