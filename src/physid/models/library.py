@@ -235,7 +235,9 @@ def model_from_spec(spec, *, strict: bool = False, **options):
         from .structure import StructureModel
 
         if options:
-            raise InputError(f"structure model {spec.name!r} takes no options; got {sorted(options)}.")
+            raise InputError(
+                f"structure model {spec.name!r} takes no options; got {sorted(options)}."
+            )
         return StructureModel.from_spec(spec)
     from .linear_ode import LinearODEModel
 
