@@ -1,7 +1,6 @@
 """Structure model files (kind = "structure"): parsing, bad input, matrices, identifiability,
 simulation against scipy."""
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -9,8 +8,8 @@ import pytest
 
 import physid
 from physid.errors import ModelFileError
-from physid.models.spec import parse_model_text
 from physid.models.library import model_from_spec
+from physid.models.spec import parse_model_text
 from physid.simulate.structure import simulate_structure, structure_response
 
 CHAIN2 = Path(__file__).resolve().parents[1] / "examples" / "models" / "chain2.toml"

@@ -275,7 +275,7 @@ class EquationErrorEstimator(EstimatorMixin):
         Parameters to estimate (default the model's ``identify = true`` ones).
     cutoff : float [rad/s], optional
         Cut-off of the low-pass F₀ (default 3 × the highest natural frequency at the nominal
-        values).
+        values; 10 × with cubic springs or friction, whose harmonics lie above the band).
     half_width : int, optional
         M (2M + 1 taps; default 2·2π/Ω_g, two periods of the cut-off, at least 10).
     compensation : {"auto", "none"}
@@ -321,7 +321,9 @@ class EquationErrorEstimator(EstimatorMixin):
         order = _displacement_columns(model)
         u, y, dt = record_arrays(model, recording)
         noise, noisy, band = noise_report(model, u, y, dt)
-        cutoff = float(self.cutoff) if self.cutoff is not None else 3.0 * band
+        # a nonlinear structure answers with harmonics (3ω of a cubic spring) above its band
+        factor = 10.0 if model.nonlinear else 3.0
+        cutoff = float(self.cutoff) if self.cutoff is not None else factor * band
         omega = min(cutoff * dt, 0.9 * np.pi)
         half = int(self.half_width) if self.half_width else max(10, int(np.ceil(4 * np.pi / omega)))
         if y.shape[0] < 10 * (2 * half + 1):
