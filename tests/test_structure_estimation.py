@@ -139,3 +139,31 @@ def test_duffing_cubic_stiffness_within_2_percent_and_held_out_fit():
     held, clean = recs[1]
     sim = res.predict(held)
     assert fit_percent(clean.select(["x"]), sim.select(["x"]))[0] > 99.0
+
+
+def test_command_line_estimate_model_info_and_validate(chain, tmp_path, capsys):
+    import json
+
+    from physid.cli import main
+
+    fit, held = tmp_path / "fit.csv", tmp_path / "held.csv"
+    chain_record(chain, 21, duration=10.0).save(fit)
+    chain_record(chain, 22, duration=10.0).save(held)
+    assert main(["model", "info", str(CHAIN2)]) == 0
+    assert "all 6 linear parameters (m1, m2, k1, k2, c1, c2) are identifiable" in (
+        capsys.readouterr().out
+    )
+    result = tmp_path / "r.json"
+    code = main(
+        ["estimate", str(fit), "--model", str(CHAIN2), "--modal", "--json", "--save", str(result)]
+    )
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0 and out["method"] == "equation-error"
+    assert abs(out["parameters"]["k2"] / 3000 - 1) < 0.01
+    assert out["modal"]["frequency_hz"][0] == pytest.approx(3.4535, rel=1e-3)
+    assert main(["validate", str(result), str(held), "--json"]) == 0
+    fits = json.loads(capsys.readouterr().out)["fit_percent"]
+    assert set(fits) == {"x1", "x2"} and min(fits.values()) > 98.5
+    code = main(["estimate", str(fit), "--model", str(CHAIN2), "--method", "rls"])
+    assert code == 2
+    assert "--method rls does not apply to structure model" in capsys.readouterr().err
