@@ -57,9 +57,15 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--method",
-        choices=["algebraic", "rls"],  # the registry's linear-ODE methods
-        default="algebraic",
-        help="estimator (default algebraic)",
+        choices=["algebraic", "rls", "equation-error", "output-error"],
+        default=None,
+        help="estimator (default algebraic; structure models: equation-error or output-error, "
+        "docs/structures.md)",
+    )
+    parser.add_argument(
+        "--modal",
+        action="store_true",
+        help="structure models: print natural frequencies, damping ratios and mode shapes",
     )
     alg = parser.add_argument_group("algebraic method")
     alg.add_argument(
@@ -162,6 +168,15 @@ def _options(args, names) -> dict:
 def run(args) -> int:
     from ..models import load_model
 
+    model = load_model(args.model)
+    if hasattr(model, "nodes"):
+        return _run_structure(args, model)
+    if args.method in ("equation-error", "output-error") or args.modal:
+        raise InputError(
+            f"--method {args.method} and --modal apply to structure models (kind = "
+            f'"structure"); --model {args.model!r} is not one.'
+        )
+    args.method = args.method or "algebraic"
     other = _RLS_ONLY if args.method == "algebraic" else _ALGEBRAIC_ONLY
     stray = [k for k in other if getattr(args, k) is not None]
     if stray:
@@ -170,7 +185,6 @@ def run(args) -> int:
             f"{flags} do(es) not apply to --method {args.method}; drop it or choose the other "
             "method."
         )
-    model = load_model(args.model)
     if not hasattr(model, "a_names"):
         raise InputError(
             f"--model {args.model!r} is not a linear ODE model (it has no a_names); "
@@ -225,4 +239,46 @@ def run(args) -> int:
         print(cli_words(result.summary()))
     if not result.success:
         print(f"physid: estimate failed: {cli_words(result.message)}", file=sys.stderr)
+    return 0 if result.success else 1
+
+
+def _run_structure(args, model) -> int:
+    """``physid estimate`` on a structure model (equation-error or output-error)."""
+    method = args.method or "equation-error"
+    if method not in ("equation-error", "output-error"):
+        raise InputError(
+            f"--method {method} does not apply to structure model {model.name!r}; use "
+            "--method equation-error or output-error."
+        )
+    stray = [k for k in (*_ALGEBRAIC_ONLY, *_RLS_ONLY) if getattr(args, k) is not None]
+    if stray or args.known:
+        flags = ", ".join("--" + k.replace("_", "-") for k in stray) or "--known"
+        raise InputError(f"{flags} do(es) not apply to structure models; drop it.")
+    rec = read_recording(args, args.file, model=model)
+    settings = {}
+    if args.unknown is not None:
+        settings["unknown"] = tuple(n.strip() for n in args.unknown.split(",") if n.strip())
+    progress(f"estimate: {method} on {args.file} ({rec.n_samples} samples, model {model.name})")
+    from ..estimators.registry import make
+
+    result = make(method, model, **settings).fit(rec).result_
+    if args.save:
+        from ..estimators.results import save_result
+
+        save_result(result, args.save, model=args.model, recording=args.file, model_options={})
+        progress(f"estimate: result written to {args.save}")
+    modal = result.modal() if args.modal else None
+    if args.json:
+        out = result.to_dict()
+        out["covariance"] = None if result.covariance is None else out["covariance"]
+        if modal is not None:
+            out["modal"] = modal.to_dict()
+        print_json(out)
+    else:
+        print(cli_words(result.summary()))
+        print("  fit [%]: " + ", ".join(f"{k} {v:.2f}" for k, v in result.fit_percent.items()))
+        if modal is not None:
+            print(modal.summary())
+    if not result.success:
+        print(f"physid: estimate failed: {result.message}", file=sys.stderr)
     return 0 if result.success else 1

@@ -138,6 +138,22 @@ def describe(model, *, base: bool = True, force: bool = False) -> dict:
     from ..models import ChainModel
 
     out = {"name": model.name, "kind": type(model).__name__}
+    if hasattr(model, "nodes"):  # a structure: nodes, channels and identifiability
+        ident = model.identifiability()
+        out["parameters"] = [
+            {"name": k, "value": v, "unit": model.units.get(k, ""), "identify": k in model.unknown}
+            for k, v in model.parameters.items()
+        ]
+        out.update(nodes=list(model.nodes), inputs=list(model.input_names))
+        out["outputs"] = list(model.output_names)
+        out["identifiability"] = {
+            "identifiable": list(ident.identifiable),
+            "unidentifiable": list(ident.unidentifiable),
+            "directions": list(ident.directions),
+            "message": ident.message,
+            "seconds": ident.seconds,
+        }
+        return out
     units = dict(getattr(model, "units", {}))
     params = model.parameters
     if not isinstance(model, ChainModel):
@@ -259,6 +275,9 @@ def run_info(args) -> int:
         elif p.get("identifiable") is not None and p["identify"]:
             mark = "  (estimated)" if p["identifiable"] else "  (not identifiable alone)"
         lines.append(f"  {p['name']} = {p['value']:.6g} {p['unit']}{mark}")
+    if info.get("identifiability"):
+        lines.append(f"nodes {info['nodes']}; forces {info['inputs']}; outputs {info['outputs']}")
+        lines.append(f"identifiability: {info['identifiability']['message']}")
     if info.get("physical"):
         lines.append(f"physical parameters: {info['physical']['message']}")
     bp = info.get("base_parameters")

@@ -55,6 +55,9 @@ def run(args) -> int:
     from ..analysis.validation import load_result, validate
 
     check_output_folder(args.plot, "--plot")  # before any work
+    structure = _structure_result(args)
+    if structure is not None:
+        return structure
     loaded = load_result(args.result, model=args.model)
     # the held-out file is read like the fit's (--map, units, --detrend; checked against the
     # model), with the [recording] table of the model file the result names when --model is not
@@ -89,3 +92,42 @@ def _finite(value) -> bool:
     import math
 
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _structure_result(args):
+    """Validate an equation-error / output-error result of a structure: fit [%] per output of
+    the model simulated on the held-out forces. None when the file is another kind."""
+    from pathlib import Path
+
+    from ..analysis.validation.result_file import read_result_json
+
+    data = read_result_json(Path(args.result))  # size, nesting and values checked
+    if data.get("method") not in ("equation-error", "output-error"):
+        return None
+    from ..estimators.equation_error import StructureResult
+    from ..models import load_model
+
+    model = load_model(args.model or data.get("model"))
+    rec = read_recording(args, args.file, model=model)
+    known = {k: v for k, v in (data.get("known") or {}).items() if k in model.parameters}
+    result = StructureResult(
+        method=data["method"],
+        names=tuple(data["names"]),
+        parameters=data["parameters"],
+        stderr=data.get("stderr"),
+        stderr_reason=data.get("stderr_reason"),
+        units={},
+        success=bool(data.get("success")),
+        message="",
+        known=known,
+        model=model,
+    )
+    fits = result.fit_to(rec)
+    progress(f"validate: {data['method']} result on {args.file} ({rec.n_samples} samples)")
+    if args.json:
+        print_json({"fit_percent": fits, "notes": ["simulated from rest on the held-out forces"]})
+    else:
+        print("fit [%] per output (simulated from rest on the held-out forces):")
+        for k, v in fits.items():
+            print(f"  {k}: {v:.2f}")
+    return 0

@@ -30,7 +30,7 @@ from ..errors import InputError
 __all__ = ["make", "register", "methods", "method_kind", "KINDS"]
 
 #: What a method estimates: linear ODE coefficients or a chain (rigid-body) model's parameters.
-KINDS = ("linear_ode", "chain")
+KINDS = ("linear_ode", "chain", "structure")
 
 
 @dataclass(frozen=True)
@@ -165,6 +165,20 @@ def _input_error(model, **settings):
     return InputErrorEstimator(model, **settings)
 
 
+def _structure(method: str) -> Callable[..., Any]:
+    """The factory of a structure estimator (``"equation-error"`` or ``"output-error"``)."""
+
+    def factory(model, **settings):
+        from .equation_error import EquationErrorEstimator
+        from .output_error import OutputErrorEstimator
+
+        cls = EquationErrorEstimator if method == "equation-error" else OutputErrorEstimator
+        return cls(model, **settings)
+
+    factory.__name__ = f"structure[{method}]"
+    return factory
+
+
 def _idim(method: str) -> Callable[..., Any]:
     """The factory of IDIM-``method``; a model given by name is loaded first."""
 
@@ -186,5 +200,7 @@ def _idim(method: str) -> Callable[..., Any]:
 register("algebraic", _algebraic, kind="linear_ode")
 register("rls", _rls, kind="linear_ode")
 register("input-error", _input_error, kind="chain")
+register("equation-error", _structure("equation-error"), kind="structure")
+register("output-error", _structure("output-error"), kind="structure")
 for _method in ("ols", "wls", "iv"):
     register(f"idim-{_method}", _idim(_method), kind="chain")

@@ -259,6 +259,16 @@ def model_from_spec(spec, *, strict: bool = False, **options):
         model = build_chain_model(spec, **options)
         _check_not_singular(model)
         return model
+    from .spec_structure import StructureSpec
+
+    if isinstance(spec, StructureSpec):
+        from .structure import StructureModel
+
+        if options:
+            raise InputError(
+                f"structure model {spec.name!r} takes no options; got {sorted(options)}."
+            )
+        return StructureModel.from_spec(spec)
     from .linear_ode import LinearODEModel
 
     if options:

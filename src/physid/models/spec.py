@@ -183,4 +183,8 @@ def parse_model_text(text: str, source: str = "<string>", *, strict: bool = Fals
         if is_rigid_chain(data):
             return parse_rigid_chain(data, text, source, name, params, strict=strict)
         return _parse_chain(data, text, source, name, params)
+    if kind == "structure":
+        from .spec_structure import _parse_structure
+
+        return _parse_structure(data, text, source, name, params)
     return _parse_linear_ode(data, text, source, name, params)

@@ -45,7 +45,7 @@ RESERVED_NAMES = frozenset(FUNCTION_NAMES) | {"t", "E", "I", "S", "N", "Q", "O",
 _RESERVED_PATTERN = re.compile(r"^(q|qd|qdd|tau|r)\d+$")
 _NAME_PATTERN = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 
-KINDS = ("chain", "linear_ode")
+KINDS = ("chain", "linear_ode", "structure")
 
 
 @dataclass(frozen=True)
