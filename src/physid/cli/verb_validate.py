@@ -77,4 +77,4 @@ def run(args) -> int:
         print_json(report.to_dict())
     else:
         print(report.summary())
-    return 0
+    return 1 if report.failures else 0

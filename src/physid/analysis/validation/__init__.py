@@ -44,7 +44,7 @@ from ...errors import arg as arg
 from ...estimators.results import RESULT_FORMAT as RESULT_FORMAT
 from ...estimators.results import jsonable
 from .inverse import _chain_inverse as _chain_inverse
-from .inverse import _idim_inverse, _linear_inverse, _stick_note
+from .inverse import _idim_inverse, _linear_inverse, _rowless_joints, _stick_note
 from .loaded import LoadedResult, _as_loaded, load_result
 from .output_error import _chain_output_error, _relative, fit_percent
 from .parameters import _base_theta as _base_theta
@@ -85,6 +85,9 @@ class ValidationReport:
         `residual_analysis` of the residual named in ``residual["of"]``.
     notes : tuple of str
         How each number was computed (filters, skipped tests and why).
+    failures : tuple of str
+        What makes the fit fail on this record although numbers could be computed (an IDIM
+        joint whose every equation was dropped: no rows to test it on).
     series : dict
         Arrays for the plots (`physid.report.validation.write_validation_plots`; not in ``to_dict``).
     """
@@ -95,6 +98,7 @@ class ValidationReport:
     residual: dict[str, Any]
     notes: tuple[str, ...] = ()
     series: dict[str, Any] = field(default_factory=dict, repr=False)
+    failures: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (the ``physid validate --json`` object).
@@ -112,6 +116,7 @@ class ValidationReport:
                 "output_relative_error": self.output_relative_error,
                 "residual": self.residual,
                 "notes": list(self.notes),
+                "failures": list(self.failures),
             }
         )
 
@@ -131,6 +136,7 @@ class ValidationReport:
             lines.append(f"  (b) output error {k}: fit {v:.2f} %, relative error {rel:.4g}")
         if self.residual:
             lines.append(f"  (c) {self.residual.get('verdict', '')}")
+        lines.extend(f"  FAILED: {f}" for f in self.failures)
         lines.extend(f"  note: {n}" for n in self.notes)
         return "\n".join(lines)
 
@@ -168,7 +174,8 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
     rel, fits, out_rel, residual = run(loaded, recording, max_lag, notes, series)
     if residual:
         series["residual"] = residual
-    return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series)
+    failures = tuple(series.pop("failures", ()))
+    return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series, failures)
 
 
 def _validate_linear(loaded, recording, max_lag, notes, series):
@@ -218,6 +225,7 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
     )
     if _is_idim(loaded):
         notes.append(_stick_note(loaded, stuck))
+        series["failures"] = _rowless_joints(stuck, names)
     if stuck is not None:  # plots and (c): the rows where every joint's equation is kept
         free = ~np.any(stuck, axis=1)
         if free.all():

@@ -82,8 +82,8 @@ class IDIMResult(ResultMixin):
     residuals : ndarray, shape (n_rows, n_joints) [N·m]
     model : ChainModel or None
         The model fitted (used by `predict`; not written by ``to_dict``).
-    stick_threshold : float or None
-        The fit's ``stick_threshold`` (`validate` drops the same near-rest rows).
+    stick_threshold : "auto", float or None
+        The fit's ``stick_threshold`` (`validate` drops the same equations).
     """
 
     names: tuple[str, ...]
@@ -118,7 +118,7 @@ class IDIMResult(ResultMixin):
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     model: Any = field(default=None, repr=False, compare=False)
-    stick_threshold: float | None = None
+    stick_threshold: float | str | None = None
 
     _history_fields = ("history", "t", "residuals", "covariance")
     _private_fields = ("model",)

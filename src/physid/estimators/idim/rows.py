@@ -21,7 +21,17 @@ import numpy as np
 
 from ..._validate import check_int, sample_period
 from ...errors import InputError, SamplingError, ShapeError, arg
-from .._stiction import coulomb_joints, drop_equations, stuck_samples
+from .._stiction import (
+    STICK_AUTO,
+    check_stick_threshold,
+    contamination_reach,
+    coulomb_joints,
+    dilate,
+    drop_equations,
+    reversal_samples,
+    sticking_samples,
+    stuck_samples,
+)
 from .base_parameters import BaseInfo, base_regressor, base_regressor_info
 from .decimation import decimation_edge, parallel_decimate
 from .filtering import DIFFERENTIATIONS, auto_cutoff, default_half_width, states
@@ -57,6 +67,10 @@ class IDIMRows:
         Equations dropped (their rows of ``W`` and ``tau`` set to zero) because the joint was
         at or near rest with Coulomb friction (``stick_threshold`` of `idim_rows`); None when
         nothing was dropped.
+    reversal : ndarray of bool, shape (n_rows, n_joints), or None
+        With ``stick_threshold="auto"``: the equations near a reversal of a joint with dry
+        friction (kept; `IDIMEstimator` drops them when the residual shows the friction step
+        there, `physid.estimators._stiction.elevated_joints`).
     """
 
     W: np.ndarray
@@ -69,6 +83,7 @@ class IDIMRows:
     decimate: int
     dt: float = float("nan")
     stuck: np.ndarray | None = None
+    reversal: np.ndarray | None = None
 
 
 def _recording_arrays(recording, n_joints: int, torque: bool = True):
@@ -163,22 +178,13 @@ def _resolve_decimate(decimate, cutoff: float, n_shortest: int, n_base: int, nj:
     return check_int(decimate, "decimate", minimum=1)
 
 
-def _check_stick_threshold(stick_threshold) -> float:
-    stick_threshold = float(stick_threshold)
-    if not (np.isfinite(stick_threshold) and 0.0 <= stick_threshold < 1.0):
-        raise InputError(
-            f"{arg('stick_threshold')} must be a fraction of the rms speed in [0, 1); got "
-            f"{stick_threshold!r}."
-        )
-    return stick_threshold
-
-
 def _recording_rows(model, info, k, q, tau, dt, filters, nd, stick):
     """One recording's rows: state filter, base regressor, parallel filter, stuck equations.
 
     ``filters`` is ``(differentiation, cutoff, half_width)``; ``stick`` is ``(coulomb,
-    threshold)`` or None. Returns ``(W_k, tau_k, samples, stuck, m_used)``: the decimated rows,
-    the samples of the recording they belong to, the stuck mask (or None) and the filter's M.
+    threshold)`` or None. Returns ``(W_k, tau_k, samples, stuck, reversal, m_used)``: the
+    decimated rows, the samples of the recording they belong to, the stuck and reversal masks
+    (or None) and the filter's M.
     """
     idx, qf, qdf, qddf, m_used = states(q, dt, *filters)
     W = base_regressor(model, info.columns, qf, qdf, qddf)
@@ -193,11 +199,17 @@ def _recording_rows(model, info, k, q, tau, dt, filters, nd, stick):
     nj, p = q.shape[1], info.n_base
     Wk = dec[:, : nj * p].reshape(-1, nj, p)
     tauk = dec[:, nj * p :]
-    stuck = None
+    stuck = reversal = None
     if stick is not None:
-        stuck = stuck_samples(qdf, stick[0], stick[1], decimation_edge(nd))[kept]
+        coulomb, rule = stick
+        if rule == STICK_AUTO:  # sticking shown by the measured positions, on every sample
+            reach = contamination_reach(filters[1], nd)
+            stuck = dilate(sticking_samples(q, dt, coulomb), reach)[idx[kept]]
+            reversal = reversal_samples(qdf, coulomb, reach)[kept] & ~stuck
+        else:
+            stuck = stuck_samples(qdf, coulomb, rule, decimation_edge(nd))[kept]
         drop_equations(Wk, tauk, stuck)  # joint j's equation at that row: no weight
-    return Wk, tauk, idx[kept], stuck, m_used
+    return Wk, tauk, idx[kept], stuck, reversal, m_used
 
 
 def idim_rows(
@@ -210,7 +222,7 @@ def idim_rows(
     half_width: int | None = None,
     decimate: int | str = "auto",
     torque: bool = True,
-    stick_threshold: float = 0.0,
+    stick_threshold: float | str = 0.0,
 ) -> IDIMRows:
     """Build the filtered, decimated IDIM regression of one or several recordings.
 
@@ -236,13 +248,15 @@ def idim_rows(
     torque : bool
         False: a recording may lack ``tau1..taun`` (for a prediction from the motion alone);
         ``tau`` of the rows is then zero.
-    stick_threshold : float
-        Drop joint j's equations where its filtered speed |q̇_j| is below ``stick_threshold``
-        times its rms (and within the parallel filter's reach of such a sample), for joints with
-        Coulomb friction (``Fc{j}``) only. While a joint sticks the friction torque holding it
-        lies anywhere in [−Fc, Fc], but the regressor writes Fc·sign(0) = 0, and the filters
-        smear each stick/slip switch; those equations are wrong, not noisy. 0 (the default here)
-        keeps every equation; `IDIMEstimator` uses 0.05.
+    stick_threshold : "auto" or float
+        Which equations of a joint with dry friction (``Fc{j}``, ``Fcp{j}``, ``Fcn{j}``) to
+        drop. While a joint sticks the friction torque holding it lies anywhere in [−Fc, Fc],
+        but the regressor writes Fc·sign(q̇) of a speed that is only noise; those equations are
+        wrong, not noisy. ``"auto"`` (what `IDIMEstimator` uses): where the measured position
+        stays within its noise for a sustained interval, widened by the filters' main lobes
+        (`physid.estimators._stiction`); a number F in (0, 1): where the filtered speed is
+        below F times its rms, widened by the parallel filter's length (earlier versions'
+        rule); 0 (the default here) keeps every equation.
 
     Returns
     -------
@@ -270,19 +284,19 @@ def idim_rows(
         # one M for every recording (the instruments of IDIM-IV and `validate` reuse it)
         half_width = default_half_width(cutoff, n_shortest)
     nd = _resolve_decimate(decimate, cutoff, n_shortest, info.n_base, nj)
-    stick_threshold = _check_stick_threshold(stick_threshold)
+    stick_threshold = check_stick_threshold(stick_threshold)
     coulomb = coulomb_joints(model)
-    drop = stick_threshold > 0 and bool(coulomb.any())
+    drop = stick_threshold != 0 and bool(coulomb.any())
     stick = (coulomb, stick_threshold) if drop else None
 
     parts = []
     m_used = 0
     for k, (t, q, tau) in enumerate(arrays):
-        Wk, tauk, samples, stuck, m_used = _recording_rows(
+        Wk, tauk, samples, stuck, reversal, m_used = _recording_rows(
             model, info, k, q, tau, dts[k], (differentiation, cutoff, half_width), nd, stick
         )
-        parts.append((Wk, tauk, t[samples], np.full(samples.size, k), samples, stuck))
-    Ws, taus, ts, segs, samples, stucks = zip(*parts, strict=True)
+        parts.append((Wk, tauk, t[samples], np.full(samples.size, k), samples, stuck, reversal))
+    Ws, taus, ts, segs, samples, stucks, reversals = zip(*parts, strict=True)
     return IDIMRows(
         W=np.concatenate(Ws),
         tau=np.concatenate(taus),
@@ -294,4 +308,5 @@ def idim_rows(
         decimate=nd,
         dt=float(dts[0]),
         stuck=np.concatenate(stucks) if drop else None,
+        reversal=np.concatenate(reversals) if drop and stick_threshold == STICK_AUTO else None,
     )
