@@ -38,6 +38,7 @@ from .solve import (
     lstsq,
 )
 from .uncertainty import STDERR_METHODS, covariance
+from .verdict import iv_verdict, torque_noise_floor, torque_verdict
 
 __all__ = ["IDIMEstimator", "METHODS", "REL_ERROR_FAIL", "REL_ERROR_FAIL_JOINT"]
 
@@ -234,7 +235,7 @@ class IDIMEstimator(EstimatorMixin):
         # the one condition number of the fit: that of the regressor solved (weighted for WLS/IV)
         cond = float(condition_number(rows.W * est.weights[None, :, None]))
         rel = _relative_errors(rows.tau, e)
-        success, message = self._verdict(est, rows, rel, cond, len(recs))
+        success, message = self._verdict(est, rows, rel, cond, recs)
         consistent = None
         if self.consistent:
             consistent = consistent_estimate(model, info, rows.W, rows.tau, est.beta, est.weights)
@@ -357,34 +358,36 @@ class IDIMEstimator(EstimatorMixin):
             est.sigma = joint_sigma(W, y, est.beta, p)
         return est
 
-    def _verdict(self, est: _Estimate, rows: IDIMRows, rel, cond: float, n_recs: int):
+    def _torque_verdict(self, rows: IDIMRows, beta, recs):
+        """``(ok, sentence)``: the residual against the relative limits and the noise floor
+        (`physid.estimators.idim.verdict`)."""
+        e = rows.tau - rows.W @ beta
+        floor = torque_noise_floor(recs, rows.W.shape[1], rows.decimate)
+        ok, sentence = torque_verdict(rows.tau, e, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT)
+        if not ok:
+            sentence += (
+                " Check the channel map (q and tau of each joint, their units and signs), do "
+                "not remove the mean of q or tau (a torque-sensor offset is the model's OF "
+                "term), and check that the model belongs to the arm."
+            )
+        return ok, sentence
+
+    def _verdict(self, est: _Estimate, rows: IDIMRows, rel, cond: float, recs):
         """``(success, message)``: finite estimates, torques explained, IV converged."""
         success = bool(np.all(np.isfinite(est.beta)))
         weighted = "" if self.method == "ols" else ", rows weighted by 1/σ̂_j as solved"
         message = (
-            f"IDIM-{self.method.upper()} on {n_recs} recording(s), {rows.W.shape[0]} rows; "
+            f"IDIM-{self.method.upper()} on {len(recs)} recording(s), {rows.W.shape[0]} rows; "
             f"condition number {cond:.4g} (column-scaled{weighted})."
         )
+        message += rows.choice
         message += dropped_summary(rows.stuck, self.stick_threshold)[0]
-        worst = max((k for k in rel if k != "overall"), key=rel.get)
-        if rel["overall"] > REL_ERROR_FAIL or rel[worst] > REL_ERROR_FAIL_JOINT:
-            success = False
-            message += (
-                f" The model does not explain the torques: relative torque error "
-                f"{rel['overall']:.3g} overall, {rel[worst]:.3g} on {worst} (a fit that explains "
-                f"the data stays below {REL_ERROR_FAIL:g} overall and {REL_ERROR_FAIL_JOINT:g} per "
-                "joint). Check the channel map (q and tau of each joint, their units and signs), "
-                "do not remove the mean of q or tau (a torque-sensor offset is the model's OF "
-                "term), and check that the model belongs to the arm."
-            )
-        changes = est.changes
-        if self.method == "iv" and changes and changes[-1] > self.tol:
-            success = False
-            message += (
-                f" IV did not converge in {len(changes)} iterations (last relative change "
-                f"{changes[-1]:.2g} > tol {self.tol:g}); raise max_iter, check the gains, or "
-                "improve the excitation."
-            )
+        ok, sentence = self._torque_verdict(rows, est.beta, recs)
+        success &= ok
+        message += sentence
+        ok, sentence = iv_verdict(est.changes if self.method == "iv" else (), self.tol)
+        success &= ok
+        message += sentence
         return success, message
 
     def _result(
