@@ -2,7 +2,8 @@
 
 A fit fails on its torques when its residual is both large *relative to the torque*
 (`REL_ERROR_FAIL` overall, `REL_ERROR_FAIL_JOINT` on a joint) and large *against the
-torque-noise floor the record shows* (`NOISE_MARGIN` times it): a joint whose torque is small and
+torque-noise floor the record shows* (`NOISE_MARGIN` times it) and above `SMALL_JOINT` of the
+largest joint's torque: a joint whose torque is small and
 noisy is not a model failure because its relative error is large, only when its residual is
 more than noise. The floor of joint j is the white noise of its measured torque (the robust
 standard deviation of the third difference of τ_j over √20) through the parallel filter and
@@ -15,13 +16,24 @@ import math
 
 import numpy as np
 
-__all__ = ["torque_noise_floor", "torque_verdict", "iv_verdict", "NOISE_MARGIN", "IV_STABLE"]
+__all__ = [
+    "torque_noise_floor",
+    "torque_verdict",
+    "iv_verdict",
+    "NOISE_MARGIN",
+    "IV_STABLE",
+    "SMALL_JOINT",
+]
 
 #: A residual is "more than noise" above this multiple of the noise floor.
 NOISE_MARGIN = 3.0
-#: IV whose last relative change is below this is stable: not converging to ``tol`` is noted,
-#: not a failure.
-IV_STABLE = 1e-2
+#: IV whose last three relative changes are below this is stable: not converging to ``tol`` is
+#: noted, not a failure.
+IV_STABLE = 0.05
+#: A joint whose residual rms is below this fraction of the largest joint's torque rms is too
+#: small to fail on its own (the overall limit still holds): a wrist joint's torque next to a
+#: shoulder's.
+SMALL_JOINT = 0.05
 
 
 def torque_noise_floor(recordings, n_joints: int, decimate: int) -> np.ndarray:
@@ -91,6 +103,7 @@ def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
     overall = float(np.linalg.norm(e) / max(np.linalg.norm(tau), 1e-300))
     known = np.isfinite(floor)
     noisy = np.where(known, rms_e <= NOISE_MARGIN * np.where(known, floor, 0.0), False)
+    noisy |= rms_e <= SMALL_JOINT * float(np.max(rms_t))
     bad_joint = kept & (rel > fail_joint) & ~noisy
     total_floor = float(np.sqrt(np.sum(np.where(known, floor, 0.0) ** 2 * n_j) / n_j.sum()))
     total_e = float(np.sqrt(np.sum(e**2) / n_j.sum()))
@@ -103,11 +116,12 @@ def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
             js = ", ".join(f"tau{j + 1}" for j in np.flatnonzero(excused))
             return True, (
                 f" {js}: relative error above {fail_joint:g}, but the residual is within "
-                f"{NOISE_MARGIN:g}x the torque-noise floor of the record (rms "
+                f"{NOISE_MARGIN:g}x the torque-noise floor of the record or below "
+                f"{100 * SMALL_JOINT:g} % of the largest joint's torque (rms "
                 + ", ".join(
                     f"{rms_e[j]:.3g} vs floor {floor[j]:.3g}" for j in np.flatnonzero(excused)
                 )
-                + "): noise, not a model failure."
+                + f", largest torque rms {float(np.max(rms_t)):.3g}): not a model failure."
             )
         return True, ""
     worst = int(np.argmax(np.where(bad_joint, rel, -1.0))) if bad_joint.any() else None
@@ -136,17 +150,19 @@ def iv_verdict(changes, tol: float):
     Returns
     -------
     ok : bool
-        False only when the last change exceeds both ``tol`` and `IV_STABLE`.
+        False only when the last change exceeds ``tol`` and one of the last three exceeds
+        `IV_STABLE`.
     sentence : str
     """
     if not changes or changes[-1] <= tol:
         return True, ""
     last = changes[-1]
-    if last <= IV_STABLE:
+    if len(changes) >= 3 and max(changes[-3:]) <= IV_STABLE:
         return True, (
             f" IV stopped after {len(changes)} iterations with a last relative change of "
-            f"{last:.2g} (> tol {tol:g} but < {IV_STABLE:g}: the estimate is stable to that "
-            "level, so this is not a failure; raise max_iter to converge to tol)."
+            f"{last:.2g} (> tol {tol:g}, but the last three changes stay below {IV_STABLE:g}: the "
+            "estimate is stable to that level, so this is not a failure; raise max_iter to "
+            "converge to tol)."
         )
     return False, (
         f" IV did not converge in {len(changes)} iterations (last relative change "
