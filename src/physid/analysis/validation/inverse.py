@@ -102,6 +102,13 @@ def _idim_inverse(loaded, recording):
         decimate=d.get("decimate", "auto"),
         stick_threshold=threshold,
     )
+    joints = d.get("reversal_joints") or ()
+    if joints and rows.reversal is not None:  # the reversal equations the fit dropped
+        from ...estimators.idim.estimator import _drop_reversals
+
+        mask = np.zeros(rows.W.shape[1], dtype=bool)
+        mask[[int(j) - 1 for j in joints]] = True
+        rows = _drop_reversals(rows, mask)
     return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
 
 

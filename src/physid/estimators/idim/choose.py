@@ -3,11 +3,11 @@
 `decimate_candidates` lists the decimation factors tried when ``decimate="auto"``: the spectrum
 rule's (the parallel filter's cut-off at half the state filter's, ``nd = 1.6π/Ω``), the state
 filter's own cut-off (``0.8π/Ω``) and a wider one (``0.5π/Ω``), each lowered to keep enough
-equations. `cross_validated_error` scores one candidate: the rows are cut into contiguous folds
-in time; each fold is predicted by the OLS fit of the others and compared with one target for
-every candidate, the measured torque through the *least* smoothing candidate's parallel filter
-(so a candidate that smooths away torque the arm really produced is not rewarded for it). The
-regression is cheap; the rows of every candidate share the state filter and the regressor.
+equations. `cross_validated_error` scores one candidate: the record is cut into contiguous
+folds in time; the OLS estimate from the candidate's rows outside a fold predicts the torque on
+common evaluation rows inside it (those of the least smoothing candidate), so every candidate's
+estimate is judged on the same equations. The regression is cheap; the rows of every candidate
+share the state filter and the regressor.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ __all__ = ["decimate_candidates", "cross_validated_error", "pick", "FOLDS", "FAC
 
 #: Parallel-filter cut-offs tried, as ``nd = floor(f · π / Ω)`` for each f (the first is the
 #: spectrum rule's).
-FACTORS = (1.6, 0.8, 0.5)
+FACTORS = (1.6, 0.8)
 #: Folds of the cross-validation.
 FOLDS = 5
 #: A candidate replaces the spectrum rule's only when its error is this much lower (relative).
@@ -56,19 +56,26 @@ def decimate_candidates(cutoff: float, n_shortest: int, n_base: int, nj: int) ->
     return out
 
 
-def cross_validated_error(W, tau, target, segments, folds: int = FOLDS) -> float:
-    """Relative torque error ``‖target − Ŵβ‖/‖target‖`` of fold-wise OLS predictions.
+def _folds(segments, samples, lengths, folds: int) -> np.ndarray:
+    """Fold of each row: contiguous blocks of time within each recording."""
+    frac = samples / np.asarray(lengths, dtype=float)[segments]
+    return np.minimum((frac * folds).astype(int), folds - 1)
+
+
+def cross_validated_error(fit_rows, eval_rows, lengths, folds: int = FOLDS) -> float:
+    """Relative torque error ``‖τ_e − W_e β̂_f‖/‖τ_e‖`` of fold-wise OLS estimates.
+
+    Each fold's estimate β̂_f is fitted on one candidate's rows outside the fold and judged on
+    the common evaluation rows inside it, so that every candidate is compared on the same
+    equations: the quality of its estimate, not of its filter.
 
     Parameters
     ----------
-    W : ndarray, shape (n_rows, n_joints, p)
-        Rows of one candidate (dropped equations are zero rows and are not scored).
-    tau : ndarray, shape (n_rows, n_joints)
-        The rows' torques (what each fold's fit regresses on).
-    target : ndarray, shape (n_rows, n_joints)
-        The torque every candidate is compared with, at these rows.
-    segments : ndarray of int, shape (n_rows,)
-        Recording of each row (folds are contiguous within each recording).
+    fit_rows, eval_rows : tuple
+        ``(W, tau, segments, samples)``: rows (n, n_joints, p), torques (n, n_joints), the
+        recording and sample of each row. Dropped equations (zero rows) are not used.
+    lengths : sequence of int
+        Samples of each recording.
     folds : int
 
     Returns
@@ -76,23 +83,23 @@ def cross_validated_error(W, tau, target, segments, folds: int = FOLDS) -> float
     float
         NaN when a fold leaves too few equations to fit.
     """
-    n, nj, p = W.shape
-    rank = np.zeros(n)
-    for s in np.unique(segments):  # per recording, not per sample
-        sel = segments == s
-        rank[sel] = np.arange(int(sel.sum())) / max(int(sel.sum()), 1)
-    fold = np.minimum((rank * folds).astype(int), folds - 1)
+    W, tau, seg, smp = fit_rows
+    We, te, sege, smpe = eval_rows
+    p = W.shape[-1]
+    fold = _folds(seg, smp, lengths, folds)
+    fold_e = _folds(sege, smpe, lengths, folds)
     kept = np.any(W != 0.0, axis=2)
+    kept_e = np.any(We != 0.0, axis=2)
+    ones = np.ones(W.shape[1])
     num = den = 0.0
-    ones = np.ones(nj)
     for f in range(folds):
-        train, test = fold != f, fold == f
+        train, test = fold != f, fold_e == f
         if int(kept[train].sum()) <= 2 * p:
             return float("nan")
         beta = lstsq(W[train], tau[train], ones)
-        e = (target[test] - W[test] @ beta)[kept[test]]
+        e = (te[test] - We[test] @ beta)[kept_e[test]]
+        t = te[test][kept_e[test]]
         num += float(e @ e)
-        t = target[test][kept[test]]
         den += float(t @ t)
     return math.sqrt(num / den) if den > 0 else float("nan")
 
@@ -115,8 +122,8 @@ def pick(candidates: list[int], errors: list[float]) -> tuple[int, str]:
     scores = ", ".join(f"{nd}: {e:.4g}" for nd, e in zip(candidates, errors, strict=True))
     why = (
         f" decimate {best} chosen by a {FOLDS}-fold cross-validated torque error (decimate: "
-        f"error {scores}; against the torque through the parallel filter of decimate "
-        f"{min(candidates)}; the spectrum rule's {first} stays unless another is "
+        f"error {scores}; each estimate judged on the rows of decimate {min(candidates)}; "
+        f"the spectrum rule's {first} stays unless another is "
         f"{100 * MARGIN:g} % better)."
     )
     return best, why

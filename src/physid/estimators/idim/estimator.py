@@ -404,6 +404,7 @@ class IDIMEstimator(EstimatorMixin):
             units.update({n: unit_of(n, model) for n in derived})
         return IDIMResult(
             stick_threshold=_stick_value(self.stick_threshold),
+            reversal_joints=_reversal_joints(rows),
             names=names,
             parameters=dict(zip(names, est.beta.tolist(), strict=True)),
             base_expressions=dict(zip(names, info.expressions, strict=True)),
@@ -439,20 +440,22 @@ class IDIMEstimator(EstimatorMixin):
         )
 
 
-def _drop_reversals(rows: IDIMRows) -> IDIMRows:
+def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
     """Drop the equations near speed reversals of the joints whose residual shows the step.
 
     A first OLS fit on the rows kept; for each joint with dry friction whose reversal
     equations leave an rms residual twice the others' (`elevated_joints`), those equations
     join ``stuck`` — unless that would leave a base column unexcited or raise the condition
-    number tenfold (then they are kept). Returns the rows (``W``, ``tau`` zeroed in place).
+    number tenfold (then they are kept). ``joints`` (bool per joint) given: drop those joints'
+    (what `validate` repeats). Returns the rows (``W``, ``tau`` zeroed in place).
     """
     if rows.reversal is None or not rows.reversal.any():
         return rows
     kept = np.any(rows.W != 0.0, axis=2)
-    beta = lstsq(rows.W, rows.tau, np.ones(rows.W.shape[1]))
-    joints = elevated_joints(rows.tau - rows.W @ beta, rows.reversal, kept)
-    if not joints.any():
+    if joints is None:
+        beta = lstsq(rows.W, rows.tau, np.ones(rows.W.shape[1]))
+        joints = elevated_joints(rows.tau - rows.W @ beta, rows.reversal, kept)
+    if not np.any(joints):
         return rows
     extra = rows.reversal & joints[None, :] & kept
     W2 = np.where(extra[:, :, None], 0.0, rows.W)
@@ -463,6 +466,13 @@ def _drop_reversals(rows: IDIMRows) -> IDIMRows:
     stuck = rows.stuck | extra
     drop_equations(rows.W, rows.tau, extra)
     return dataclasses.replace(rows, stuck=stuck)
+
+
+def _reversal_joints(rows: IDIMRows) -> tuple:
+    """1-based joints whose reversal equations the fit dropped (`_drop_reversals`)."""
+    if rows.reversal is None or rows.stuck is None:
+        return ()
+    return tuple(int(j) + 1 for j in np.flatnonzero(np.any(rows.reversal & rows.stuck, axis=0)))
 
 
 def _stick_value(value):

@@ -84,6 +84,9 @@ class IDIMResult(ResultMixin):
         The model fitted (used by `predict`; not written by ``to_dict``).
     stick_threshold : "auto", float or None
         The fit's ``stick_threshold`` (`validate` drops the same equations).
+    reversal_joints : tuple of int
+        Joints (1-based) whose equations next to a speed reversal the fit dropped because the
+        residual showed the friction step there (``stick_threshold="auto"``).
     """
 
     names: tuple[str, ...]
@@ -119,6 +122,7 @@ class IDIMResult(ResultMixin):
     residuals: np.ndarray = field(repr=False)
     model: Any = field(default=None, repr=False, compare=False)
     stick_threshold: float | str | None = None
+    reversal_joints: tuple = ()
 
     _history_fields = ("history", "t", "residuals", "covariance")
     _private_fields = ("model",)

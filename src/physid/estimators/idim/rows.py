@@ -34,7 +34,7 @@ from .._stiction import (
 )
 from .base_parameters import BaseInfo, base_regressor, base_regressor_info
 from .choose import cross_validated_error, decimate_candidates, pick
-from .decimation import decimation_edge, parallel_decimate, parallel_filter
+from .decimation import decimation_edge, parallel_decimate
 from .filtering import DIFFERENTIATIONS, auto_cutoff, default_half_width, states
 
 __all__ = ["IDIMRows", "idim_rows"]
@@ -252,20 +252,21 @@ def _all_rows(model, info, arrays, dts, filters, nds, stick):
         full = _full_rate(model, info, k, q, tau, dts[k], filters, nds)
         m_used = full[3]
         target = None
-        if len(nds) > 1:  # one target for every candidate: the least smoothing filter
-            target = parallel_filter(full[1][:, nj * p :], min(nds))
         for nd in nds:
             Wk, tauk, samples, stuck, rev = _recording_rows(
                 full, q, dts[k], nd, stick, filters[1], nj, p
             )
-            pos = np.searchsorted(full[0], samples)
-            tk = None if target is None else target[pos]
-            per_nd[nd].append((Wk, tauk, samples, stuck, rev, tk))
+            per_nd[nd].append((Wk, tauk, samples, stuck, rev, target))
         del full
     stacked = {nd: _stack(parts) for nd, parts in per_nd.items()}
     if len(nds) == 1:
         return nds[0], stacked[nds[0]], m_used, ""
-    errors = [cross_validated_error(s[0], s[1], s[6], s[3]) for s in stacked.values()]
+    lengths = [a[0].size for a in arrays]
+    common = stacked[min(nds)]
+    ev = (common[0], common[1], common[3], common[2])
+    errors = [
+        cross_validated_error((s[0], s[1], s[3], s[2]), ev, lengths) for s in stacked.values()
+    ]
     nd, why = pick(list(nds), errors)
     return nd, stacked[nd], m_used, why
 

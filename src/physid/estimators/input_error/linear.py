@@ -41,6 +41,8 @@ from .._stiction import (
     dilate,
     drop_equations,
     dropped_summary,
+    elevated_joints,
+    reversal_samples,
     sticking_samples,
 )
 from ..idim.base_parameters import base_regressor, base_regressor_info
@@ -119,6 +121,25 @@ def _stuck_mask(model, f: _Filtered):
     reach = min(m, contamination_reach(float(f.cutoff), 1))
     stuck = dilate(sticking_samples(f.q, f.dt, coulomb), reach)
     return stuck[m : m + f.qf.shape[0]]
+
+
+def _drop_reversals(model, f: _Filtered, w, tau_f, stuck):
+    """Also drop the equations next to speed reversals where a first fit's residual shows the
+    friction step (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place."""
+    coulomb = coulomb_joints(model)
+    reach = min(int(f.half_width), contamination_reach(float(f.cutoff), 1))
+    candidate = reversal_samples(f.qdf, coulomb, reach) & ~stuck
+    if not candidate.any():
+        return stuck
+    p = w.shape[-1]
+    beta = scaled_lstsq(w.reshape(-1, p), tau_f.ravel())
+    kept = np.any(w != 0.0, axis=2)
+    joints = elevated_joints(tau_f - w @ beta, candidate, kept)
+    extra = candidate & joints[None, :]
+    if not extra.any():
+        return stuck
+    drop_equations(w, tau_f, extra)
+    return stuck | extra
 
 
 class _LinearSolve:
@@ -200,6 +221,7 @@ def solve_base(est, problem: _Problem) -> _Solution:
     tau_f = f.tau_f
     if stuck is not None:
         w, tau_f = drop_equations(w, tau_f.copy(), stuck)
+        stuck = _drop_reversals(model, f, w, tau_f, stuck)
         sentence, heavy = dropped_summary(
             stuck, STICK_AUTO, "fit IDIM with --stick-threshold 0, or drop the joint's Coulomb term"
         )
