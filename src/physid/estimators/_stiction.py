@@ -34,7 +34,7 @@ STICK_THRESHOLD = 0.05
 #: A joint sticks when its position stays within its noise band for a sustained interval: long
 #: enough that a reversal at a tenth of the joint's rms acceleration would leave the band, at
 #: most this long [s] …
-STILL_SECONDS = 0.1
+STILL_SECONDS = 0.2
 #: … and at least this many samples.
 STILL_MIN_SAMPLES = 5
 #: The noise band: this many robust standard deviations of the position noise (peak to peak).
@@ -279,3 +279,22 @@ def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]
         if s > HEAVY_SHARE
     ]
     return sentence, heavy
+
+
+def motionless_joints(q) -> np.ndarray:
+    """Bool per joint: its measured position never leaves its noise band over the record.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n_samples, n_joints) [rad]
+
+    Returns
+    -------
+    ndarray of bool, shape (n_joints,)
+    """
+    q = np.asarray(q, dtype=float)
+    if q.shape[0] < 8:
+        return np.zeros(q.shape[1], dtype=bool)
+    sigma, quantum = position_noise(q)
+    band = NOISE_BAND * sigma + 2.0 * quantum + 1e-12 * (np.max(np.abs(q), axis=0) + 1.0)
+    return (np.max(q, axis=0) - np.min(q, axis=0)) <= band

@@ -22,6 +22,7 @@ from .._stiction import (
     drop_equations,
     dropped_summary,
     elevated_joints,
+    motionless_joints,
 )
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
@@ -292,6 +293,7 @@ class IDIMEstimator(EstimatorMixin):
                 self._blame_stiction_rule(recs, rows, info, exc)
                 raise
         sentence, heavy = dropped_summary(rows.stuck, self.stick_threshold)
+        heavy = heavy + _motionless(recs, nj)
         for text in heavy:
             warnings.warn(text, StictionWarning, stacklevel=3)
             notes.append(text)
@@ -466,6 +468,22 @@ def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
     stuck = rows.stuck | extra
     drop_equations(rows.W, rows.tau, extra)
     return dataclasses.replace(rows, stuck=stuck)
+
+
+def _motionless(recs, nj: int) -> list[str]:
+    """A warning per joint that never moves in any recording (named, with the fix)."""
+    moving = np.zeros(nj, dtype=bool)
+    for rec in recs:
+        names = [f"q{j + 1}" for j in range(nj)]
+        if all(n in rec.names for n in names):
+            moving |= ~motionless_joints(rec.select(names))
+    return [
+        f"joint {j + 1} never moves in the recording(s) (its position stays within its noise): "
+        "its own parameters are identified only through the other joints' motion, if at all, "
+        "and its torque equations carry no information on its friction; move it in the "
+        "experiment (physid design-excitation) or fix its parameters in the model."
+        for j in np.flatnonzero(~moving)
+    ]
 
 
 def _reversal_joints(rows: IDIMRows) -> tuple:
