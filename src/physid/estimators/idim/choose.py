@@ -16,8 +16,6 @@ import math
 
 import numpy as np
 
-from .solve import lstsq
-
 __all__ = ["decimate_candidates", "cross_validated_error", "pick", "FOLDS", "FACTORS"]
 
 #: Parallel-filter cut-offs tried, as ``nd = floor(f · π / Ω)`` for each f (the first is the
@@ -90,13 +88,24 @@ def cross_validated_error(fit_rows, eval_rows, lengths, folds: int = FOLDS) -> f
     fold_e = _folds(sege, smpe, lengths, folds)
     kept = np.any(W != 0.0, axis=2)
     kept_e = np.any(We != 0.0, axis=2)
-    ones = np.ones(W.shape[1])
+    # normal equations per fold on unit-norm columns (a p × p solve per fold, not a QR of the
+    # rows: the folds' Gram matrices are summed once)
+    a = W.reshape(-1, p)
+    d = 1.0 / np.where((n := np.linalg.norm(a, axis=0)) > 0, n, 1.0)
+    rows_fold = np.repeat(fold, W.shape[1])
+    grams = np.zeros((folds, p, p))
+    rhs = np.zeros((folds, p))
+    for f in range(folds):  # per fold, not per sample
+        af = a[rows_fold == f] * d
+        grams[f] = af.T @ af
+        rhs[f] = af.T @ tau.reshape(-1)[rows_fold == f]
+    g_all, r_all = grams.sum(axis=0), rhs.sum(axis=0)
     num = den = 0.0
     for f in range(folds):
-        train, test = fold != f, fold_e == f
-        if int(kept[train].sum()) <= 2 * p:
+        test = fold_e == f
+        if int(kept[fold != f].sum()) <= 2 * p:
             return float("nan")
-        beta = lstsq(W[train], tau[train], ones)
+        beta = np.linalg.lstsq(g_all - grams[f], r_all - rhs[f], rcond=None)[0] * d
         e = (te[test] - We[test] @ beta)[kept_e[test]]
         t = te[test][kept_e[test]]
         num += float(e @ e)
