@@ -158,7 +158,8 @@ def test_residual_analysis_matches_the_full_correlation_without_computing_it(mon
 @pytest.fixture(scope="module")
 def idim_file(tmp_path_factory):
     model = physid.load_model(PLANAR2)
-    result = IDIMEstimator(model, "ols").fit(_run(model)).result_
+    # decimate 10 as the spectrum rule gives here (auto may choose another by cross-validation)
+    result = IDIMEstimator(model, "ols", decimate=10).fit(_run(model)).result_
     path = tmp_path_factory.mktemp("idim") / "idim.json"
     save_result(result, path, model=str(PLANAR2))
     return model, path
@@ -243,7 +244,8 @@ def pendulum():
 def test_idim_cross_test_drops_the_near_rest_rows_the_fit_dropped(pendulum, tmp_path):
     model, fit_rec, _, res = pendulum
     assert fit_rec.metadata["coulomb"]["stick_time"][0] > 0.05  # [s]: the joint sticks
-    assert "dropped near rest" in res.message and res.stick_threshold == 0.05
+    assert "joint equations dropped where the joint sticks" in res.message
+    assert res.stick_threshold == "auto"
     path = save_result(res, tmp_path / "idim.json", model=str(DATA / "pendulum1.toml"))
     for result in (res, path):  # the result object and its file (which records the threshold)
         rep = validate(result, fit_rec, model=model)
@@ -251,9 +253,13 @@ def test_idim_cross_test_drops_the_near_rest_rows_the_fit_dropped(pendulum, tmp_
         assert rep.relative_error["overall"] == pytest.approx(
             res.relative_error["overall"], rel=1e-6
         )
-        assert rep.relative_error["overall"] < 1e-3
-        note = next(n for n in rep.notes if "dropped near rest" in n)
-        assert "0.05·rms" in note and "the fit's" in note and "(c) uses the" in note
+        # 1.8e-3 with the equations where the joint sticks or next to a reversal whose friction
+        # step the residual shows dropped (8 %); 2.1e-4 when 44 % were dropped near rest
+        assert rep.relative_error["overall"] < 3e-3
+        note = next(n for n in rep.notes if "joint equations dropped" in n)
+        assert "sticking shown by the measured position" in note
+        assert "the fit's" in note and "(c) uses the" in note
+        assert rep.failures == ()  # the joint keeps rows
 
 
 def test_idim_closed_loop_test_simulates_the_fitted_base_model(pendulum):

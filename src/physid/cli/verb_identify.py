@@ -217,12 +217,12 @@ def _register_idim_options(p) -> None:
     )
     g.add_argument(
         "--stick-threshold",
-        type=float,
-        default=0.05,
+        default="auto",
         metavar="F",
-        help="drop a Coulomb joint's equations where its filtered speed is below F times its rms "
-        "(stiction: the holding friction is unknown there); 0 keeps every equation "
-        "(default: 0.05)",
+        help="which equations of a joint with dry friction to drop (stiction: the holding "
+        "friction is unknown there): auto = where the measured position stays within its noise "
+        "for 0.1 s or more; a number F in (0, 1) = where the filtered speed is below F times its "
+        "rms; 0 keeps every equation (default: auto)",
     )
 
 
@@ -280,7 +280,7 @@ _IDIM_ONLY = {
     "differentiation": ("--differentiation", "physid"),
     "stderr": ("--stderr", "filtered"),
     "consistent": ("--consistent", False),
-    "stick_threshold": ("--stick-threshold", 0.05),
+    "stick_threshold": ("--stick-threshold", "auto"),
 }
 
 

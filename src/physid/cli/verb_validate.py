@@ -85,7 +85,7 @@ def run(args) -> int:
         print_json(report.to_dict())
     else:
         print(report.summary())
-    return 0
+    return 1 if report.failures else 0
 
 
 def _finite(value) -> bool:

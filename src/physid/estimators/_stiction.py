@@ -1,44 +1,232 @@
-"""Row selection: which equations of a Coulomb joint to drop near rest (IDIM and input-error).
+"""Row selection: which equations of a joint with dry friction to drop (IDIM and input-error).
 
 While a joint with Coulomb friction is stuck, the friction torque holding it lies anywhere in
-[−Fc, Fc] but the regressor writes Fc·sign(0) = 0, and the filters smear every stick/slip switch
-over their length; those equations are wrong, not noisy, and both inverse-model estimators drop
-them (see ``stick_threshold`` of `physid.estimators.idim.idim_rows`).
+[−Fc, Fc] but the regressor writes Fc·sign(q̇) with a q̇ that is only noise; those equations are
+wrong, not noisy, and both inverse-model estimators drop them.
+
+Two rules:
+
+- ``"auto"`` (the default, `sticking_samples`): a joint sticks where the data show it: its
+  *measured* position stays within its own noise / quantisation level (`position_noise`) for a
+  sustained interval (`STILL_SECONDS`). A smooth motion that merely passes through zero speed
+  at a reversal is not sticking and keeps its equations; a record without rests keeps them all.
+  The mask is widened only by the main lobes of the state filter and of the parallel filter
+  (`contamination_reach`), the samples a sticking interval itself contaminates.
+- a number F in (0, 1) (`stuck_samples`, the rule of earlier versions): every sample where the
+  *filtered* speed is below F times its rms, widened by the parallel filter's full length.
+
+Every Coulomb form a model allows counts (``Fc{j}``, ``Fcp{j}``, ``Fcn{j}``).
 """
 
 from __future__ import annotations
+
+import math
+import re
 
 import numpy as np
 
 __all__: list[str] = []
 
-STICK_THRESHOLD = 0.05  # fraction of the joint's rms filtered speed
+#: The default rule: sticking shown by the data (see the module docstring).
+STICK_AUTO = "auto"
+#: The speed-fraction rule's usual threshold (``stick_threshold=0.05``).
+STICK_THRESHOLD = 0.05
+#: A joint sticks when its position stays within its noise band for a sustained interval: long
+#: enough that a reversal at a tenth of the joint's rms acceleration would leave the band, at
+#: most this long [s] …
+STILL_SECONDS = 0.2
+#: … and at least this many samples.
+STILL_MIN_SAMPLES = 5
+#: The noise band: this many robust standard deviations of the position noise (peak to peak).
+NOISE_BAND = 8.0
+#: A joint that loses more than this share of its equations is named in a warning.
+HEAVY_SHARE = 0.5
+
+_COULOMB = re.compile(r"(Fc|Fcp|Fcn)(\d+)")
 
 
 def coulomb_joints(model) -> np.ndarray:
-    """Bool per joint: whether the model has a Coulomb term ``Fc{j}`` there."""
-    names = set(getattr(model, "parameter_names", ()))
-    return np.array([f"Fc{j + 1}" in names for j in range(int(model.n_joints))])
+    """Bool per joint: whether the model has a dry-friction term there (``Fc``, ``Fcp``, ``Fcn``)."""
+    nj = int(model.n_joints)
+    out = np.zeros(nj, dtype=bool)
+    for name in getattr(model, "parameter_names", ()):
+        m = _COULOMB.fullmatch(str(name))
+        if m and 1 <= int(m[2]) <= nj:
+            out[int(m[2]) - 1] = True
+    return out
+
+
+def check_stick_threshold(value, name: str = "stick_threshold"):
+    """``"auto"`` or a float in [0, 1); raise `InputError` otherwise."""
+    from ..errors import InputError, arg
+
+    if isinstance(value, str):
+        if value.strip().lower() == STICK_AUTO:
+            return STICK_AUTO
+        try:
+            value = float(value)
+        except ValueError:
+            value = float("nan")
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not (np.isfinite(value) and 0.0 <= value < 1.0):
+        raise InputError(
+            f"{arg(name)} must be 'auto' (drop the equations where the data show sticking) or a "
+            f"fraction of the rms speed in [0, 1) (0 keeps every equation); got {value!r}."
+        )
+    return value
+
+
+def position_noise(q) -> tuple[np.ndarray, np.ndarray]:
+    """Noise level and quantum of each joint's measured position [rad].
+
+    The noise is the robust standard deviation of the third difference divided by √20 (white
+    noise of std σ gives Δ³q of std √20·σ; a smooth motion sampled fast gives almost none);
+    the quantum is the smallest nonzero |Δq| when the positions sit on a grid (0 otherwise).
+
+    Parameters
+    ----------
+    q : ndarray, shape (n_samples, n_joints) [rad]
+
+    Returns
+    -------
+    sigma, quantum : ndarray, shape (n_joints,) [rad]
+    """
+    q = np.asarray(q, dtype=float)
+    d3 = np.diff(q, n=3, axis=0)
+    mad = np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0)
+    sigma = 1.4826 * mad / math.sqrt(20.0)
+    d1 = np.abs(np.diff(q, axis=0))
+    quantum = np.zeros(q.shape[1])
+    for j in range(q.shape[1]):  # per joint, not per sample
+        nz = d1[:, j][d1[:, j] > 0]
+        if nz.size:
+            step = float(np.min(nz))
+            # on a grid when most steps are whole multiples of the smallest one
+            ratio = nz[:2000] / step
+            if np.mean(np.abs(ratio - np.round(ratio)) < 1e-3) > 0.9:
+                quantum[j] = step
+    return sigma, quantum
+
+
+def sticking_samples(q, dt: float, coulomb) -> np.ndarray:
+    """Samples × joints where a joint with dry friction is shown by its position to stick.
+
+    A sample sticks when it lies in a window over which the joint's measured position varies by
+    less than its noise band b (``NOISE_BAND`` · σ plus two quanta, `position_noise`). The
+    window is T = √(8 b / a) long, with a a tenth of the joint's rms acceleration, so that
+    a smooth reversal (q ≈ q₀ + a t²/2, range a T²/8 over T) does not fit in it; T is kept in
+    [``STILL_MIN_SAMPLES`` samples, `STILL_SECONDS`]. Vectorised (moving max/min), one window
+    length per joint.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n_samples, n_joints) [rad]
+        The measured (unfiltered) positions.
+    dt : float [s]
+    coulomb : ndarray of bool, shape (n_joints,)
+
+    Returns
+    -------
+    ndarray of bool, shape (n_samples, n_joints)
+    """
+    from scipy import ndimage
+
+    q = np.asarray(q, dtype=float)
+    n, nj = q.shape
+    coulomb = np.asarray(coulomb, dtype=bool)
+    out = np.zeros((n, nj), dtype=bool)
+    if n < 4 * STILL_MIN_SAMPLES or not np.any(coulomb):
+        return out
+    sigma, quantum = position_noise(q)
+    scale = np.max(np.abs(q), axis=0) + 1.0
+    band = NOISE_BAND * sigma + 2.0 * quantum + 1e-12 * scale
+    h = max(1, min(int(round(0.05 / dt)), n // 4))  # a coarse step: the noise barely counts
+    acc = (q[2 * h :] - 2.0 * q[h:-h] + q[: -2 * h]) / (h * dt) ** 2
+    a_ref = 0.1 * np.sqrt(np.mean(acc**2, axis=0)) + 1e-300
+    widths = np.sqrt(8.0 * band / a_ref) / dt
+    widths = np.clip(widths, STILL_MIN_SAMPLES, max(STILL_SECONDS / dt, STILL_MIN_SAMPLES))
+    for j in np.flatnonzero(coulomb):  # per joint (its own window), vectorised over samples
+        w = int(round(widths[j]))
+        if n < w:
+            continue
+        # window starting at i: [i, i + w); origin shifts the centred filters to that window
+        lo = ndimage.minimum_filter1d(q[:, j], w, mode="nearest", origin=-(w // 2))
+        hi = ndimage.maximum_filter1d(q[:, j], w, mode="nearest", origin=-(w // 2))
+        still = (hi - lo) <= band[j]
+        still[n - w + 1 :] = False  # windows running past the end
+        # every sample of a still window sticks: spread each start over the window it opens
+        out[:, j] = ndimage.maximum_filter1d(
+            still.astype(np.uint8), w, mode="constant", origin=(w - 1) // 2
+        ).astype(bool)
+    return out
+
+
+def contamination_reach(cutoff: float, decimate: int) -> int:
+    """Samples on each side of a sticking interval whose rows it contaminates.
+
+    The main lobe of the state filter (half-width π/Ω samples at cut-off Ω rad/sample) and of
+    the parallel filter (its cut-off 0.8π/nd: about nd samples), not their full lengths.
+    """
+    return int(math.ceil(np.pi / float(cutoff))) + (int(decimate) if decimate > 1 else 0)
+
+
+def dilate(mask, reach: int) -> np.ndarray:
+    """``mask`` (n, n_joints) widened by ``reach`` samples on both sides (moving maximum)."""
+    if reach <= 0:
+        return np.asarray(mask, dtype=bool)
+    mask = np.asarray(mask, dtype=bool)
+    c = np.concatenate([np.zeros((1, mask.shape[1])), np.cumsum(mask, axis=0)])
+    n = mask.shape[0]
+    lo = np.clip(np.arange(n) - reach, 0, n)
+    hi = np.clip(np.arange(n) + reach + 1, 0, n)
+    return (c[hi] - c[lo]) > 0
 
 
 def stuck_samples(qd, coulomb, threshold: float, reach: int) -> np.ndarray:
     """Samples × joints where a Coulomb joint is at or near rest, widened by ``reach`` samples.
 
-    ``qd`` (n, n_joints) are the filtered speeds; a sample is near rest when |q̇_j| is below
-    ``threshold`` · rms(q̇_j). The mask is dilated by ``reach`` (the parallel filter's half
-    length) on both sides, since a decimated row mixes that many neighbours. Vectorised: a
-    moving maximum by cumulative sums.
+    The speed-fraction rule: ``qd`` (n, n_joints) are the filtered speeds; a sample is near rest
+    when |q̇_j| is below ``threshold`` · rms(q̇_j). The mask is dilated by ``reach`` samples on
+    both sides. Vectorised: a moving maximum by cumulative sums.
     """
     qd = np.asarray(qd, dtype=float)
     rms = np.sqrt(np.mean(qd**2, axis=0))
     near = (np.abs(qd) < threshold * np.where(rms > 0, rms, 1.0)) & coulomb[None, :]
-    if reach <= 0:
-        return near
-    c = np.concatenate([np.zeros((1, near.shape[1])), np.cumsum(near, axis=0)])
-    n = near.shape[0]
-    lo = np.clip(np.arange(n) - reach, 0, n)
-    hi = np.clip(np.arange(n) + reach + 1, 0, n)
-    return (c[hi] - c[lo]) > 0
+    return dilate(near, reach)
+
+
+def reversal_samples(qd, coulomb, reach: int) -> np.ndarray:
+    """Samples × joints within ``reach`` of a sign change of a dry-friction joint's speed.
+
+    At a reversal the Coulomb torque jumps by 2·Fc; the filters smear that step over their main
+    lobes, so the equations there may be wrong although the joint never sticks. They are only
+    candidates: `elevated_joints` decides from the residual whether to drop them.
+    """
+    qd = np.asarray(qd, dtype=float)
+    flip = np.zeros(qd.shape, dtype=bool)
+    flip[1:] = np.signbit(qd[1:]) != np.signbit(qd[:-1])
+    flip &= np.asarray(coulomb, dtype=bool)[None, :]
+    return dilate(flip, reach)
+
+
+def elevated_joints(e, candidate, kept, ratio: float = 2.0, min_rows: int = 10) -> np.ndarray:
+    """Bool per joint: are the residuals on the ``candidate`` rows ``ratio`` times the others'?
+
+    ``e`` (n_rows, n_joints) are the residuals of a first fit; ``candidate`` and ``kept``
+    (n_rows, n_joints) of bool. A joint whose candidate equations fit no worse than the rest
+    keeps them (a frictionless plant, a smooth friction law); one whose reversals leave a
+    residual ``ratio`` times larger (rms) drops them.
+    """
+    e = np.asarray(e, dtype=float)
+    cand = candidate & kept
+    rest = ~candidate & kept
+    n_c, n_r = cand.sum(axis=0), rest.sum(axis=0)
+    rms_c = np.sqrt(np.sum(np.where(cand, e**2, 0.0), axis=0) / np.maximum(n_c, 1))
+    rms_r = np.sqrt(np.sum(np.where(rest, e**2, 0.0), axis=0) / np.maximum(n_r, 1))
+    return (n_c >= 1) & (n_r >= min_rows) & (rms_c > ratio * rms_r)
 
 
 def drop_equations(W, tau, stuck) -> tuple[np.ndarray, np.ndarray]:
@@ -51,3 +239,62 @@ def drop_equations(W, tau, stuck) -> tuple[np.ndarray, np.ndarray]:
     W[stuck] = 0.0
     tau[stuck] = 0.0
     return W, tau
+
+
+def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]]:
+    """One sentence on the equations dropped per joint, and a warning per heavily hit joint.
+
+    Parameters
+    ----------
+    stuck : ndarray of bool, shape (n_rows, n_joints), or None
+    rule : "auto" or float
+        The ``stick_threshold`` that made it.
+    fix : str, optional
+        How to keep the equations (default: ``--stick-threshold 0``).
+
+    Returns
+    -------
+    sentence : str
+        Empty when nothing was dropped.
+    warnings : list of str
+        One per joint that lost more than `HEAVY_SHARE` of its equations, with the fix.
+    """
+    if stuck is None or not np.any(stuck):
+        return "", []
+    share = stuck.mean(axis=0)
+    how = (
+        "where the joint sticks (its measured position within its noise for a sustained "
+        "interval: the holding friction is unknown) or next to a speed reversal whose friction "
+        "step the residual shows"
+        if rule == STICK_AUTO
+        else f"near rest (at |q̇| < {float(rule):g}·rms)"
+    )
+    per = ", ".join(f"joint {j + 1} {100 * s:.0f} %" for j, s in enumerate(share) if s > 0)
+    sentence = f" {int(stuck.sum())} of {stuck.size} joint equations dropped {how}: {per}."
+    fix = fix or "keep them with --stick-threshold 0 (stick_threshold=0)"
+    heavy = [
+        f"joint {j + 1} lost {100 * s:.0f} % of its equations to the stiction rule "
+        f"(stick_threshold={rule!r}); if the joint does not really stick there, {fix}."
+        for j, s in enumerate(share)
+        if s > HEAVY_SHARE
+    ]
+    return sentence, heavy
+
+
+def motionless_joints(q) -> np.ndarray:
+    """Bool per joint: its measured position never leaves its noise band over the record.
+
+    Parameters
+    ----------
+    q : ndarray, shape (n_samples, n_joints) [rad]
+
+    Returns
+    -------
+    ndarray of bool, shape (n_joints,)
+    """
+    q = np.asarray(q, dtype=float)
+    if q.shape[0] < 8:
+        return np.zeros(q.shape[1], dtype=bool)
+    sigma, quantum = position_noise(q)
+    band = NOISE_BAND * sigma + 2.0 * quantum + 1e-12 * (np.max(np.abs(q), axis=0) + 1.0)
+    return (np.max(q, axis=0) - np.min(q, axis=0)) <= band

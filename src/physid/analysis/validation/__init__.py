@@ -44,7 +44,7 @@ from ...errors import arg as arg
 from ...estimators.results import RESULT_FORMAT as RESULT_FORMAT
 from ...estimators.results import jsonable
 from .inverse import _chain_inverse as _chain_inverse
-from .inverse import _idim_inverse, _linear_inverse, _stick_note
+from .inverse import _idim_inverse, _linear_inverse, _rowless_joints, _stick_note
 from .loaded import LoadedResult, _as_loaded, load_result
 from .output_error import _chain_output_error, _relative, fit_percent
 from .parameters import _base_theta as _base_theta
@@ -91,6 +91,9 @@ class ValidationReport:
         `residual_analysis` of the residual named in ``residual["of"]``.
     notes : tuple of str
         How each number was computed (filters, skipped tests and why).
+    failures : tuple of str
+        What makes the fit fail on this record although numbers could be computed (an IDIM
+        joint whose every equation was dropped: no rows to test it on).
     series : dict
         Arrays for the plots (`physid.report.validation.write_validation_plots`; not in ``to_dict``).
     """
@@ -101,6 +104,7 @@ class ValidationReport:
     residual: dict[str, Any]
     notes: tuple[str, ...] = ()
     series: dict[str, Any] = field(default_factory=dict, repr=False)
+    failures: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (the ``physid validate --json`` object).
@@ -118,6 +122,7 @@ class ValidationReport:
                 "output_relative_error": self.output_relative_error,
                 "residual": self.residual,
                 "notes": list(self.notes),
+                "failures": list(self.failures),
             }
         )
 
@@ -137,6 +142,7 @@ class ValidationReport:
             lines.append(f"  (b) output error {k}: fit {v:.2f} %, relative error {rel:.4g}")
         if self.residual:
             lines.append(f"  (c) {self.residual.get('verdict', '')}")
+        lines.extend(f"  FAILED: {f}" for f in self.failures)
         lines.extend(f"  note: {n}" for n in self.notes)
         return "\n".join(lines)
 
@@ -174,7 +180,8 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
     rel, fits, out_rel, residual = run(loaded, recording, max_lag, notes, series)
     if residual:
         series["residual"] = residual
-    return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series)
+    failures = tuple(series.pop("failures", ()))
+    return ValidationReport(rel, fits, out_rel, residual, tuple(notes), series, failures)
 
 
 def _validate_linear(loaded, recording, max_lag, notes, series):
@@ -241,6 +248,7 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
     )
     if _is_idim(loaded):
         notes.append(_stick_note(loaded, stuck))
+        series["failures"] = _rowless_joints(stuck, names)
     # the plots show every row, a dropped equation as a gap (NaN), never as a torque of 0 N·m
     shown_f, shown_hat = np.array(tau_f, dtype=float), np.array(tau_hat, dtype=float)
     if stuck is not None and np.any(stuck):

@@ -102,6 +102,13 @@ def _idim_inverse(loaded, recording):
         decimate=d.get("decimate", "auto"),
         stick_threshold=threshold,
     )
+    joints = d.get("reversal_joints") or ()
+    if joints and rows.reversal is not None:  # the reversal equations the fit dropped
+        from ...estimators.idim.estimator import _drop_reversals
+
+        mask = np.zeros(rows.W.shape[1], dtype=bool)
+        mask[[int(j) - 1 for j in joints]] = True
+        rows = _drop_reversals(rows, mask)
     return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
 
 
@@ -148,23 +155,44 @@ def _chain_inverse(loaded, recording):
     return t, tau_f, tau_hat
 
 
+def _rowless_joints(stuck, names) -> list[str]:
+    """Failures: the joints whose every equation the stiction rule dropped on this record.
+
+    Such a joint has no rows, so (a) cannot say how the model predicts its torque; its entry is
+    null and ``overall`` covers the other joints only. That is a failure of the fit, not a
+    missing number.
+    """
+    if stuck is None or stuck.shape[0] == 0:
+        return []
+    return [
+        f"{name}: every one of its {stuck.shape[0]} equations was dropped by the stiction rule, "
+        "so the fit cannot be checked on this joint (its relative error is null, overall "
+        "covers the other joints only); refit with --stick-threshold 0, or record motion "
+        "where the joint moves"
+        for j, name in enumerate(names)
+        if stuck[:, j].all()
+    ]
+
+
 def _stick_note(loaded, stuck) -> str:
     """What (a) and (c) dropped near rest, with the fit's ``stick_threshold``."""
     threshold, recorded = _idim_threshold(loaded)
+    rule = (
+        "sticking shown by the measured position"
+        if isinstance(threshold, str)
+        else f"|q̇| < {threshold:g}·rms"
+    )
     source = (
         "the fit's"
         if recorded
         else "the IDIM default (the result does not record the fit's; written by an older physid)"
     )
     if stuck is None or not stuck.any():
-        return (
-            f"(a) stiction rule (threshold {threshold:g}·rms of the speed, {source}): "
-            "no joint equation dropped near rest"
-        )
+        return f"(a) stiction rule ({rule}, {source}): no joint equation dropped"
     free = int(np.count_nonzero(~np.any(stuck, axis=1)))
     return (
-        f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped near rest, as in the "
-        f"fit: Coulomb joints at |q̇| < {threshold:g}·rms (stiction threshold: {source}), "
-        "where stiction makes the friction torque unknown; (c) uses the "
+        f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped, as in the fit: "
+        f"joints with dry friction where {rule} (stiction rule: {source}), where stiction "
+        "makes the friction torque unknown; (c) uses the "
         f"{free} rows where no equation is dropped"
     )

@@ -16,9 +16,9 @@ def _idim_threshold(loaded) -> tuple[float, bool]:
     from ...estimators._stiction import STICK_THRESHOLD
 
     value = loaded.data.get("stick_threshold")
-    if value is None:
+    if value is None:  # written before the fit recorded it: that physid's default rule
         return STICK_THRESHOLD, False
-    return float(value), True
+    return (value if isinstance(value, str) else float(value)), True
 
 
 def _idim_parameters(loaded) -> dict[str, float]:

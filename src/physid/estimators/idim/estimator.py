@@ -8,13 +8,22 @@ message -> optional consistent estimate (`physid.estimators.consistent`) -> `.re
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..._validate import check_int, check_positive
-from ...errors import InputError, SamplingError, arg
+from ...errors import IdentifiabilityError, InputError, SamplingError, arg
+from .._stiction import (
+    STICK_AUTO,
+    check_stick_threshold,
+    drop_equations,
+    dropped_summary,
+    elevated_joints,
+    motionless_joints,
+)
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
 from ..plausibility import gate, too_perfect, unchanging
@@ -22,8 +31,16 @@ from .base_parameters import BaseInfo, base_regressor_info, unit_of
 from .iv import controller, iv_iterations
 from .result import IDIMResult
 from .rows import IDIMRows, idim_rows
-from .solve import ConditionWarning, check_excitation, condition_number, joint_sigma, lstsq
+from .solve import (
+    COND_WARN,
+    ConditionWarning,
+    check_excitation,
+    condition_number,
+    joint_sigma,
+    lstsq,
+)
 from .uncertainty import STDERR_METHODS, covariance
+from .verdict import iv_verdict, torque_noise_floor, torque_verdict
 
 __all__ = ["IDIMEstimator", "METHODS", "REL_ERROR_FAIL", "REL_ERROR_FAIL_JOINT"]
 
@@ -37,6 +54,10 @@ METHODS = ("ols", "wls", "iv")
 #: swapped joints (planar2).
 REL_ERROR_FAIL = 0.2
 REL_ERROR_FAIL_JOINT = 0.5
+
+
+class StictionWarning(UserWarning):
+    """The stiction rule dropped most of a joint's equations (named, with the fix)."""
 
 
 @dataclass(eq=False)
@@ -96,12 +117,15 @@ class IDIMEstimator(EstimatorMixin):
         Also compute a physically consistent estimate (`ConsistentEstimate`).
     check_condition : bool
         Warn (`ConditionWarning`) above a condition number of 1e3 and refuse above 1e8.
-    stick_threshold : float
-        Joints with Coulomb friction: drop the equations where the joint is at or near rest
-        (filtered |q̇_j| below this fraction of its rms, widened by the parallel filter's
-        reach), where the friction torque is unknown (stiction) and the filters smear the
-        stick/slip switch (default 0.05; 0 keeps every equation). The message says how many
-        were dropped; `IDIMRows.stuck` marks them.
+    stick_threshold : "auto" or float
+        Joints with dry friction (``Fc``, ``Fcp``, ``Fcn``): which equations to drop, where the
+        friction torque is unknown (stiction) and the filters smear the stick/slip switch.
+        ``"auto"`` (default): where the data show sticking, the measured position staying
+        within its noise for a sustained interval, widened only by the filters' main lobes; a
+        number F in (0, 1): where the filtered |q̇_j| is below F times its rms (the rule of
+        earlier versions); 0 keeps every equation. The message gives the share dropped per
+        joint and warns about a joint that loses most of its equations; `IDIMRows.stuck`
+        marks them.
     """
 
     def __init__(
@@ -122,7 +146,7 @@ class IDIMEstimator(EstimatorMixin):
         tol: float = 1e-4,
         consistent: bool = False,
         check_condition: bool = True,
-        stick_threshold: float = 0.05,
+        stick_threshold: float | str = "auto",
     ):
         self.model = model
         self.method = method
@@ -151,6 +175,7 @@ class IDIMEstimator(EstimatorMixin):
         check_int(self.hac_lag, "hac_lag", minimum=0, allow_none=True)
         check_int(self.half_width, "half_width", minimum=1, allow_none=True)
         check_positive(self.tol, "tol")
+        check_stick_threshold(self.stick_threshold)
 
     def _check_excitation(self, W: np.ndarray, info: BaseInfo, where: str) -> float:
         """Refuse unexcited columns and meaningless conditioning; warn on poor conditioning."""
@@ -194,7 +219,8 @@ class IDIMEstimator(EstimatorMixin):
             loops = controller(recs, int(model.n_joints), self.kp, self.kd)
         rows = self._rows(recs, info)
         notes: list[str] = []
-        self._check_rows(rows, info, notes)
+        self._check_rows(rows, info, notes, recs)
+        rows = _drop_reversals(rows)
         est = self._solve(recs, rows, info, loops, notes)
         e = rows.tau - rows.W @ est.beta
         cov, lag, reason = covariance(
@@ -211,7 +237,7 @@ class IDIMEstimator(EstimatorMixin):
         # the one condition number of the fit: that of the regressor solved (weighted for WLS/IV)
         cond = float(condition_number(rows.W * est.weights[None, :, None]))
         rel = _relative_errors(rows.tau, e)
-        success, message = self._verdict(est, rows, rel, cond, len(recs))
+        success, message = self._verdict(est, rows, rel, cond, recs)
         success, message = gate(success, message, _implausible(rows.tau, e))
         consistent = None
         if self.consistent:
@@ -251,7 +277,7 @@ class IDIMEstimator(EstimatorMixin):
             stick_threshold=self.stick_threshold,
         )
 
-    def _check_rows(self, rows: IDIMRows, info: BaseInfo, notes: list[str]) -> None:
+    def _check_rows(self, rows: IDIMRows, info: BaseInfo, notes: list[str], recs=()) -> None:
         """Enough equations, every column excited, conditioning (its warning also in notes)."""
         nj, p = int(self.model.n_joints), info.n_base
         n_rows = rows.W.shape[0]
@@ -263,10 +289,51 @@ class IDIMEstimator(EstimatorMixin):
             )
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConditionWarning)
-            self._check_excitation(rows.W, info, "the recording(s)")
+            try:
+                self._check_excitation(rows.W, info, "the recording(s)")
+            except IdentifiabilityError as exc:
+                self._blame_stiction_rule(recs, rows, info, exc)
+                raise
+        sentence, heavy = dropped_summary(rows.stuck, self.stick_threshold)
+        heavy = heavy + _motionless(recs, nj)
+        for text in heavy:
+            warnings.warn(text, StictionWarning, stacklevel=3)
+            notes.append(text)
         for w in caught:
             notes.append(str(w.message))
             warnings.warn(w.message, w.category, stacklevel=3)
+
+    def _blame_stiction_rule(self, recs, rows: IDIMRows, info: BaseInfo, exc) -> None:
+        """Raise a clearer error when the stiction rule, not the record, left too little.
+
+        Called on a failed excitation check: when equations were dropped and the rows with
+        every equation kept pass the check, the rule made the record unidentifiable; say so.
+        """
+        if rows.stuck is None or not rows.stuck.any() or not recs:
+            return
+        try:
+            full = idim_rows(
+                self.model,
+                recs,
+                info=info,
+                differentiation=self.differentiation,
+                cutoff=rows.cutoff,
+                half_width=self.half_width,
+                decimate=rows.decimate,
+                stick_threshold=0.0,
+            )
+            check_excitation(full.W, info, "the recording(s)", warn=False)
+        except (IdentifiabilityError, SamplingError):
+            return
+        share = rows.stuck.mean(axis=0)
+        per = ", ".join(f"joint {j + 1} {100 * s:.0f} %" for j, s in enumerate(share) if s > 0)
+        raise IdentifiabilityError(
+            f"the stiction rule ({arg('stick_threshold')}={self.stick_threshold!r}) dropped "
+            f"{int(rows.stuck.sum())} of {rows.stuck.size} joint equations ({per}) and what "
+            f"is left cannot be identified ({exc}). With every equation kept the record is "
+            f"well excited: keep them with {arg('stick_threshold', '0', cli='0')} if the joints "
+            "do not really stick."
+        ) from exc
 
     def _solve(self, recs, rows: IDIMRows, info: BaseInfo, loops, notes) -> _Estimate:
         """OLS; then Gautier's WLS (weights 1/σ̂_j from the OLS residual); then IV iterations."""
@@ -295,42 +362,36 @@ class IDIMEstimator(EstimatorMixin):
             est.sigma = joint_sigma(W, y, est.beta, p)
         return est
 
-    def _verdict(self, est: _Estimate, rows: IDIMRows, rel, cond: float, n_recs: int):
+    def _torque_verdict(self, rows: IDIMRows, beta, recs):
+        """``(ok, sentence)``: the residual against the relative limits and the noise floor
+        (`physid.estimators.idim.verdict`)."""
+        e = rows.tau - rows.W @ beta
+        floor = torque_noise_floor(recs, rows.W.shape[1], rows.decimate)
+        ok, sentence = torque_verdict(rows.tau, e, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT)
+        if not ok:
+            sentence += (
+                " Check the channel map (q and tau of each joint, their units and signs), do "
+                "not remove the mean of q or tau (a torque-sensor offset is the model's OF "
+                "term), and check that the model belongs to the arm."
+            )
+        return ok, sentence
+
+    def _verdict(self, est: _Estimate, rows: IDIMRows, rel, cond: float, recs):
         """``(success, message)``: finite estimates, torques explained, IV converged."""
         success = bool(np.all(np.isfinite(est.beta)))
         weighted = "" if self.method == "ols" else ", rows weighted by 1/σ̂_j as solved"
         message = (
-            f"IDIM-{self.method.upper()} on {n_recs} recording(s), {rows.W.shape[0]} rows; "
+            f"IDIM-{self.method.upper()} on {len(recs)} recording(s), {rows.W.shape[0]} rows; "
             f"condition number {cond:.4g} (column-scaled{weighted})."
         )
-        if rows.stuck is not None and rows.stuck.any():
-            share = rows.stuck.mean(axis=0)
-            worst_j = int(np.argmax(share))
-            message += (
-                f" {int(rows.stuck.sum())} of {rows.stuck.size} joint equations dropped near "
-                f"rest (Coulomb joints at |q̇| < {self.stick_threshold:g}·rms, where stiction "
-                f"makes the friction torque unknown; most on joint {worst_j + 1}, "
-                f"{100 * share[worst_j]:.0f} %)."
-            )
-        worst = max((k for k in rel if k != "overall"), key=rel.get)
-        if rel["overall"] > REL_ERROR_FAIL or rel[worst] > REL_ERROR_FAIL_JOINT:
-            success = False
-            message += (
-                f" The model does not explain the torques: relative torque error "
-                f"{rel['overall']:.3g} overall, {rel[worst]:.3g} on {worst} (a fit that explains "
-                f"the data stays below {REL_ERROR_FAIL:g} overall and {REL_ERROR_FAIL_JOINT:g} per "
-                "joint). Check the channel map (q and tau of each joint, their units and signs), "
-                "do not remove the mean of q or tau (a torque-sensor offset is the model's OF "
-                "term), and check that the model belongs to the arm."
-            )
-        changes = est.changes
-        if self.method == "iv" and changes and changes[-1] > self.tol:
-            success = False
-            message += (
-                f" IV did not converge in {len(changes)} iterations (last relative change "
-                f"{changes[-1]:.2g} > tol {self.tol:g}); raise max_iter, check the gains, or "
-                "improve the excitation."
-            )
+        message += rows.choice
+        message += dropped_summary(rows.stuck, self.stick_threshold)[0]
+        ok, sentence = self._torque_verdict(rows, est.beta, recs)
+        success &= ok
+        message += sentence
+        ok, sentence = iv_verdict(est.changes if self.method == "iv" else (), self.tol)
+        success &= ok
+        message += sentence
         return success, message
 
     def _result(
@@ -346,7 +407,8 @@ class IDIMEstimator(EstimatorMixin):
             derived = dict(consistent.standard)
             units.update({n: unit_of(n, model) for n in derived})
         return IDIMResult(
-            stick_threshold=float(self.stick_threshold),
+            stick_threshold=_stick_value(self.stick_threshold),
+            reversal_joints=_reversal_joints(rows),
             names=names,
             parameters=dict(zip(names, est.beta.tolist(), strict=True)),
             base_expressions=dict(zip(names, info.expressions, strict=True)),
@@ -380,6 +442,63 @@ class IDIMEstimator(EstimatorMixin):
             residuals=e,
             model=model,
         )
+
+
+def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
+    """Drop the equations near speed reversals of the joints whose residual shows the step.
+
+    A first OLS fit on the rows kept; for each joint with dry friction whose reversal
+    equations leave an rms residual twice the others' (`elevated_joints`), those equations
+    join ``stuck`` — unless that would leave a base column unexcited or raise the condition
+    number tenfold (then they are kept). ``joints`` (bool per joint) given: drop those joints'
+    (what `validate` repeats). Returns the rows (``W``, ``tau`` zeroed in place).
+    """
+    if rows.reversal is None or not rows.reversal.any():
+        return rows
+    kept = np.any(rows.W != 0.0, axis=2)
+    if joints is None:
+        beta = lstsq(rows.W, rows.tau, np.ones(rows.W.shape[1]))
+        joints = elevated_joints(rows.tau - rows.W @ beta, rows.reversal, kept)
+    if not np.any(joints):
+        return rows
+    extra = rows.reversal & joints[None, :] & kept
+    W2 = np.where(extra[:, :, None], 0.0, rows.W)
+    before = condition_number(rows.W)
+    after = condition_number(W2)
+    if not np.isfinite(after) or after > max(10.0 * before, COND_WARN):
+        return rows
+    stuck = rows.stuck | extra
+    drop_equations(rows.W, rows.tau, extra)
+    return dataclasses.replace(rows, stuck=stuck)
+
+
+def _motionless(recs, nj: int) -> list[str]:
+    """A warning per joint that never moves in any recording (named, with the fix)."""
+    moving = np.zeros(nj, dtype=bool)
+    for rec in recs:
+        names = [f"q{j + 1}" for j in range(nj)]
+        if all(n in rec.names for n in names):
+            moving |= ~motionless_joints(rec.select(names))
+    return [
+        f"joint {j + 1} never moves in the recording(s) (its position stays within its noise): "
+        "its own parameters are identified only through the other joints' motion, if at all, "
+        "and its torque equations carry no information on its friction; move it in the "
+        "experiment (physid design-excitation) or fix its parameters in the model."
+        for j in np.flatnonzero(~moving)
+    ]
+
+
+def _reversal_joints(rows: IDIMRows) -> tuple:
+    """1-based joints whose reversal equations the fit dropped (`_drop_reversals`)."""
+    if rows.reversal is None or rows.stuck is None:
+        return ()
+    return tuple(int(j) + 1 for j in np.flatnonzero(np.any(rows.reversal & rows.stuck, axis=0)))
+
+
+def _stick_value(value):
+    """The ``stick_threshold`` as the result records it: ``"auto"`` or a float."""
+    value = check_stick_threshold(value)
+    return value if value == STICK_AUTO else float(value)
 
 
 def _relative_errors(y: np.ndarray, e: np.ndarray) -> dict[str, float]:

@@ -82,8 +82,11 @@ class IDIMResult(ResultMixin):
     residuals : ndarray, shape (n_rows, n_joints) [N·m]
     model : ChainModel or None
         The model fitted (used by `predict`; not written by ``to_dict``).
-    stick_threshold : float or None
-        The fit's ``stick_threshold`` (`validate` drops the same near-rest rows).
+    stick_threshold : "auto", float or None
+        The fit's ``stick_threshold`` (`validate` drops the same equations).
+    reversal_joints : tuple of int
+        Joints (1-based) whose equations next to a speed reversal the fit dropped because the
+        residual showed the friction step there (``stick_threshold="auto"``).
     """
 
     names: tuple[str, ...]
@@ -118,7 +121,8 @@ class IDIMResult(ResultMixin):
     t: np.ndarray = field(repr=False)
     residuals: np.ndarray = field(repr=False)
     model: Any = field(default=None, repr=False, compare=False)
-    stick_threshold: float | None = None
+    stick_threshold: float | str | None = None
+    reversal_joints: tuple = ()
 
     _history_fields = ("history", "t", "residuals", "covariance")
     _private_fields = ("model",)

@@ -22,8 +22,19 @@ import numpy as np
 from ..._hints import joint_hint
 from ..._validate import check_int, sample_period
 from ...errors import InputError, SamplingError, ShapeError, arg
-from .._stiction import coulomb_joints, drop_equations, stuck_samples
+from .._stiction import (
+    STICK_AUTO,
+    check_stick_threshold,
+    contamination_reach,
+    coulomb_joints,
+    dilate,
+    drop_equations,
+    reversal_samples,
+    sticking_samples,
+    stuck_samples,
+)
 from .base_parameters import BaseInfo, base_regressor, base_regressor_info
+from .choose import cross_validated_error, decimate_candidates, pick
 from .decimation import decimation_edge, parallel_decimate
 from .filtering import DIFFERENTIATIONS, auto_cutoff, default_half_width, states
 
@@ -58,6 +69,12 @@ class IDIMRows:
         Equations dropped (their rows of ``W`` and ``tau`` set to zero) because the joint was
         at or near rest with Coulomb friction (``stick_threshold`` of `idim_rows`); None when
         nothing was dropped.
+    reversal : ndarray of bool, shape (n_rows, n_joints), or None
+        With ``stick_threshold="auto"``: the equations near a reversal of a joint with dry
+        friction (kept; `IDIMEstimator` drops them when the residual shows the friction step
+        there, `physid.estimators._stiction.elevated_joints`).
+    choice : str
+        With ``decimate="auto"``: how nd was chosen (the candidates' cross-validated errors).
     """
 
     W: np.ndarray
@@ -70,6 +87,8 @@ class IDIMRows:
     decimate: int
     dt: float = float("nan")
     stuck: np.ndarray | None = None
+    reversal: np.ndarray | None = None
+    choice: str = ""
 
 
 def _recording_arrays(recording, n_joints: int, torque: bool = True):
@@ -164,41 +183,93 @@ def _resolve_decimate(decimate, cutoff: float, n_shortest: int, n_base: int, nj:
     return check_int(decimate, "decimate", minimum=1)
 
 
-def _check_stick_threshold(stick_threshold) -> float:
-    stick_threshold = float(stick_threshold)
-    if not (np.isfinite(stick_threshold) and 0.0 <= stick_threshold < 1.0):
-        raise InputError(
-            f"{arg('stick_threshold')} must be a fraction of the rms speed in [0, 1); got "
-            f"{stick_threshold!r}."
-        )
-    return stick_threshold
-
-
-def _recording_rows(model, info, k, q, tau, dt, filters, nd, stick):
-    """One recording's rows: state filter, base regressor, parallel filter, stuck equations.
-
-    ``filters`` is ``(differentiation, cutoff, half_width)``; ``stick`` is ``(coulomb,
-    threshold)`` or None. Returns ``(W_k, tau_k, samples, stuck, m_used)``: the decimated rows,
-    the samples of the recording they belong to, the stuck mask (or None) and the filter's M.
-    """
+def _full_rate(model, info, k, q, tau, dt, filters, nds):
+    """One recording's state filter and base regressor at every sample: ``(idx, stacked,
+    qdf, m_used)``, ``stacked`` = [W | τ] (n, n_joints·p + n_joints)."""
     idx, qf, qdf, qddf, m_used = states(q, dt, *filters)
     W = base_regressor(model, info.columns, qf, qdf, qddf)
     stacked = np.concatenate([W.reshape(W.shape[0], -1), tau[idx]], axis=1)
+    nd = max(nds)
     if stacked.shape[0] <= 2 * decimation_edge(nd) + 1:
         raise SamplingError(
-            f"recording {k + 1}: after the state filter {stacked.shape[0]} samples remain, "
-            f"too few for decimate={nd} (the parallel filter drops {decimation_edge(nd)} at "
-            "each end); use a smaller decimate or a longer recording."
+            f"recording {k + 1}: after the state filter (half-width {m_used} samples at each "
+            f"end) {stacked.shape[0]} samples remain, too few for decimate={nd} (the parallel "
+            f"filter drops {decimation_edge(nd)} at each end); use a smaller decimate, a higher "
+            "cutoff or a longer recording."
         )
+    return idx, stacked, qdf, m_used
+
+
+def _recording_rows(full, q, dt, nd, stick, cutoff, nj, p):
+    """One recording's rows at decimation ``nd``: parallel filter, stuck equations.
+
+    ``full`` is `_full_rate`'s output; ``stick`` is ``(coulomb, threshold)`` or None. Returns
+    ``(W_k, tau_k, samples, stuck, reversal)``: the decimated rows, the samples of the
+    recording they belong to, the stuck and reversal masks (or None).
+    """
+    idx, stacked, qdf, _ = full
     dec, kept = parallel_decimate(stacked, nd)
-    nj, p = q.shape[1], info.n_base
     Wk = dec[:, : nj * p].reshape(-1, nj, p)
     tauk = dec[:, nj * p :]
-    stuck = None
+    stuck = reversal = None
     if stick is not None:
-        stuck = stuck_samples(qdf, stick[0], stick[1], decimation_edge(nd))[kept]
+        coulomb, rule = stick
+        if rule == STICK_AUTO:  # sticking shown by the measured positions, on every sample
+            reach = contamination_reach(cutoff, nd)
+            stuck = dilate(sticking_samples(q, dt, coulomb), reach)[idx[kept]]
+            reversal = reversal_samples(qdf, coulomb, reach)[kept] & ~stuck
+        else:
+            stuck = stuck_samples(qdf, coulomb, rule, decimation_edge(nd))[kept]
         drop_equations(Wk, tauk, stuck)  # joint j's equation at that row: no weight
-    return Wk, tauk, idx[kept], stuck, m_used
+    return Wk, tauk, idx[kept], stuck, reversal
+
+
+def _stack(parts):
+    """Concatenate the per-recording parts ``(W, tau, samples, stuck, reversal, target)``."""
+    Ws, taus, samples, stucks, revs, targets = zip(*parts, strict=True)
+    segs = [np.full(s.size, k) for k, s in enumerate(samples)]
+    return (
+        np.concatenate(Ws),
+        np.concatenate(taus),
+        np.concatenate(samples),
+        np.concatenate(segs),
+        None if stucks[0] is None else np.concatenate(stucks),
+        None if revs[0] is None else np.concatenate(revs),
+        None if targets[0] is None else np.concatenate(targets),
+    )
+
+
+def _all_rows(model, info, arrays, dts, filters, nds, stick):
+    """The rows of every recording for each candidate nd; the chosen nd and why.
+
+    With one candidate, its rows. With several (``decimate="auto"``), the rows of each, scored
+    by `physid.estimators.idim.choose.cross_validated_error`; the recordings' full-rate
+    regressors are computed once and dropped after their candidates are decimated.
+    """
+    nj, p = arrays[0][1].shape[1], info.n_base
+    per_nd: dict[int, list] = {nd: [] for nd in nds}
+    m_used = 0
+    for k, (_, q, tau) in enumerate(arrays):
+        full = _full_rate(model, info, k, q, tau, dts[k], filters, nds)
+        m_used = full[3]
+        target = None
+        for nd in nds:
+            Wk, tauk, samples, stuck, rev = _recording_rows(
+                full, q, dts[k], nd, stick, filters[1], nj, p
+            )
+            per_nd[nd].append((Wk, tauk, samples, stuck, rev, target))
+        del full
+    stacked = {nd: _stack(parts) for nd, parts in per_nd.items()}
+    if len(nds) == 1:
+        return nds[0], stacked[nds[0]], m_used, ""
+    lengths = [a[0].size for a in arrays]
+    common = stacked[min(nds)]
+    ev = (common[0], common[1], common[3], common[2])
+    errors = [
+        cross_validated_error((s[0], s[1], s[3], s[2]), ev, lengths) for s in stacked.values()
+    ]
+    nd, why = pick(list(nds), errors)
+    return nd, stacked[nd], m_used, why
 
 
 def idim_rows(
@@ -211,7 +282,7 @@ def idim_rows(
     half_width: int | None = None,
     decimate: int | str = "auto",
     torque: bool = True,
-    stick_threshold: float = 0.0,
+    stick_threshold: float | str = 0.0,
 ) -> IDIMRows:
     """Build the filtered, decimated IDIM regression of one or several recordings.
 
@@ -230,20 +301,24 @@ def idim_rows(
     half_width : int, optional
         FIR half-width M of the physid filter (default ``ceil(8π / cutoff)``).
     decimate : int or "auto"
-        nd; "auto": ``floor(1.6 π / cutoff)``, so that the parallel filter's cut-off
-        (0.8 π / nd) sits at half the state filter's, where the FIR bank is flat (on the paper's
-        arm with σ_q = 1e-4 rad this halves the held-out torque error of nd = 0.8 π / cutoff),
-        lowered when fewer than 20 equations per base parameter would remain.
+        nd; "auto": chosen by the data among ``floor(f π / cutoff)`` for f in 1.6 (the
+        parallel filter's cut-off 0.8 π / nd at half the state filter's, where the FIR bank is
+        flat), 0.8 and 0.5, each lowered when fewer than 20 equations per base parameter would
+        remain: the one with the lowest 5-fold cross-validated torque error
+        (`physid.estimators.idim.choose`; the first stays unless another is 2 % better).
+        Without torques (``torque=False``) the first.
     torque : bool
         False: a recording may lack ``tau1..taun`` (for a prediction from the motion alone);
         ``tau`` of the rows is then zero.
-    stick_threshold : float
-        Drop joint j's equations where its filtered speed |q̇_j| is below ``stick_threshold``
-        times its rms (and within the parallel filter's reach of such a sample), for joints with
-        Coulomb friction (``Fc{j}``) only. While a joint sticks the friction torque holding it
-        lies anywhere in [−Fc, Fc], but the regressor writes Fc·sign(0) = 0, and the filters
-        smear each stick/slip switch; those equations are wrong, not noisy. 0 (the default here)
-        keeps every equation; `IDIMEstimator` uses 0.05.
+    stick_threshold : "auto" or float
+        Which equations of a joint with dry friction (``Fc{j}``, ``Fcp{j}``, ``Fcn{j}``) to
+        drop. While a joint sticks the friction torque holding it lies anywhere in [−Fc, Fc],
+        but the regressor writes Fc·sign(q̇) of a speed that is only noise; those equations are
+        wrong, not noisy. ``"auto"`` (what `IDIMEstimator` uses): where the measured position
+        stays within its noise for a sustained interval, widened by the filters' main lobes
+        (`physid.estimators._stiction`); a number F in (0, 1): where the filtered speed is
+        below F times its rms, widened by the parallel filter's length (earlier versions'
+        rule); 0 (the default here) keeps every equation.
 
     Returns
     -------
@@ -270,29 +345,30 @@ def idim_rows(
     if half_width is None and differentiation == "physid":
         # one M for every recording (the instruments of IDIM-IV and `validate` reuse it)
         half_width = default_half_width(cutoff, n_shortest)
-    nd = _resolve_decimate(decimate, cutoff, n_shortest, info.n_base, nj)
-    stick_threshold = _check_stick_threshold(stick_threshold)
+    if isinstance(decimate, str) and decimate == "auto" and torque:
+        nds = decimate_candidates(cutoff, n_shortest, info.n_base, nj)
+    else:
+        nds = [_resolve_decimate(decimate, cutoff, n_shortest, info.n_base, nj)]
+    stick_threshold = check_stick_threshold(stick_threshold)
     coulomb = coulomb_joints(model)
-    drop = stick_threshold > 0 and bool(coulomb.any())
+    drop = stick_threshold != 0 and bool(coulomb.any())
     stick = (coulomb, stick_threshold) if drop else None
 
-    parts = []
-    m_used = 0
-    for k, (t, q, tau) in enumerate(arrays):
-        Wk, tauk, samples, stuck, m_used = _recording_rows(
-            model, info, k, q, tau, dts[k], (differentiation, cutoff, half_width), nd, stick
-        )
-        parts.append((Wk, tauk, t[samples], np.full(samples.size, k), samples, stuck))
-    Ws, taus, ts, segs, samples, stucks = zip(*parts, strict=True)
+    filters = (differentiation, cutoff, half_width)
+    nd, rows, m_used, why = _all_rows(model, info, arrays, dts, filters, nds, stick)
+    W, tau, samples, segs, stuck, reversal, _ = rows
+    t = np.concatenate([arrays[k][0][samples[segs == k]] for k in range(len(arrays))])
     return IDIMRows(
-        W=np.concatenate(Ws),
-        tau=np.concatenate(taus),
-        t=np.concatenate(ts),
-        segments=np.concatenate(segs),
-        samples=np.concatenate(samples),
+        W=W,
+        tau=tau,
+        t=t,
+        segments=segs,
+        samples=samples,
         cutoff=cutoff,
         half_width=int(m_used),
         decimate=nd,
         dt=float(dts[0]),
-        stuck=np.concatenate(stucks) if drop else None,
+        stuck=stuck if drop else None,
+        reversal=reversal if drop and stick_threshold == STICK_AUTO else None,
+        choice=why,
     )

@@ -34,7 +34,17 @@ from ...models.identifiability import (
     numeric_identifiability,
     raise_if_not_excited,
 )
-from .._stiction import STICK_THRESHOLD, coulomb_joints, drop_equations, stuck_samples
+from .._stiction import (
+    STICK_AUTO,
+    contamination_reach,
+    coulomb_joints,
+    dilate,
+    drop_equations,
+    dropped_summary,
+    elevated_joints,
+    reversal_samples,
+    sticking_samples,
+)
 from ..idim.base_parameters import base_regressor, base_regressor_info
 from ..idim.solve import scaled_lstsq
 from .core import _gram_least_squares, quality_factor
@@ -98,19 +108,38 @@ def _normal_equations(model, columns, qf, qdf, qddf, tau_f, stuck=None):
 
 
 def _stuck_mask(model, f: _Filtered):
-    """Bool per sample and joint: the equations of a Coulomb joint near rest (to drop).
+    """Bool per sample and joint: the equations of a sticking joint with dry friction (to drop).
 
-    Stiction (see `physid.estimators._stiction`): |q̇^f_j| below ``STICK_THRESHOLD`` × its rms,
-    widened by one period at the filter's cut-off (its main lobe; at most M). None when the model
-    has no Coulomb term.
+    Stiction (see `physid.estimators._stiction`): where the measured position stays within its
+    noise for a sustained interval, widened by the filter's main lobe (π/Ω samples; at most M),
+    not its whole length. None when the model has no dry-friction term.
     """
     coulomb = coulomb_joints(model)
     if not coulomb.any():
         return None
-    # the filter's main lobe (one period at the cut-off), not its whole length M: the taps
-    # beyond it are small, and dropping M on each side of every stop would leave few equations
-    reach = min(int(f.half_width), int(np.ceil(2.0 * np.pi / float(f.cutoff))))
-    return stuck_samples(f.qdf, coulomb, STICK_THRESHOLD, reach)
+    m = int(f.half_width)
+    reach = min(m, contamination_reach(float(f.cutoff), 1))
+    stuck = dilate(sticking_samples(f.q, f.dt, coulomb), reach)
+    return stuck[m : m + f.qf.shape[0]]
+
+
+def _drop_reversals(model, f: _Filtered, w, tau_f, stuck):
+    """Also drop the equations next to speed reversals where a first fit's residual shows the
+    friction step (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place."""
+    coulomb = coulomb_joints(model)
+    reach = min(int(f.half_width), contamination_reach(float(f.cutoff), 1))
+    candidate = reversal_samples(f.qdf, coulomb, reach) & ~stuck
+    if not candidate.any():
+        return stuck
+    p = w.shape[-1]
+    beta = scaled_lstsq(w.reshape(-1, p), tau_f.ravel())
+    kept = np.any(w != 0.0, axis=2)
+    joints = elevated_joints(tau_f - w @ beta, candidate, kept)
+    extra = candidate & joints[None, :]
+    if not extra.any():
+        return stuck
+    drop_equations(w, tau_f, extra)
+    return stuck | extra
 
 
 class _LinearSolve:
@@ -192,13 +221,13 @@ def solve_base(est, problem: _Problem) -> _Solution:
     tau_f = f.tau_f
     if stuck is not None:
         w, tau_f = drop_equations(w, tau_f.copy(), stuck)
-        dropped = int(stuck.sum())
-        if dropped:
-            problem.notes.append(
-                f"{dropped} of {stuck.size} joint equations dropped near rest (Coulomb joints at "
-                f"|q̇| < {STICK_THRESHOLD:g}·rms, widened by the filter's main lobe: stiction "
-                "makes the friction torque unknown there)"
-            )
+        stuck = _drop_reversals(model, f, w, tau_f, stuck)
+        sentence, heavy = dropped_summary(
+            stuck, STICK_AUTO, "fit IDIM with --stick-threshold 0, or drop the joint's Coulomb term"
+        )
+        if sentence:
+            problem.notes.append(sentence.strip())
+            problem.notes.extend(heavy)
     w2 = w.reshape(-1, p)
     norms = np.linalg.norm(w2, axis=0)
     problem.before = numeric_identifiability(

@@ -1,0 +1,171 @@
+"""The torque-error part of IDIM's verdict, judged against the noise the data show.
+
+A fit fails on its torques when its residual is both large *relative to the torque*
+(`REL_ERROR_FAIL` overall, `REL_ERROR_FAIL_JOINT` on a joint) and large *against the
+torque-noise floor the record shows* (`NOISE_MARGIN` times it) and above `SMALL_JOINT` of the
+largest joint's torque: a joint whose torque is small and
+noisy is not a model failure because its relative error is large, only when its residual is
+more than noise. The floor of joint j is the white noise of its measured torque (the robust
+standard deviation of the third difference of τ_j over √20) through the parallel filter and
+decimation (the filter's noise gain). The message says what was compared.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = [
+    "torque_noise_floor",
+    "torque_verdict",
+    "iv_verdict",
+    "NOISE_MARGIN",
+    "IV_STABLE",
+    "SMALL_JOINT",
+]
+
+#: A residual is "more than noise" above this multiple of the noise floor.
+NOISE_MARGIN = 3.0
+#: IV whose last three relative changes are below this is stable: not converging to ``tol`` is
+#: noted, not a failure.
+IV_STABLE = 0.05
+#: A joint whose residual rms is below this fraction of the largest joint's torque rms is too
+#: small to fail on its own (the overall limit still holds): a wrist joint's torque next to a
+#: shoulder's.
+SMALL_JOINT = 0.05
+
+
+def torque_noise_floor(recordings, n_joints: int, decimate: int) -> np.ndarray:
+    """Expected rms of white torque noise in the filtered, decimated rows, per joint [N·m].
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        With ``tau1..taun``.
+    n_joints : int
+    decimate : int
+        The parallel filter's nd.
+
+    Returns
+    -------
+    ndarray, shape (n_joints,)
+        ``σ̂_j · √g`` with σ̂_j the robust noise std of the raw τ_j and g the parallel filter's
+        white-noise power gain (1 for nd = 1); NaN where a recording lacks the channel.
+    """
+    from .decimation import _decimation_sos
+
+    names = [f"tau{j + 1}" for j in range(n_joints)]
+    sig = []
+    for rec in recordings:
+        if not all(n in rec.names for n in names):
+            return np.full(n_joints, np.nan)
+        tau = np.asarray(rec.select(names), dtype=float)
+        d3 = np.diff(tau, n=3, axis=0)
+        sig.append(1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20))
+    sigma = np.max(np.array(sig), axis=0)
+    gain = 1.0
+    if decimate > 1:
+        from scipy import signal
+
+        half = 40 * int(decimate)
+        delta = np.zeros(2 * half + 1)
+        delta[half] = 1.0
+        g = signal.sosfiltfilt(_decimation_sos(int(decimate)), delta)
+        gain = float(g @ g)
+    return sigma * math.sqrt(gain)
+
+
+def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
+    """``(ok, sentence)``: is the torque residual a model failure?
+
+    Parameters
+    ----------
+    tau, e : ndarray, shape (n_rows, n_joints)
+        Fitted rows' torques and residuals (dropped equations are zero on both).
+    floor : ndarray, shape (n_joints,)
+        `torque_noise_floor` (NaN: unknown, only the relative limits count).
+    fail_overall, fail_joint : float
+        The relative limits.
+
+    Returns
+    -------
+    ok : bool
+    sentence : str
+        What was compared (empty when nothing is said).
+    """
+    kept = np.any(tau != 0.0, axis=0) | np.any(e != 0.0, axis=0)
+    nz = np.abs(tau) + np.abs(e) > 0
+    n_j = np.maximum(nz.sum(axis=0), 1)
+    rms_e = np.sqrt(np.sum(e**2, axis=0) / n_j)
+    rms_t = np.sqrt(np.sum(tau**2, axis=0) / n_j)
+    rel = rms_e / np.where(rms_t > 0, rms_t, np.inf)
+    overall = float(np.linalg.norm(e) / max(np.linalg.norm(tau), 1e-300))
+    known = np.isfinite(floor)
+    noisy = np.where(known, rms_e <= NOISE_MARGIN * np.where(known, floor, 0.0), False)
+    noisy |= rms_e <= SMALL_JOINT * float(np.max(rms_t))
+    bad_joint = kept & (rel > fail_joint) & ~noisy
+    total_floor = float(np.sqrt(np.sum(np.where(known, floor, 0.0) ** 2 * n_j) / n_j.sum()))
+    total_e = float(np.sqrt(np.sum(e**2) / n_j.sum()))
+    bad_overall = overall > fail_overall and not (
+        known.all() and total_e <= NOISE_MARGIN * total_floor
+    )
+    if not (bad_joint.any() or bad_overall):
+        excused = kept & (rel > fail_joint) & noisy
+        if excused.any():
+            js = ", ".join(f"tau{j + 1}" for j in np.flatnonzero(excused))
+            return True, (
+                f" {js}: relative error above {fail_joint:g}, but the residual is within "
+                f"{NOISE_MARGIN:g}x the torque-noise floor of the record or below "
+                f"{100 * SMALL_JOINT:g} % of the largest joint's torque (rms "
+                + ", ".join(
+                    f"{rms_e[j]:.3g} vs floor {floor[j]:.3g}" for j in np.flatnonzero(excused)
+                )
+                + f", largest torque rms {float(np.max(rms_t)):.3g}): not a model failure."
+            )
+        return True, ""
+    worst = int(np.argmax(np.where(bad_joint, rel, -1.0))) if bad_joint.any() else None
+    parts = [f"relative torque error {overall:.3g} overall"]
+    if worst is not None:
+        parts.append(
+            f"{rel[worst]:.3g} on tau{worst + 1} (residual rms {rms_e[worst]:.3g} against a "
+            f"torque-noise floor of {floor[worst]:.3g} in the record)"
+        )
+    return False, (
+        f" The model does not explain the torques: {', '.join(parts)}; a fit that explains the "
+        f"data stays below {fail_overall:g} overall and {fail_joint:g} per joint, or within "
+        f"{NOISE_MARGIN:g}x the noise floor."
+    )
+
+
+def iv_verdict(changes, tol: float):
+    """``(ok, sentence)`` on IV's convergence: a stable estimate that missed ``tol`` is noted.
+
+    Parameters
+    ----------
+    changes : sequence of float
+        Relative change of the estimate at each IV iteration.
+    tol : float
+
+    Returns
+    -------
+    ok : bool
+        False only when the last change exceeds ``tol`` and one of the last three exceeds
+        `IV_STABLE`.
+    sentence : str
+    """
+    if not changes or changes[-1] <= tol:
+        return True, ""
+    last = changes[-1]
+    if len(changes) >= 3 and max(changes[-3:]) <= IV_STABLE:
+        return True, (
+            f" IV stopped after {len(changes)} iterations with a last relative change of "
+            f"{last:.2g} (> tol {tol:g}, but the last three changes stay below {IV_STABLE:g}: the "
+            "estimate is stable to that level, so this is not a failure; raise max_iter to "
+            "converge to tol)."
+        )
+    return False, (
+        f" IV did not converge in {len(changes)} iterations (last relative change "
+        f"{last:.2g} > tol {tol:g}); raise max_iter, check the gains, or improve the "
+        "excitation."
+    )
