@@ -28,6 +28,9 @@ MAX_HDF5_LINKS = 10_000
 #: Elements of a text dataset (``names``, ``units``, MATLAB ``char``) that are read.
 _MAX_TEXT = 100_000
 _MAX_SOFT_HOPS = 16  # a soft link to a soft link to …: deeper is a loop
+#: Steps (path components) all soft links of one file may take to resolve, together: links whose
+#: targets run through other soft links would otherwise multiply the work exponentially.
+MAX_HDF5_LINK_STEPS = MAX_HDF5_LINKS
 
 
 def _read_hdf5(path: Path, *, matlab: bool = False) -> _Source:
@@ -71,6 +74,7 @@ class _Walk:
     units: dict = field(default_factory=dict)
     unread: dict = field(default_factory=dict)  # name -> _Var without values (kind, why)
     links: int = 0
+    link_steps: int = 0  # path components followed through soft links, all links together
     seen_groups: set = field(default_factory=set)
 
     # ------------------------------------------------------------------ links
@@ -145,6 +149,14 @@ class _Walk:
         # the target path, one component at a time, each link checked as above
         cur = self.f if link.path.startswith("/") else group
         for part in (p for p in link.path.split("/") if p and p != "."):
+            self.link_steps += 1
+            if self.link_steps > MAX_HDF5_LINK_STEPS:
+                raise DataFileError(
+                    f"{self.path}: resolving the soft link {name!r} took the file's soft links "
+                    f"past {MAX_HDF5_LINK_STEPS} steps in all; links whose "
+                    "targets run through other soft links are crafted to multiply the work. "
+                    "Store the channels as datasets (or hard links) and load the file again."
+                )
             if not isinstance(cur, h5py.Group):
                 cur = None
                 break
