@@ -245,3 +245,24 @@ def test_a_few_chained_soft_links_still_load(tmp_path):
         rec = load_recording(path)
     assert "y" in rec.names and "x" in rec.names
     np.testing.assert_array_equal(rec["y"], np.sin(np.arange(_N)))
+
+
+def test_text_references_that_multiply_the_characters_are_refused(tmp_path):
+    """20 references to one text of 100 000 characters: 2e6 characters, over the file's budget."""
+    from physid.errors import DataFileError
+    from physid.signals import load_recording
+    from physid.signals.io.hdf5_reader import MAX_HDF5_TEXT
+
+    path = tmp_path / "textbomb.h5"
+    with h5py.File(path, "w") as f:
+        f["t"] = 1e-3 * np.arange(_N)
+        f["x"] = np.ones(_N)
+        f["#refs#/long"] = np.full(100_000, ord("a"), dtype=np.uint16)
+        names = f.create_dataset("names", (20,), dtype=h5py.ref_dtype)
+        names[:] = [f["#refs#/long"].ref] * 20
+    with pytest.raises(
+        DataFileError,
+        match=rf"textbomb\.h5: its text \('names'.*more than {MAX_HDF5_TEXT} elements and "
+        r"characters \(at least 1000020\)",
+    ):
+        load_recording(path)
