@@ -331,3 +331,33 @@ def test_identify_from_encoder_counts_and_currents_through_the_map(tmp_path):
     assert est["Im6"] == pytest.approx(1e-4, rel=1e-3)
     assert est["Fvm6"] == pytest.approx(1e-3, rel=1e-3)
     assert est["Fcm6"] == pytest.approx(2e-2, rel=1e-3)
+
+
+def test_gear_ratio_columns_for_either_sign_of_the_ratio():
+    """Diagonal K: the columns are N² q̈, N² q̇ and |N| sign(q̇) (also for N < 0)."""
+    from physid.models.transmission import Transmission
+
+    ratios = np.array([-50.0, 80.0])
+    terms = tuple((k, kind, f"{kind}{k}", 0.0) for k in range(2)
+                  for kind in ("inertia", "viscous", "coulomb"))  # fmt: skip
+    tr = Transmission(np.diag(ratios), np.zeros(2), terms=terms)
+    rng = np.random.default_rng(3)
+    qd, qdd = rng.normal(size=(9, 2)), rng.normal(size=(9, 2))
+    cols = tr.columns(qd, qdd)
+    for k, n in enumerate(ratios):
+        other = 1 - k
+        inertia, viscous, coulomb = (cols[:, :, 3 * k + c] for c in range(3))
+        np.testing.assert_allclose(inertia[:, k], n**2 * qdd[:, k], rtol=1e-14)
+        np.testing.assert_allclose(viscous[:, k], n**2 * qd[:, k], rtol=1e-14)
+        np.testing.assert_array_equal(coulomb[:, k], abs(n) * np.sign(qd[:, k]))
+        assert not np.any(cols[:, other, 3 * k : 3 * k + 3])  # a diagonal K couples nothing
+    assert tr.units() == ("kg*m^2", "N*m*s/rad", "N*m") * 2
+
+
+def test_currents_beside_motor_and_joint_torques_name_both_clashes(tmp_path):
+    """im with taum: the message names taum (and any joint torque channel found with them)."""
+    kt = [0.5, 0.5, 0.4, 0.3, 0.3, 0.3]
+    model = physid.load_model(_coupled(tmp_path, extra=f"torque_constants = {kt}\n"))
+    cols = {f"{stem}{k + 1}": np.zeros(4) for stem in ("im", "taum") for k in range(6)}
+    with pytest.raises(ModelFileError, match=r"both motor-side im1..im6 and \['taum1..'\]"):
+        model.joint_side_channels(list(cols), cols.__getitem__, "log.csv")

@@ -291,22 +291,45 @@ def same_mac(a: str, b) -> bool:
 
 
 def _current_umask() -> int:
-    """The process umask (os.umask can only be read by setting it; set it straight back)."""
+    """The process umask: read from ``/proc/self/status`` where Linux shows it, else by setting it
+    and straight back (`os.umask` can only be read that way, which is not thread-safe)."""
+    try:
+        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
 
 
+def _kept_mode(path: Path) -> int | None:
+    """The permission bits of an existing regular file at ``path`` (kept when it is replaced)."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return None
+    return stat.S_IMODE(st.st_mode) if stat.S_ISREG(st.st_mode) else None
+
+
 def atomic_write(
-    path, write: Callable[[Any], None], *, binary: bool = False, mode: int | None = None
+    path,
+    write: Callable[[Any], None],
+    *,
+    binary: bool = False,
+    mode: int | None = None,
+    exclusive: bool = False,
 ) -> Path:
     """Write a file atomically: ``write(handle)`` fills a temporary file that replaces ``path``.
 
     The temporary file lives in the same folder (so the final `os.replace` is an atomic rename on
-    POSIX and Windows); it is flushed and fsync'ed first and given the permissions a plain
-    ``open()`` would give (``0o666`` less the umask; `tempfile.mkstemp` alone makes it private). If
-    ``write`` raises, the temporary file is removed, an existing ``path`` is left untouched, and the
-    exception propagates. A reader never sees half a file.
+    POSIX and Windows); it is flushed and fsync'ed first. A file that replaces an existing regular
+    file keeps that file's permissions (a private ``0o600`` output stays private); a new file gets
+    those a plain ``open()`` would give (``0o666`` less the umask; `tempfile.mkstemp` alone makes
+    it private). If ``write`` raises, the temporary file is removed, an existing ``path`` is left
+    untouched, and the exception propagates. A reader never sees half a file.
 
     The destination must be absent or a regular file: a symbolic link, a device, a FIFO or a
     socket is refused (replacing it would destroy it instead of writing to it), checked before
@@ -320,8 +343,11 @@ def atomic_write(
         Receives the open temporary file (text, UTF-8, or binary with ``binary=True``).
     binary : bool
     mode : int, optional
-        Permissions of the written file (e.g. ``0o600`` for a private one); default those of a
-        plain ``open()``.
+        Permissions of the written file (e.g. ``0o600`` for a private one); default those of the
+        file replaced, or of a plain ``open()`` for a new one.
+    exclusive : bool
+        Never replace: the file is put in place with `os.link`, which fails atomically when
+        ``path`` exists (even one created while the data were written).
 
     Returns
     -------
@@ -329,10 +355,12 @@ def atomic_write(
 
     Raises
     ------
+    FileExistsError
+        ``exclusive=True`` and ``path`` exists (the caller words the refusal).
     OutputError
         ``path`` is a folder, a symbolic link, a device, FIFO or socket; its folder cannot be
         created (a file is in the way) or written (permissions, read-only file system, disk
-        full); the message names ``path``.
+        full, no hard links with ``exclusive=True``); the message names ``path``.
     """
     path = Path(path)
     _check_writable(path)
@@ -347,16 +375,25 @@ def atomic_write(
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
-        # mkstemp creates the file -rw------- ; give it the permissions open() would (0o666 less
-        # the umask), so the outputs are as readable as any other file the user writes
+        # mkstemp creates the file -rw------- ; give it the permissions of the file it replaces,
+        # or those open() would give (0o666 less the umask), so the outputs are as readable as
+        # any other file the user writes and a private file stays private
+        if mode is None:
+            mode = _kept_mode(path)
         os.chmod(tmp, 0o666 & ~_current_umask() if mode is None else mode)
         _check_not_special(path)  # again: it may have appeared while the data were written
-        os.replace(tmp, path)
+        if exclusive:
+            os.link(tmp, path)  # FileExistsError, atomically, if anything is there now
+            os.unlink(tmp)
+        else:
+            os.replace(tmp, path)
     except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, FileExistsError) and exclusive:
+            raise
         if isinstance(exc, OSError) and not isinstance(exc, PhysidError):
             # a failure of the file system (disk full, folder replaced meanwhile): name the
             # user's path, not the temporary file

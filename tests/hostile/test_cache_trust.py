@@ -232,3 +232,33 @@ def test_library_in_group_writable_folder_is_not_loaded(cache, tmp_path, monkeyp
     monkeypatch.setattr(codegen, "_LIBRARIES", {})
     assert codegen.build_shared_library(GOOD, "trustdir").answer() == 666
     assert marker.exists()
+
+
+@needs_cc
+def test_library_swapped_after_its_check_is_not_the_one_loaded(cache, tmp_path, monkeypatch):
+    """The bytes verified are the bytes loaded: a file swapped on disk between the HMAC check
+    and the load is not loaded (the check's own copy is, from a private temporary folder)."""
+    import physid._paths
+
+    _built_elsewhere("trustswap")
+    (lib,) = cache.glob("trustswap-*.so")
+    marker = tmp_path / "swapped-library-ran"
+    evil = _evil_library(tmp_path, marker)
+    read = physid._paths.read_private
+
+    def read_then_swap(path):
+        data = read(path)
+        if str(path).endswith(".hmac"):  # the library was read already: swap it now
+            lib.write_bytes(evil)
+        return data
+
+    monkeypatch.setattr(physid._paths, "read_private", read_then_swap)
+    monkeypatch.setattr(codegen, "_LIBRARIES", {})
+    loaded, load = [], codegen._load
+    monkeypatch.setattr(codegen, "_load", lambda path: loaded.append(path) or load(path))
+    assert codegen.build_shared_library(GOOD, "trustswap").answer() == 7
+    assert not marker.exists()
+    assert lib.read_bytes() == evil  # the swap happened, after the check
+    (path,) = loaded
+    assert os.path.basename(os.path.dirname(path)).startswith("physid-load-")
+    assert not os.path.exists(os.path.dirname(path))  # the private copy is removed

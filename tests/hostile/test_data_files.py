@@ -205,3 +205,64 @@ def _vds(env):
         layout[:] = h5py.VirtualSource(str(other), "x", shape=(_SECRET.size,))
         f.create_virtual_dataset("x", layout)
     env.add_file("vds_h5", path)
+
+
+def _link_bomb(path, levels=4, parts=40):
+    """Soft links whose targets run through other soft links: ``s_k`` names ``s_(k-1)``
+    ``parts`` times, so resolving ``s_levels`` naively takes ``parts**levels`` steps."""
+    with h5py.File(path, "w") as f:
+        f["t"] = 1e-3 * np.arange(_N)
+        f["s0"] = h5py.SoftLink("/")
+        for k in range(1, levels + 1):
+            f[f"s{k}"] = h5py.SoftLink("/" + "/".join([f"s{k - 1}"] * parts))
+    return path
+
+
+def test_soft_links_that_multiply_the_work_are_refused(tmp_path):
+    """40**4 steps are refused after the file's budget of link steps, naming file and link."""
+    from physid.errors import DataFileError
+    from physid.signals import load_recording
+    from physid.signals.io.hdf5_reader import MAX_HDF5_LINK_STEPS
+
+    path = _link_bomb(tmp_path / "bomb.h5")
+    with pytest.raises(
+        DataFileError,
+        match=rf"bomb\.h5: resolving the soft link '[\w.]+' took .* past {MAX_HDF5_LINK_STEPS} steps",
+    ):
+        load_recording(path)
+
+
+def test_a_few_chained_soft_links_still_load(tmp_path):
+    """Below the budget, links through links resolve as before (3**2 steps)."""
+    from physid.signals import load_recording
+    from physid.signals.io import DataFileWarning
+
+    path = _link_bomb(tmp_path / "small.h5", levels=2, parts=3)
+    with h5py.File(path, "a") as f:
+        f["x"] = np.sin(np.arange(_N))
+        f["y"] = h5py.SoftLink("/s2/s2/x")
+    with pytest.warns(DataFileWarning):
+        rec = load_recording(path)
+    assert "y" in rec.names and "x" in rec.names
+    np.testing.assert_array_equal(rec["y"], np.sin(np.arange(_N)))
+
+
+def test_text_references_that_multiply_the_characters_are_refused(tmp_path):
+    """20 references to one text of 100 000 characters: 2e6 characters, over the file's budget."""
+    from physid.errors import DataFileError
+    from physid.signals import load_recording
+    from physid.signals.io.hdf5_reader import MAX_HDF5_TEXT
+
+    path = tmp_path / "textbomb.h5"
+    with h5py.File(path, "w") as f:
+        f["t"] = 1e-3 * np.arange(_N)
+        f["x"] = np.ones(_N)
+        f["#refs#/long"] = np.full(100_000, ord("a"), dtype=np.uint16)
+        names = f.create_dataset("names", (20,), dtype=h5py.ref_dtype)
+        names[:] = [f["#refs#/long"].ref] * 20
+    with pytest.raises(
+        DataFileError,
+        match=rf"textbomb\.h5: its text \('names'.*more than {MAX_HDF5_TEXT} elements and "
+        r"characters \(at least 1000020\)",
+    ):
+        load_recording(path)

@@ -191,3 +191,29 @@ def test_partial_segments():
     # a first half at rest (a tenth of the energy or less) is not judged
     rest = np.where(t < 2, 0.01 * noise, y)
     assert partial_segments(t, rest, y) is None
+
+
+def test_a_parameter_without_effect_is_not_named_under_a_still_joint():
+    """Joint 2 still: Fv2 (all its Jacobian energy on joint 2) is named under it; a parameter
+    whose column is zero (inert) is named once on its own, never as acting through joint 2."""
+    from types import SimpleNamespace
+
+    from physid.estimators.input_error.conclude import _implausible
+
+    rng = np.random.default_rng(4)
+    t = np.linspace(0, 5, 5001)
+    q = np.c_[np.sin(t), np.zeros_like(t)] + 1e-4 * rng.normal(size=(t.size, 2))
+    jac = np.zeros((t.size, 2, 3))  # (sample, joint, parameter): rows sample-major
+    jac[:, :, 0] = rng.normal(size=(t.size, 2))  # "m": acts on both joints
+    jac[:, 1, 1] = rng.normal(size=t.size)  # "Fv2": only on joint 2's equation
+    problem = SimpleNamespace(
+        free_names=["m", "Fv2", "z"], tau_f=rng.normal(size=(t.size, 2)),
+        filtered=SimpleNamespace(q=q),
+    )  # fmt: skip
+    solution = SimpleNamespace(jacobian=jac.reshape(-1, 3), residuals=rng.normal(size=(t.size, 2)))
+    still, inert, perfect = _implausible(problem, solution)
+    assert re.search(
+        r"^joint 2 never moves .*, so Fv2 \(which act only through its motion\)", still
+    )
+    assert inert.startswith("z change no torque in this record (their columns of the Jacobian")
+    assert perfect is None

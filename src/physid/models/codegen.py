@@ -523,8 +523,33 @@ def _build_private(source, tag: str, cc):
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def _load_bytes(data: bytes, name: str):
+    """Load exactly ``data`` (bytes already verified): a copy in a fresh private temporary
+    folder (mode 0700, only this user can write it) is loaded and removed with its folder, so
+    the library loaded is the one checked, not whatever the cache path holds by then."""
+    import os
+    import shutil
+    import tempfile
+
+    folder = tempfile.mkdtemp(prefix="physid-load-")
+    try:
+        copy = os.path.join(folder, name)
+        fd = os.open(copy, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o700)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        return _load(copy)  # a loaded library outlives its file
+    except OSError:
+        return None
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def _load_cached(trusted, source, tag: str, key: str, cc):
-    """Load ``tag-key.so`` from the trusted cache if its HMAC verifies, else build it there."""
+    """Load ``tag-key.so`` from the trusted cache if its HMAC verifies, else build it there.
+
+    The bytes verified are the bytes loaded (`_load_bytes`): the cache file is never loaded by
+    its path, which another process could change between the check and the load.
+    """
     import os
     import subprocess
     import tempfile
@@ -537,13 +562,15 @@ def _load_cached(trusted, source, tag: str, key: str, cc):
     lib_path = folder / name
     mac_path = folder / f"{name}.hmac"
 
-    def intact() -> bool:  # the library's bytes still match the MAC written beside it
+    def verified() -> bytes | None:  # the library's bytes, if they match the MAC beside it
         data, mac = read_private(lib_path), read_private(mac_path)
         if data is None or mac is None:
-            return False
-        return same_mac(_library_mac(secret, name, data), mac.decode("ascii", "replace").strip())
+            return None
+        ok = same_mac(_library_mac(secret, name, data), mac.decode("ascii", "replace").strip())
+        return data if ok else None
 
-    if not intact():  # absent, or altered since it was built: build it again, never load it
+    data = verified()
+    if data is None:  # absent, or altered since it was built: build it again, never load it
         if cc is None:
             return None
         try:
@@ -557,9 +584,10 @@ def _load_cached(trusted, source, tag: str, key: str, cc):
                 atomic_write(mac_path, lambda fh: fh.write(mac + "\n"), mode=0o600)
         except (OSError, subprocess.SubprocessError):
             return None
-        if not intact():  # another process replaced it meanwhile: load nothing unverified
+        data = verified()
+        if data is None:  # another process replaced it meanwhile: load nothing unverified
             return None
-    return _load(lib_path)
+    return _load_bytes(data, name)
 
 
 def c_pd_rhs_source(eqs) -> str:

@@ -22,8 +22,8 @@ column is, for motor k with row kₖ of K,
 
 (W. Khalil and E. Dombre, *Modeling, Identification and Control of Robots*, 2002, section 9.3
 writes the coupled wrist the same way). For a diagonal K the three columns are N² q̈, N² q̇ and
-N sign(q̇): the joint-side armature and friction of that joint, which the base parameters then
-merge.
+|N| sign(q̇) (N sign(N q̇) = |N| sign(q̇), whatever the sign of the ratio): the joint-side
+armature and friction of that joint, which the base parameters then merge.
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ class Transmission:
         """Parameter names of the motor-side terms, in the order of `terms`."""
         return tuple(t[2] for t in self.terms)
 
-    def units(self, joint_types=None) -> tuple:
+    def units(self) -> tuple:
         """SI units of the motor-side parameters (the motor's own angle is in rad)."""
         return tuple(_TERM_UNIT[t[1]] for t in self.terms)
 
@@ -216,7 +216,7 @@ class Transmission:
                 )
             clash = [f"{target}{k + 1}" for k in range(n) if f"{target}{k + 1}" in have]
             if stem == "im" and "taum1" in have:
-                clash = ["taum1.."]
+                clash.append("taum1..")
             if clash:
                 raise ModelFileError(
                     f"{source}: both motor-side {stem}1..{stem}{n} and {clash} are given for "

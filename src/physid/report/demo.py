@@ -30,7 +30,9 @@ import json
 import math
 import os
 import platform
+import re
 import shutil
+import stat
 import sys
 import tempfile
 import time
@@ -39,6 +41,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from .._paths import _check_not_special
 from ..errors import InputError, arg
 from ..experiments.data import SectionData
 from .html import Html, ReportPaths, ReportSection, Table, write_report
@@ -617,25 +620,38 @@ def _stage(out: Path) -> Path:
         ) from None
 
 
+#: The files a report writes per figure: ``<name>.png``, names as `FigureSpec` allows them.
+_FIGURE_FILE = re.compile(r"[A-Za-z0-9_-]+\.png")
+
+
 def _move_in(staging: Path, out: Path) -> None:
     """Move the staged outputs into ``out``: one rename when ``out`` is new, else file by file.
 
-    Outputs of an earlier demo in ``out`` (listed in its results.json) that this run did not
-    write are removed, so the folder never mixes two runs; other files are left alone.
+    Figures of an earlier demo in ``out`` (listed in its results.json) that this run did not
+    write are removed, so the folder never mixes two runs: only regular files named as the
+    report names its PNGs, never a link, a special file or another name (a results.json that
+    lists ``thesis.tex`` removes nothing). Each destination is checked as `atomic_write` checks
+    its own (no link, FIFO or device is replaced); other files are left alone.
     """
     if not out.exists():
         os.replace(staging, out)
         return
     old: set[str] = set()
-    with contextlib.suppress(OSError, ValueError, KeyError, TypeError):
+    with contextlib.suppress(OSError, ValueError, KeyError, TypeError, AttributeError):
         meta = json.loads((out / "results.json").read_text(encoding="utf-8"))["metadata"]
-        old = {str(n) for n in meta.get("figures", []) if "/" not in str(n)}
+        old = {n for n in meta.get("figures", []) if isinstance(n, str)}
     new = {p.name for p in staging.iterdir()}
+    for name in new:  # all before anything is moved: a refusal leaves the old run whole
+        _check_not_special(out / name)
     for name in sorted(old - new):
+        if not _FIGURE_FILE.fullmatch(name):
+            continue
         with contextlib.suppress(FileNotFoundError):
-            (out / name).unlink()
+            if stat.S_ISREG(os.lstat(out / name).st_mode):
+                (out / name).unlink()
     # the page last: once it is replaced, every file it describes is in place
     for name in sorted(new, key=lambda n: n == "report.html"):
+        _check_not_special(out / name)  # again: it may have appeared meanwhile
         os.replace(staging / name, out / name)
     staging.rmdir()
 

@@ -80,8 +80,9 @@ def write_recording(rec, path, *, overwrite: bool = True) -> Path:
             f"{path}: cannot save to suffix {path.suffix!r}; use one of {list(_SAVE_SUFFIXES)} "
             "(.mat and HDF5 are read-only in physid)."
         )
+    exists = DataFileError(f"{path} exists; pass overwrite=True or choose another name.")
     if path.exists() and not overwrite:
-        raise DataFileError(f"{path} exists; pass overwrite=True or choose another name.")
+        raise exists
     if path.parent and not path.parent.exists():
         raise DataFileError(f"{path}: the folder {path.parent} does not exist; create it first.")
     meta = json.dumps(dict(rec.metadata), default=str)
@@ -97,7 +98,8 @@ def write_recording(rec, path, *, overwrite: bool = True) -> Path:
         table = str(np.column_stack([rec.t, rec.data]).tolist())
         body = table[2:-2].replace("], [", "\n").replace(", ", ",")
         text = f"# metadata: {meta}\n{header}{body}\n"
-        atomic_write(path, lambda fh: fh.write(text))
+        write = lambda fh: fh.write(text)  # noqa: E731
+        binary = False
     else:
         arrays = {
             "t": rec.t,
@@ -106,5 +108,10 @@ def write_recording(rec, path, *, overwrite: bool = True) -> Path:
             "units": np.array(rec.units, dtype=str),
             "metadata": np.array(meta),
         }
-        atomic_write(path, lambda fh: np.savez(fh, **arrays), binary=True)
+        write = lambda fh: np.savez(fh, **arrays)  # noqa: E731
+        binary = True
+    try:  # without overwrite, a file that appears meanwhile is never replaced either
+        atomic_write(path, write, binary=binary, exclusive=not overwrite)
+    except FileExistsError:
+        raise exists from None
     return path

@@ -209,7 +209,9 @@ def _implausible(problem: _Problem, solution: _Solution) -> list[str | None]:
     only through its motion are free, and a fit exact to rounding on torques that never change.
 
     A free parameter acts only through joint j when its Jacobian column has (almost) all its
-    energy on joint j's equations (friction, rotor inertia) or none at all.
+    energy on joint j's equations (friction, rotor inertia). A parameter whose column has no
+    energy at all acts through no joint here: it is named once, on its own, not under every
+    still joint.
     """
     names, nj = problem.free_names, problem.tau_f.shape[1]
     out: list[str | None] = []
@@ -224,7 +226,9 @@ def _implausible(problem: _Problem, solution: _Solution) -> list[str | None]:
         energy = np.sum(jac.reshape(-1, nj, jac.shape[1]) ** 2, axis=0)  # (joint, parameter)
         total = energy.sum(axis=0)
         for j in still:
-            own = [n for k, n in enumerate(names) if not energy[j, k] < 0.99 * total[k]]
+            own = [
+                n for k, n in enumerate(names) if total[k] > 0 and energy[j, k] >= 0.99 * total[k]
+            ]
             if not own:
                 continue
             q = problem.filtered.q[:, j]
@@ -234,6 +238,13 @@ def _implausible(problem: _Problem, solution: _Solution) -> list[str | None]:
                 "(which act only through its motion) are not in the data and their values are "
                 f"noise. Move joint {j + 1} in the experiment (physid design-excitation), or hold "
                 "them at known values (identify = false in the model file)."
+            )
+        inert = [n for k, n in enumerate(names) if not total[k] > 0]
+        if inert:
+            out.append(
+                f"{', '.join(inert)} change no torque in this record (their columns of the "
+                "Jacobian are zero), so their values are not in the data. Record a motion that "
+                "excites them, or hold them at known values (identify = false in the model file)."
             )
     torque_names = [f"tau{j + 1}" for j in range(nj)]
     out.append(too_perfect(solution.residuals, problem.tau_f, torque_names))

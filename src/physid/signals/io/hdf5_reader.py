@@ -27,7 +27,13 @@ from .variables import _MAX_DEPTH, _finish, _from_mapping, _Source, _Var
 MAX_HDF5_LINKS = 10_000
 #: Elements of a text dataset (``names``, ``units``, MATLAB ``char``) that are read.
 _MAX_TEXT = 100_000
+#: Text elements and characters one file may make physid read in all, references followed
+#: included: 100 000 references to 100 000 characters each would be 10**10.
+MAX_HDF5_TEXT = 1_000_000
 _MAX_SOFT_HOPS = 16  # a soft link to a soft link to …: deeper is a loop
+#: Steps (path components) all soft links of one file may take to resolve, together: links whose
+#: targets run through other soft links would otherwise multiply the work exponentially.
+MAX_HDF5_LINK_STEPS = MAX_HDF5_LINKS
 
 
 def _read_hdf5(path: Path, *, matlab: bool = False) -> _Source:
@@ -71,6 +77,8 @@ class _Walk:
     units: dict = field(default_factory=dict)
     unread: dict = field(default_factory=dict)  # name -> _Var without values (kind, why)
     links: int = 0
+    link_steps: int = 0  # path components followed through soft links, all links together
+    text_read: int = 0  # text elements and characters read, references followed included
     seen_groups: set = field(default_factory=set)
 
     # ------------------------------------------------------------------ links
@@ -145,6 +153,14 @@ class _Walk:
         # the target path, one component at a time, each link checked as above
         cur = self.f if link.path.startswith("/") else group
         for part in (p for p in link.path.split("/") if p and p != "."):
+            self.link_steps += 1
+            if self.link_steps > MAX_HDF5_LINK_STEPS:
+                raise DataFileError(
+                    f"{self.path}: resolving the soft link {name!r} took the file's soft links "
+                    f"past {MAX_HDF5_LINK_STEPS} steps in all; links whose "
+                    "targets run through other soft links are crafted to multiply the work. "
+                    "Store the channels as datasets (or hard links) and load the file again."
+                )
             if not isinstance(cur, h5py.Group):
                 cur = None
                 break
@@ -190,6 +206,7 @@ class _Walk:
         if n > _MAX_TEXT:
             self.unread[name] = _Var(name, None, "", "text", f"text of {n} elements", n)
             return
+        self.count_text(n, name)
         if mclass == "char" and ds.dtype.kind in "iu":  # MATLAB v7.3 char: UTF-16 code units
             codes = np.asarray(ds[()]).reshape(-1)
             self.items[name] = np.array("".join(chr(int(c)) for c in codes if 0 <= c < 0x110000))
@@ -221,11 +238,23 @@ class _Walk:
                 return ""
             if target.dtype.kind not in "iuSU" and not h5py.check_string_dtype(target.dtype):
                 return ""
+            self.count_text(int(np.prod(target.shape)), name)
             chars = np.asarray(target[()]).reshape(-1)
             if chars.dtype.kind in "iu":
                 return "".join(chr(int(c)) for c in chars if 0 <= c < 0x110000)
             return "".join(_decode(c) for c in chars)
         return _decode(value)
+
+    def count_text(self, n: int, name: str) -> None:
+        """Add ``n`` text elements to the file's total; refuse past `MAX_HDF5_TEXT`."""
+        self.text_read += n
+        if self.text_read > MAX_HDF5_TEXT:
+            raise DataFileError(
+                f"{self.path}: its text ({name!r} and the text before it, references followed) "
+                f"holds more than {MAX_HDF5_TEXT} elements and characters (at least "
+                f"{self.text_read}); physid reads names and units of a few channels. The file is "
+                "damaged or crafted: keep the text short, or save the channels without it."
+            )
 
     def skip(self, name: str, why: str) -> None:
         self.unread[name] = _Var(name, None, "", "skipped", why, -1)
