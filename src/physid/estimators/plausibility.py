@@ -148,30 +148,31 @@ def flipped_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
     -------
     str or None
     """
-    t, y, y_hat = (np.asarray(a, dtype=float).ravel() for a in (t, y, y_hat))
-    if y.size < 8 * segments or not (np.all(np.isfinite(y)) and np.all(np.isfinite(y_hat))):
+    parts = _segment_correlations(t, y, y_hat, segments)
+    if parts is None:
         return None
-    edges, corr, _ = _segment_correlations(y, y_hat, segments)
+    t, edges, corr, _ = parts
     if not np.any(np.isfinite(corr)):
         return None
     hi, lo = int(np.nanargmax(corr)), int(np.nanargmin(corr))
     if corr[hi] < FLIP_CORRELATION or corr[lo] > -FLIP_CORRELATION:
         return None
-
-    def span(k: int) -> str:
-        return f"{t[edges[k]]:.4g}–{t[edges[k + 1] - 1]:.4g} s"
-
     return (
-        f"the identified model predicts {name} during {span(hi)} (correlation {corr[hi]:.2f}) but "
-        f"its mirror image during {span(lo)} (correlation {corr[lo]:.2f}): the sign of the "
+        f"the identified model predicts {name} during {_span(t, edges, hi)} (correlation "
+        f"{corr[hi]:.2f}) but its mirror image during {_span(t, edges, lo)} (correlation "
+        f"{corr[lo]:.2f}): the sign of the "
         "output or of the input's gain changed during the record, and no single model explains "
         "both parts. Check the channels' signs and fit each part on its own."
     )
 
 
-def _segment_correlations(y, y_hat, segments: int):
-    """Edges, correlation of ``y`` with ``y_hat`` and energy of ``y`` (about their means) in
-    each of ``segments`` equal parts of the record."""
+def _segment_correlations(t, y, y_hat, segments: int):
+    """``(t, edges, correlation, energy)``: the correlation of ``y`` with ``y_hat`` and the energy
+    of ``y`` (about their means) in each of ``segments`` equal parts of the record, as float
+    arrays; None when the record is too short for that many parts or not finite."""
+    t, y, y_hat = (np.asarray(a, dtype=float).ravel() for a in (t, y, y_hat))
+    if y.size < 8 * segments or not (np.all(np.isfinite(y)) and np.all(np.isfinite(y_hat))):
+        return None
     edges = np.linspace(0, y.size, segments + 1).astype(int)
     corr = np.full(segments, np.nan)
     energy = np.zeros(segments)
@@ -183,7 +184,12 @@ def _segment_correlations(y, y_hat, segments: int):
         den = float(np.linalg.norm(a) * np.linalg.norm(b))
         if den > 0:
             corr[k] = float(a @ b) / den
-    return edges, corr, energy
+    return t, edges, corr, energy
+
+
+def _span(t, edges, k: int) -> str:
+    """The time span of part ``k``, as the sentences quote it."""
+    return f"{t[edges[k]]:.4g}–{t[edges[k + 1] - 1]:.4g} s"
 
 
 #: `partial_segments`: the prediction "follows" the output in a part where their correlation is
@@ -217,10 +223,10 @@ def partial_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
     -------
     str or None
     """
-    t, y, y_hat = (np.asarray(a, dtype=float).ravel() for a in (t, y, y_hat))
-    if y.size < 8 * segments or not (np.all(np.isfinite(y)) and np.all(np.isfinite(y_hat))):
+    parts = _segment_correlations(t, y, y_hat, segments)
+    if parts is None:
         return None
-    edges, corr, energy = _segment_correlations(y, y_hat, segments)
+    t, edges, corr, energy = parts
     judged = np.isfinite(corr) & (energy >= 0.1 * energy.max())
     follows = judged & (corr >= FOLLOW_CORRELATION)
     misses = judged & (corr <= MISS_CORRELATION)
@@ -228,10 +234,10 @@ def partial_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
         return None
     good = int(np.flatnonzero(follows)[np.argmax(corr[follows])])
     bad = np.flatnonzero(misses)
-    spans = ", ".join(f"{t[edges[k]]:.4g}–{t[edges[k + 1] - 1]:.4g} s" for k in bad[:4])
+    spans = ", ".join(_span(t, edges, k) for k in bad[:4])
     return (
-        f"the identified model follows {name} during {t[edges[good]]:.4g}–"
-        f"{t[edges[good + 1] - 1]:.4g} s (correlation {corr[good]:.2f}) but not during {spans} "
+        f"the identified model follows {name} during {_span(t, edges, good)} (correlation "
+        f"{corr[good]:.2f}) but not during {spans} "
         f"(correlation at most {np.max(corr[bad]):.2f}), where the output moves as much: the "
         "system, or the sign or gain of a channel, changed during the record, and no single "
         "model explains it. Check the channels and fit each part on its own."
