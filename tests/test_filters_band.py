@@ -90,7 +90,9 @@ def test_auto_cutoff_stays_just_above_the_motion_of_a_quantised_record(axis, axi
         warnings.simplefilter("ignore")
         fit = InputErrorEstimator(axis, cutoff="auto").fit(rec).result_
     assert fit.cutoff == pytest.approx(choice.cutoff)
-    assert abs(fit.parameters["m1"] / 12.0 - 1) < 2e-4
+    # 2.3e-4 with the sustained-sticking rule (5e-5 with the speed rule it replaced: the rule's
+    # reversal drops keep more equations near the axis's turns)
+    assert abs(fit.parameters["m1"] / 12.0 - 1) < 3e-4
     assert abs(fit.parameters["OF1"] / 1.5 - 1) < 2e-3
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import physid
+from physid.cli._common import cli_words
 from physid.errors import IdentifiabilityError, InputError, SamplingError
 from physid.estimators._stiction import (
     coulomb_joints,
@@ -131,7 +132,8 @@ def test_heavy_loss_names_the_joint_and_the_fix():
     sentence, heavy = dropped_summary(stuck, "auto")
     assert "90 of 300" in sentence and "joint 2 80 %" in sentence and "joint 3 10 %" in sentence
     assert len(heavy) == 1 and heavy[0].startswith("joint 2 lost 80 %")
-    assert "--stick-threshold 0" in heavy[0]
+    assert "keep them with stick_threshold=0" in heavy[0]  # the library's words
+    assert "--stick-threshold 0" in cli_words(heavy[0])  # and the command line's
 
 
 def test_rule_that_empties_a_column_is_blamed_not_the_record(sticking):
@@ -155,6 +157,10 @@ def test_verdict_judges_the_residual_against_the_noise_floor():
     # still not a failure on its own
     ok, _ = torque_verdict(tau, e, np.array([0.0, 0.0]), 0.2, 0.5)
     assert ok
+    # where the record does show a floor, a small joint's residual 10x above it is a failure
+    # however small the joint (a wrist whose coupled motor the model leaves out)
+    ok, sentence = torque_verdict(tau, e, np.array([0.01, 0.002]), 0.2, 0.5)
+    assert not ok and "on tau2" in sentence
     # a residual as large as the torque, far above the floor: a failure that says what it
     # compared
     bad = np.column_stack([tau[:, 0] * 0.9, e[:, 1]])

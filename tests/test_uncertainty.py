@@ -130,7 +130,8 @@ def test_filtered_standard_errors_use_the_parallel_filters_correlation():
 
     nd = 20
     rho = _decimated_noise_correlation(nd)
-    assert rho[0] == 1.0 and 0.1 < rho[1] < 0.3
+    # 0.078 for the 0.001 dB-ripple Chebyshev decimation filter (0.1-0.3 with 0.05 dB ripple)
+    assert rho[0] == 1.0 and 0.05 < rho[1] < 0.3
     x = np.random.default_rng(3).standard_normal((400_000, 1))
     y, _ = parallel_decimate(x, nd)
     y = y[:, 0] - y[:, 0].mean()

@@ -355,6 +355,7 @@ _CLI_WORDS = (
     (re.compile(r"load_model\('([^']*)'\)"), r"--model \1"),
     (re.compile(r"delimiter='([^']*)'"), r"--delimiter '\1'"),
     (re.compile(r"bias_compensation=True"), "--bias-compensation"),  # RLS's withholding reason
+    (re.compile(r"\bstick_threshold=([\w.]+)"), r"--stick-threshold \1"),  # the stiction notes
     (re.compile(r"\(Recording\.resample\)"), "(--resample)"),
     (re.compile(r"\brate=(\d+)"), r"--rate \1"),
     (re.compile(r"\brate="), "--rate"),

@@ -250,7 +250,8 @@ def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]
     rule : "auto" or float
         The ``stick_threshold`` that made it.
     fix : str, optional
-        How to keep the equations (default: ``--stick-threshold 0``).
+        How to keep the equations (default: ``stick_threshold=0``, which the command line words
+        as ``--stick-threshold 0``).
 
     Returns
     -------
@@ -271,10 +272,11 @@ def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]
     )
     per = ", ".join(f"joint {j + 1} {100 * s:.0f} %" for j, s in enumerate(share) if s > 0)
     sentence = f" {int(stuck.sum())} of {stuck.size} joint equations dropped {how}: {per}."
-    fix = fix or "keep them with --stick-threshold 0 (stick_threshold=0)"
+    fix = fix or "keep them with stick_threshold=0"
+    rule_name = "sustained sticking" if rule == STICK_AUTO else f"speed below {float(rule):g}·rms"
     heavy = [
-        f"joint {j + 1} lost {100 * s:.0f} % of its equations to the stiction rule "
-        f"(stick_threshold={rule!r}); if the joint does not really stick there, {fix}."
+        f"joint {j + 1} lost {100 * s:.0f} % of its equations to the stiction rule ({rule_name}); "
+        f"if the joint does not really stick there, {fix}."
         for j, s in enumerate(share)
         if s > HEAVY_SHARE
     ]

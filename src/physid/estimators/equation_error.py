@@ -245,7 +245,8 @@ def record_arrays(model, recording):
     if missing:
         raise InputError(
             f"the recording lacks channel(s) {missing} of model {model.name!r} (it has "
-            f"{list(recording.names)}); map them with --map or the model file's [recording]."
+            f"{list(recording.names)}); map them with {arg('channels')} or the model file's "
+            "[recording] table."
         )
     return recording.select(model.input_names), recording.select(model.output_names), recording.dt
 

@@ -167,7 +167,7 @@ def _rowless_joints(stuck, names) -> list[str]:
     return [
         f"{name}: every one of its {stuck.shape[0]} equations was dropped by the stiction rule, "
         "so the fit cannot be checked on this joint (its relative error is null, overall "
-        "covers the other joints only); refit with --stick-threshold 0, or record motion "
+        "covers the other joints only); refit with stick_threshold=0, or record motion "
         "where the joint moves"
         for j, name in enumerate(names)
         if stuck[:, j].all()

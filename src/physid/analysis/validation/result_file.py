@@ -156,6 +156,16 @@ def _object(p, key, value) -> None:
         raise _refuse(p, key, "an object", value)
 
 
+def _stick_threshold(p, key, value) -> None:
+    """The fit's stiction rule: ``"auto"`` (sustained sticking), a number (the speed rule) or
+    null."""
+    if value == "auto":
+        return
+    if isinstance(value, str):
+        raise _refuse(p, key, '"auto", a number or null', value)
+    _number(p, key, value, null=True)
+
+
 def _setting(*, number: bool = False, integer: bool = False, text: bool = True):
     """A fit setting handed to an estimator (which checks the rest): null, a string, or (where
     allowed) a positive number or integer."""
@@ -220,7 +230,7 @@ _KEYS = {
     "units": _optional(_text_map),
     "settings": _settings,
     "dt": lambda p, k, v: _number(p, k, v, null=True),
-    "stick_threshold": lambda p, k, v: _number(p, k, v, null=True),
+    "stick_threshold": _stick_threshold,
     "prefilter_cutoff": lambda p, k, v: _number(p, k, v, null=True),
     "gains": _gains,
     "half_width": _setting(integer=True, text=False),

@@ -2,8 +2,8 @@
 
 A fit fails on its torques when its residual is both large *relative to the torque*
 (`REL_ERROR_FAIL` overall, `REL_ERROR_FAIL_JOINT` on a joint) and large *against the
-torque-noise floor the record shows* (`NOISE_MARGIN` times it) and above `SMALL_JOINT` of the
-largest joint's torque: a joint whose torque is small and
+torque-noise floor the record shows* (`NOISE_MARGIN` times it), and, where the record shows no
+noise floor, above `SMALL_JOINT` of the largest joint's torque: a joint whose torque is small and
 noisy is not a model failure because its relative error is large, only when its residual is
 more than noise. The floor of joint j is the white noise of its measured torque (the robust
 standard deviation of the third difference of τ_j over √20) through the parallel filter and
@@ -103,7 +103,12 @@ def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
     overall = float(np.linalg.norm(e) / max(np.linalg.norm(tau), 1e-300))
     known = np.isfinite(floor)
     noisy = np.where(known, rms_e <= NOISE_MARGIN * np.where(known, floor, 0.0), False)
-    noisy |= rms_e <= SMALL_JOINT * float(np.max(rms_t))
+    # a small joint is excused only where the record shows no noise floor to judge it by (none,
+    # or zero: noise-free or pre-filtered data); where it shows one, a residual far above it is
+    # a model failure however small the joint
+    # (a coupled wrist's motor left out of the model)
+    judged = known & (np.where(known, floor, 0.0) > 1e-12 * float(np.max(rms_t)))
+    noisy |= ~judged & (rms_e <= SMALL_JOINT * float(np.max(rms_t)))
     bad_joint = kept & (rel > fail_joint) & ~noisy
     total_floor = float(np.sqrt(np.sum(np.where(known, floor, 0.0) ** 2 * n_j) / n_j.sum()))
     total_e = float(np.sqrt(np.sum(e**2) / n_j.sum()))

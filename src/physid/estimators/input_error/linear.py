@@ -223,7 +223,7 @@ def solve_base(est, problem: _Problem) -> _Solution:
         w, tau_f = drop_equations(w, tau_f.copy(), stuck)
         stuck = _drop_reversals(model, f, w, tau_f, stuck)
         sentence, heavy = dropped_summary(
-            stuck, STICK_AUTO, "fit IDIM with --stick-threshold 0, or drop the joint's Coulomb term"
+            stuck, STICK_AUTO, "fit IDIM with stick_threshold=0, or drop the joint's Coulomb term"
         )
         if sentence:
             problem.notes.append(sentence.strip())
