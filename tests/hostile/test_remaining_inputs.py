@@ -9,9 +9,16 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
 from ._cases import case_ids, check_case
+
+SRC = str(Path(__file__).resolve().parents[2] / "src")
 
 _PENDULUM = (
     'name = "pendulum"\ngravity = [0, -9.81, 0]\n[parameters]\n'
@@ -40,3 +47,52 @@ def test_recording_table_errors_name_the_table(case_id, entry, message_regex, ho
     model.write_text(_PENDULUM + entry + "\n", encoding="utf-8")
     result = check_case(hostile, ["identify", "{arm_csv}", "--model", str(model)], 2, message_regex)
     assert "--map" not in result.err.splitlines()[-1].split(". ")[0]
+
+
+# ------------------------------------------------------------------------------ a FIFO as data
+def _python(argv, tmp_path):
+    """``python ARGV`` in a subprocess with this checkout's sources first (a FIFO would block
+    this process; the timeout turns a regression into a failure, not a hang)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([SRC, os.environ.get("PYTHONPATH", "")])}
+    return subprocess.run(
+        [sys.executable, *argv], env=env, cwd=tmp_path, capture_output=True, text=True, timeout=60
+    )
+
+
+FIFO_VERBS = [
+    ("identify", ["identify", "{fifo}", "--model", "msd"]),
+    ("filter", ["filter", "{fifo}", "--out", "{tmp}/out.csv"]),
+]
+
+
+@pytest.mark.parametrize(("verb", "argv"), FIFO_VERBS, ids=[v for v, _ in FIFO_VERBS])
+def test_a_fifo_as_the_data_file_is_refused_by_name(verb, argv, tmp_path):
+    fifo = tmp_path / "live.csv"
+    os.mkfifo(fifo)
+    args = [a.format(fifo=fifo, tmp=tmp_path) for a in argv]
+    done = _python(["-m", "physid", *args], tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines()[-1] == (
+        f"physid: error: {fifo}: is a FIFO (named pipe), not a recording file; physid reads "
+        "recordings from regular files (save the stream to a file first)."
+    )
+    assert "Traceback" not in done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["live.csv"]  # nothing written
+
+
+def test_load_recording_refuses_a_fifo_without_opening_it(tmp_path):
+    fifo = tmp_path / "live.npz"
+    os.mkfifo(fifo)
+    script = (
+        "import sys\n"
+        "from physid.errors import DataFileError\n"
+        "from physid.signals import load_recording\n"
+        "try:\n"
+        "    load_recording(sys.argv[1])\n"
+        "except DataFileError as exc:\n"
+        "    print(exc)\n"
+    )
+    done = _python(["-c", script, str(fifo)], tmp_path)
+    assert done.stdout.startswith(f"{fifo}: is a FIFO (named pipe), not a recording file;"), (
+        done.stdout + done.stderr
+    )
