@@ -96,3 +96,99 @@ def test_load_recording_refuses_a_fifo_without_opening_it(tmp_path):
     assert done.stdout.startswith(f"{fifo}: is a FIFO (named pipe), not a recording file;"), (
         done.stdout + done.stderr
     )
+
+
+# ------------------------------------------------------------------------------ interrupted sweep
+_SWEEP = ["sweep", "msd", "--trials", "2", "--snr", "40", "--ratio", "1", "--duration", "2"]
+_SWEEP += ["--scheduler", "serial", "--no-progress", "--quiet"]
+
+
+def _tree(folder: Path) -> dict:
+    """Every file under ``folder`` (hidden ones included) → its bytes; None when absent."""
+    if not folder.exists():
+        return None
+    return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*") if p.is_file()}
+
+
+def _interrupt(*args, **kwargs):
+    raise KeyboardInterrupt
+
+
+def _interrupt_trial(monkeypatch):
+    import physid.analysis.msd_study as study
+
+    real, calls = study.msd_trial, []
+
+    def trial(settings, seed):
+        calls.append(seed)
+        if len(calls) == 2:  # the second trial: one has run
+            raise KeyboardInterrupt
+        return real(settings, seed)
+
+    monkeypatch.setattr(study, "msd_trial", trial)
+
+
+def _interrupt_figures(monkeypatch):
+    import physid.report.style as style
+
+    monkeypatch.setattr(style, "save_figure", _interrupt)  # the table and summary are written
+
+
+def _interrupt_summary(monkeypatch):
+    import physid.analysis.sweep_table as table
+
+    real = table.atomic_write
+
+    def write(path, *args, **kwargs):
+        if Path(path).name == "summary.json":
+            raise KeyboardInterrupt
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(table, "atomic_write", write)
+
+
+INTERRUPTIONS = [
+    ("in-a-trial", _interrupt_trial),
+    ("writing-the-summary", _interrupt_summary),
+    ("writing-the-figures", _interrupt_figures),
+]
+
+
+@pytest.mark.parametrize("earlier_run", [False, True], ids=["new-dir", "earlier-run"])
+@pytest.mark.parametrize(("where", "patch"), INTERRUPTIONS, ids=[w for w, _ in INTERRUPTIONS])
+def test_an_interrupted_sweep_leaves_its_out_dir_as_it_was(
+    where, patch, earlier_run, tmp_path, monkeypatch, capsys
+):
+    from physid.cli import main
+
+    out = tmp_path / "runs" / "sweep"
+    if earlier_run:
+        out.mkdir(parents=True)
+        for name in ("trials.csv", "summary.json", "convergence_settle.png", "notes.txt"):
+            (out / name).write_text(f"the earlier run's {name}\n", encoding="utf-8")
+    before = _tree(out)
+    patch(monkeypatch)
+    assert main([*_SWEEP, "--out", str(out)]) == 130
+    assert "physid: interrupted" in capsys.readouterr().err
+    assert _tree(out) == before  # nothing partial, nothing of the earlier run lost
+    assert [p.name for p in tmp_path.rglob("*") if p.is_file() or ".partial-" in p.name] == (
+        [p.name for p in out.iterdir()] if earlier_run else []
+    )  # no staging folder left behind
+
+
+def test_a_sweep_moves_its_files_in_whole(tmp_path, capsys):
+    from physid.cli import main
+
+    out = tmp_path / "sweep"
+    assert main([*_SWEEP, "--out", str(out)]) == 0
+    capsys.readouterr()
+    names = {p.name for p in out.iterdir()}
+    assert {"trials.csv", "summary.json", "convergence_settle.png"} <= names
+    assert [p.name for p in tmp_path.iterdir()] == ["sweep"]  # no staging folder left
+    assert out.stat().st_mode & 0o777 == 0o777 & ~_umask()
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
