@@ -11,6 +11,9 @@ import csv
 import io
 import json
 import math
+import os
+import shutil
+import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .._paths import atomic_write
+from .._paths import _check_not_special, _current_umask, atomic_write
 from ..errors import InputError
 from ..estimators.results import ResultMixin, jsonable
 from .metrics import censored_median, trial_statistics
@@ -320,7 +323,9 @@ def write_sweep(
     explicit schema: ``seed`` is ``uint64`` (seeds use all 64 bits), ``index`` and ``trial``
     ``int64``, numeric outputs ``float64`` (NaN kept, missing values null), text ``string``. If
     the Parquet file cannot be written, the sweep's other files are still written and
-    ``summary.json`` says why under ``outputs.parquet``.
+    ``summary.json`` says why under ``outputs.parquet``. The files are written into a staging
+    folder beside ``out_dir`` and moved in at the end, so an interrupted or failed write
+    (Ctrl-C included) leaves ``out_dir`` as it was.
 
     Returns
     -------
@@ -330,7 +335,39 @@ def write_sweep(
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"out_dir {str(out)!r} exists and is not a folder; give a folder path.")
-    out.mkdir(parents=True, exist_ok=True)
+    staging = _stage(out)
+    try:  # interrupted (Ctrl-C) or failed: the staging folder goes, out_dir is as it was
+        staged = _write_staged(result, staging, stem, figures)
+        _move_in(staging, out, [p.name for p in staged.values()])
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
+    return {key: out / path.name for key, path in staged.items()}
+
+
+def _stage(out: Path) -> Path:
+    """A fresh staging folder beside ``out`` (same file system: moving in is a rename)."""
+    parent = out.absolute().parent
+    parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-", dir=parent))
+    staging.chmod(0o777 & ~_current_umask())  # a new out_dir gets a folder's usual mode
+    return staging
+
+
+def _move_in(staging: Path, out: Path, names: Sequence[str]) -> None:
+    """Move the staged files into ``out``: one rename when ``out`` is new, else file by file
+    (each destination checked first: no link, FIFO or device is replaced), the summary last."""
+    if not out.exists():
+        os.replace(staging, out)
+        return
+    for name in names:  # all before anything is moved: a refusal leaves the old run whole
+        _check_not_special(out / name)
+    for name in sorted(names, key=lambda n: n == "summary.json"):
+        os.replace(staging / name, out / name)
+
+
+def _write_staged(result, out: Path, stem: str, figures) -> dict[str, Path]:
+    """`write_sweep`'s files, written into the (staging) folder ``out``."""
     paths: dict[str, Path] = {}
     text = result.to_csv_text()
     paths["csv"] = atomic_write(out / f"{stem}.csv", lambda fh: fh.write(text))

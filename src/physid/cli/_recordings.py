@@ -126,8 +126,38 @@ def read_recording(args, path=None, *, model=None, table_channels=None, raw=Fals
             return rec
         rec = _checked(args, rec, model)
     except PhysidError as exc:
-        raise _reworded(exc) from None
+        raise _reworded(_with_table_line(args, exc)) from None
     return rec
+
+
+def _with_table_line(args, exc):
+    """An error about an entry of the model file's ``[recording]`` table, with its line."""
+    import re
+
+    name = getattr(args, "model", None)
+    where = _table_name(args)
+    found = re.search(re.escape(where) + r" entry (\w+)", str(exc))
+    if not found or not isinstance(name, str):
+        return exc
+    from pathlib import Path
+
+    from ..models._locate import _line_of
+
+    try:
+        line = _line_of(Path(name).read_text(encoding="utf-8"), found[1], table="recording")
+    except (OSError, UnicodeDecodeError):
+        return exc
+    if not line:
+        return exc
+    text = str(exc).replace(found[0], f"{where} (line {line}) entry {found[1]}", 1)
+    try:
+        new = type(exc)(text)
+    except TypeError:  # an error class with required keywords: keep it as it is
+        return exc
+    for key, value in vars(exc).items():
+        if key not in ("template", "arguments"):
+            setattr(new, key, value)
+    return new
 
 
 def _table_name(args) -> str:

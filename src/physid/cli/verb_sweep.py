@@ -114,7 +114,12 @@ def register(subparsers) -> None:
         metavar="N",
         help="processes of the local pool (default: every CPU)",
     )
-    parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="DIR",
+        help="output folder (written whole at the end: an interrupted sweep leaves it as it was)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     parser.add_argument(
         "--json",

@@ -42,6 +42,7 @@ command line shows its own flags instead (``--resample``).
 
 from __future__ import annotations
 
+import stat
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -318,7 +319,30 @@ def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
     return write_recording(rec, path, overwrite=overwrite)
 
 
+_SPECIAL_KINDS = (
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
 def _check_readable(path: Path) -> None:
+    """Refuse a path that is missing, a folder, a special file or unreadable, before reading.
+
+    A special file (FIFO, device, socket) is refused from its ``stat`` alone: opening a FIFO
+    would block until a writer comes, and a device may never end.
+    """
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        mode = None
+    for test, kind in _SPECIAL_KINDS:
+        if mode is not None and test(mode):
+            raise DataFileError(
+                f"{path}: is {kind}, not a recording file; physid reads recordings from "
+                "regular files (save the stream to a file first)."
+            )
     if not path.is_file():
         raise DataFileError(
             f"{path}: no such file{' (it is a directory)' if path.is_dir() else ''}; "

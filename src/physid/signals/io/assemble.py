@@ -3,6 +3,7 @@ file's own channels and their units, in that order (every format goes through `_
 
 from __future__ import annotations
 
+import contextlib
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -10,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import DataFileError
+from ...errors import DataFileError, PhysidError
 from ..recording import Recording
 from .build import _build
 from .channel_map import _default_entry, _expression_names, _expression_values
@@ -44,7 +45,8 @@ def _assemble(
     )
     if "t" in found.pending:
         _place_time_default(found, mapping, variables)
-    t, t_name, origin = _time(path, variables, mapping.pop("t", None), rate, rate_source)
+    with _blame_table(found, "t"):
+        t, t_name, origin = _time(path, variables, mapping.pop("t", None), rate, rate_source)
     if origin:
         metadata["time_origin"] = origin
     if rate is not None and t_name == "":  # the time of a file without one
@@ -61,7 +63,8 @@ def _assemble(
         _add_file_channels(path, table, out)
     else:
         for target, (body, unit) in exprs.items():
-            _add_mapped(path, target, body, unit, variables, t_name, table, out, n)
+            with _blame_table(found, target):
+                _add_mapped(path, target, body, unit, variables, t_name, table, out, n)
         _add_unmapped(table, used, out)
         metadata["channel_map"] = {**found.applied, **dict(channels or {})}
     if table.ignored:
@@ -102,6 +105,28 @@ class _Defaults:
             mapping[target] = self.applied[target] = text
         else:
             self.unused[target] = text
+
+
+@contextlib.contextmanager
+def _blame_table(found: _Defaults, target: str):
+    """Errors of an entry placed from the defaults name the defaults (the model file's
+    ``[recording]`` table), not ``channels[...]``, which the caller never wrote."""
+    try:
+        yield
+    except PhysidError as exc:
+        if target not in found.applied or not found.source:
+            raise
+        text = str(exc).replace(f"channels[{target!r}]", f"{found.source} entry {target}")
+        if text == str(exc):
+            raise
+        try:
+            new = type(exc)(text)
+        except TypeError:  # an error class with required keywords: keep it as it is
+            raise exc from None
+        for key, value in vars(exc).items():
+            if key not in ("template", "arguments"):
+                setattr(new, key, value)
+        raise new from None
 
 
 def _place_time_default(found: _Defaults, mapping, variables) -> None:
