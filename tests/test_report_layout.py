@@ -59,6 +59,9 @@ window.addEventListener('load', function () {
     your_data_bottom: (function () { var e = document.getElementById('your-data-three-commands');
       if (!e) { return -1; } var r = e.getBoundingClientRect(); return r.bottom + window.scrollY;
     })(),
+    commands_top: (function () {
+      var e = document.querySelector('#your-data-three-commands pre');
+      return e ? e.getBoundingClientRect().top + window.scrollY : -1; })(),
     folds: document.querySelectorAll('details.fold').length
   });
   document.body.appendChild(pre);
@@ -70,8 +73,9 @@ def measure_layout(report: Path, workdir: Path, width: int, height: int = 800) -
     """Load ``report`` in headless Chromium at ``width`` × ``height`` px; its layout numbers.
 
     Returns ``height`` (page height [px], folds closed), ``too_wide`` (elements past the
-    viewport outside a scrolling box), ``captions_cut``, ``your_data_top`` / ``_bottom`` [px]
-    and ``folds``. Skips only when no Chromium is installed.
+    viewport outside a scrolling box), ``captions_cut``, ``your_data_top`` / ``_bottom`` [px],
+    ``commands_top`` (the top of the your-data command block [px]) and ``folds``. Skips only
+    when no Chromium is installed.
     """
     chromium = find_chromium()
     if chromium is None:
