@@ -164,6 +164,14 @@ def test_report_renders_in_chromium(demo, tmp_path):
         assert part["right"] <= check["client_width"] + 1, part
 
 
+def test_first_screen_at_1280_px_shows_the_your_data_commands(demo, tmp_path):
+    from test_report_layout import measure_layout
+
+    layout = measure_layout(demo["out"] / "report.html", tmp_path, 1280)
+    # the summary, the "your data" heading and the top of its command block within 800 px
+    assert 0 < layout["your_data_top"] < layout["commands_top"] < 800, layout
+
+
 def test_each_part_fits_1280_px_in_a_screenshot(demo, tmp_path):
     shots = checks.screenshot_parts(demo["out"] / "report.html", tmp_path)
     assert len(shots) >= 4  # parts I-III and the reference part

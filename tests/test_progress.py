@@ -108,3 +108,66 @@ def test_cli_json_to_a_pipe_turns_progress_off(monkeypatch):
     assert main(["model", "info", "manipulator"]) == 0
     assert seen["enabled"] is True  # no --json: a terminal on stderr gets progress
     assert is_enabled(_Terminal())  # back to automatic after the command
+
+
+def _slow_reader(monkeypatch, seconds=0.3):
+    """Make every recording read take ``seconds`` and show its progress after 0.05 s."""
+    import physid.signals as signals
+    from physid.cli import _recordings
+
+    real = signals.load_recording
+
+    def slow(*args, **kwargs):
+        time.sleep(seconds)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(signals, "load_recording", slow)
+    monkeypatch.setattr(_recordings, "READ_DELAY", 0.05)
+
+
+def _small_csv(tmp_path):
+    from physid.cli import main
+
+    path = tmp_path / "long.csv"
+    assert main(["simulate", "msd", "--out", str(path), "--duration", "1", "--quiet"]) == 0
+    return path
+
+
+def test_a_long_read_shows_progress_on_stderr_never_on_stdout(tmp_path, capsys, monkeypatch):
+    import argparse
+
+    from physid.cli._recordings import read_recording
+
+    path = _small_csv(tmp_path)
+    capsys.readouterr()
+    _slow_reader(monkeypatch)
+    configure(True)  # as on a terminal
+    rec = read_recording(argparse.Namespace(file=str(path)))
+    captured = capsys.readouterr()
+    assert rec.t.size == 1001  # 1 s at the default 1 ms
+    assert captured.out == ""
+    assert "physid: reading long.csv: done in 0 s" in captured.err
+    assert "physid: reading long.csv: 0 s ..." in captured.err  # the line while it reads
+    configure(False)  # --quiet, or --json to a pipe
+    read_recording(argparse.Namespace(file=str(path)))
+    assert capsys.readouterr().err == ""
+
+
+def test_cli_quiet_silences_the_reading_progress_on_a_terminal(tmp_path, capsys, monkeypatch):
+    import sys
+
+    from physid.cli import main
+
+    path = _small_csv(tmp_path)
+    out = tmp_path / "f.csv"
+    _slow_reader(monkeypatch)
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    argv = ["filter", str(path), "--half-width", "5", "--out", str(out)]
+    assert main(argv) == 0
+    assert "physid: reading long.csv: done in" in terminal.getvalue()
+    assert "reading" not in capsys.readouterr().out
+    terminal.truncate(0)
+    terminal.seek(0)
+    assert main([*argv, "--quiet"]) == 0
+    assert "reading" not in terminal.getvalue()

@@ -21,6 +21,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pytest  # noqa: E402
 
+from physid.report.demo import _your_data_section  # noqa: E402
 from physid.report.html import FigureSpec, Html, ReportSection, Table, write_report  # noqa: E402
 from test_report_html import _ReportParser, find_chromium  # noqa: E402
 
@@ -59,6 +60,9 @@ window.addEventListener('load', function () {
     your_data_bottom: (function () { var e = document.getElementById('your-data-three-commands');
       if (!e) { return -1; } var r = e.getBoundingClientRect(); return r.bottom + window.scrollY;
     })(),
+    commands_top: (function () {
+      var e = document.querySelector('#your-data-three-commands pre');
+      return e ? e.getBoundingClientRect().top + window.scrollY : -1; })(),
     folds: document.querySelectorAll('details.fold').length
   });
   document.body.appendChild(pre);
@@ -70,8 +74,9 @@ def measure_layout(report: Path, workdir: Path, width: int, height: int = 800) -
     """Load ``report`` in headless Chromium at ``width`` × ``height`` px; its layout numbers.
 
     Returns ``height`` (page height [px], folds closed), ``too_wide`` (elements past the
-    viewport outside a scrolling box), ``captions_cut``, ``your_data_top`` / ``_bottom`` [px]
-    and ``folds``. Skips only when no Chromium is installed.
+    viewport outside a scrolling box), ``captions_cut``, ``your_data_top`` / ``_bottom`` [px],
+    ``commands_top`` (the top of the your-data command block [px]) and ``folds``. Skips only
+    when no Chromium is installed.
     """
     chromium = find_chromium()
     if chromium is None:
@@ -145,23 +150,22 @@ def _demo_shaped_sections():
         tuple(f"a rather long column heading {i}" for i in range(10)),
         tuple(tuple(1.234567 * (r + 1) * (c + 1) for c in range(10)) for r in range(6)),
     )
+    finding = (  # as long as one of the demo's three findings (two lines at 1280 px)
+        "<li><strong>Part N, a system:</strong> 52 base parameters identified from noisy "
+        "closed-loop records; the torque of a held-out trajectory is predicted within 2.2 %. "
+        "This quick run has 2 seeds, too few to separate bias from scatter. Part N</li>"
+    )
     headline = ReportSection(
         "In one screen",
         paragraphs=(
-            "physid identifies the physical parameters of mechanical systems.",
-            Html('<ul class="headline">' + "<li>a finding with a number</li>" * 6 + "</ul>"),
+            "physid identifies the physical parameters of mechanical systems (masses, inertias, "
+            "friction, stiffness, damping) from measured motion and force signals. This report "
+            "reproduces two papers with it and identifies a robot arm from its URDF.",
+            Html('<ul class="headline">' + finding * 3 + "</ul>"),
+            "Your own data comes next; the errata and the software versions close the report.",
         ),
     )
-    your_data = ReportSection(
-        "Your data: three commands",
-        paragraphs=(
-            "These three commands take your own recording from an estimate to a check.",
-            Html(
-                "<pre><code>physid estimate logger.csv --model my_msd.toml --method rls "
-                "--map t=Zeit,u=Kraft,x=Weg --decimal , --save fit.json</code></pre>"
-            ),
-        ),  # fmt: skip
-    )
+    your_data = _your_data_section()  # the demo's own: its commands, what they print
     sections = [headline, your_data]
     parts = ("Part I — one paper", "Part II — another paper", "Part III — a 6-DOF arm")
     for p, part in enumerate(parts):
@@ -195,6 +199,8 @@ def test_report_opens_folded_within_six_screens_and_fits_the_viewport(demo_shape
     assert layout["height"] <= 6 * 800, layout
     # first paint: the summary, then the your-data commands, before any paper
     assert 0 < layout["your_data_top"] < 800, layout
+    if width == 1280:  # the three commands themselves start on the first screen
+        assert layout["your_data_top"] < layout["commands_top"] < 800, layout
     text = demo_shaped.read_text(encoding="utf-8")
     assert text.index("Your data: three commands") < text.index("Part I")
     png = screenshot(demo_shaped, tmp_path / f"first-{width}.png", width)

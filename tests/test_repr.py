@@ -109,3 +109,21 @@ def test_model_html_lists_parameters_with_units(name):
         assert "4 joints" in out
     else:
         assert "input u → output x, order 2" in out
+
+
+def test_rigid_model_html_lists_its_base_parameters_and_a_chain_says_how_to_get_them():
+    arm = physid.load_model("arm6")
+    base = arm.base_parameters()
+    out = arm._repr_html_()
+    assert f"{base.n_base} identifiable combinations (base parameters) of the 78 standard" in out
+    assert base.n_base == 52  # the 6-DOF arm's 78 standard parameters regroup into 52
+    combos = out[out.index("<details>") : out.index("</details>") + len("</details>")]
+    rows = _cells(combos)
+    assert rows[0] == ["base parameter", "combination"]
+    assert [r[0] for r in rows[1:]] == list(base.base_names)
+    assert [r[1] for r in rows[1:]] == list(base.expressions)
+    assert rows[1][0] == "ZZ1R" and rows[1][1].startswith("ZZ1 + Ia1 + ")
+    chain = physid.load_model("manipulator")._repr_html_()
+    assert "<details>" not in chain
+    assert "<code>physid model info manipulator</code>" in chain
+    assert "combinations" not in physid.load_model("msd")._repr_html_()

@@ -10,6 +10,9 @@ import sys
 from ..errors import PhysidWarning
 from ._common import add_resample_option, cli_words, progress
 
+#: Seconds [s] a recording read may take before its progress line appears on stderr.
+READ_DELAY = 2.0
+
 __all__ = [
     "add_recording_options",
     "read_recording",
@@ -174,7 +177,9 @@ def _load(args, path, model, table, *, raw=False, period=None):
     this period [s] (validate's --resample onto the fit's).
     """
     import warnings
+    from pathlib import Path
 
+    from .._progress import working
     from ..signals import load_recording
     from ..signals.io import parse_channel_map
     from ..signals.io.rosbag_reader import is_rosbag
@@ -187,21 +192,23 @@ def _load(args, path, model, table, *, raw=False, period=None):
     channels = parse_channel_map(getattr(args, "channel_map", None)) or None
     if raw:
         channels, table = None, {k: v for k, v in table.items() if k == "rate"}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        rec = load_recording(
-            path,
-            channels,
-            resample=(resample or bag) and not raw and period is None,
-            uniform_rtol=None if raw or (period is not None and resample) else 1e-3,
-            decimal=getattr(args, "decimal", ".") or ".",
-            delimiter=getattr(args, "delimiter", None),
-            channel_defaults=table or None,
-            channel_defaults_source=where,
-            rate=getattr(args, "rate", None),
-            topic=getattr(args, "topic", None),
-            joint_names=getattr(model, "joint_names", None) if bag else None,
-        )
+    # a long file (a large CSV, a ROS bag) shows the time spent on stderr after READ_DELAY s
+    with working(f"physid: reading {Path(path).name}", delay=READ_DELAY):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            rec = load_recording(
+                path,
+                channels,
+                resample=(resample or bag) and not raw and period is None,
+                uniform_rtol=None if raw or (period is not None and resample) else 1e-3,
+                decimal=getattr(args, "decimal", ".") or ".",
+                delimiter=getattr(args, "delimiter", None),
+                channel_defaults=table or None,
+                channel_defaults_source=where,
+                rate=getattr(args, "rate", None),
+                topic=getattr(args, "topic", None),
+                joint_names=getattr(model, "joint_names", None) if bag else None,
+            )
     for w in caught:
         render = getattr(w.message, "render", None)
         text = render(_RECORDING_FLAGS) if callable(render) else str(w.message)

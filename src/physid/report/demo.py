@@ -511,10 +511,8 @@ def _headline_section(sections: Sequence[ReportSection]) -> ReportSection:
         "reproduces two papers with it, side by side with their printed claims, lists where the "
         "papers are wrong, and identifies a robot arm end to end from its URDF.",
         Html('<ul class="headline">' + "".join(items) + "</ul>"),
-        Html(
-            'To run physid on your own measurements, see <a href="#your-data-three-commands">'
-            "Your data</a>. The errata of the papers and the software versions close the report."
-        ),
+        "Your own data comes next; the errata of the papers and the software versions close "
+        "the report.",
     ]
     return ReportSection(HEADLINE_TITLE, paragraphs=paragraphs, results=picked)
 
@@ -555,12 +553,11 @@ def _your_data_section() -> ReportSection:
         "  torque fit (100 (1 − rms error / rms τ), filtered): tau1 99.1 %, tau2 98.7 %, ..."
     )
     paragraphs = [
-        "These three commands take your own recording from an estimate to a check of it on a "
-        "held-out recording. The channel map names your columns (and converts volts to torque "
-        "with your drive gain); units in the header, such as deg or mm, are converted to SI. "
-        "A file that lacks a channel gets the --map line that would fix it, built from its own "
-        "column names.",
+        "From your own recording to an estimate, and a check of it on a held-out recording:",
         Html(f"<pre><code>{html.escape(commands)}</code></pre>"),
+        "The channel map names your columns (and converts volts to torque with your drive "
+        "gain); units in the header, such as deg or mm, are converted to SI. A file that lacks "
+        "a channel gets the --map line that would fix it, built from its own column names.",
         "What they print (an RLS fit of a simulated mass-spring-damper, abridged; each value "
         "with its standard error and unit, then the fit):",
         Html(f"<pre><code>{html.escape(prints)}</code></pre>"),
