@@ -41,7 +41,7 @@ CASES = [
     ("number-for-names", ["validate", "{lin_names}", "{msd_csv}"], 2,
      r"'names' must be a list of strings; the file has 3 \(int\)"),
     ("string-stick-threshold", ["validate", "{ie_stick}", "{arm_csv}"], 2,
-     r"'stick_threshold' must be a number or null; the file has 'abc'"),
+     r"'stick_threshold' must be \"auto\", a number or null; the file has 'abc'"),
     ("string-half-width", ["validate", "{ie_hw}", "{arm_csv}"], 2,
      r"ie_hw\.json': 'half_width' must be a positive integer or null; the file has 'x'"),
     ("list-for-gains", ["validate", "{ie_gains}", "{arm_csv}"], 2,
