@@ -32,6 +32,7 @@ from .chain_derive import (  # noqa: F401 - re-exported
     _scalar_sources,
     _valid_entry,
     _with_progress,
+    on_symbolic_chain,
 )
 from .chain_regressor import _LinearInParameters
 from .codegen import source_to_function
@@ -580,20 +581,7 @@ class ChainModel(_LinearInParameters):
         from .lagrange import ChainEquations, derive_chain_equations
 
         sym = symbolic_chain(self._spec)
-        eqs = derive_chain_equations(
-            sym["transforms"],
-            sym["masses"],
-            sym["rotor_inertias"],
-            sym["viscous"],
-            sym["coulomb"],
-            self._spec.gravity,
-            sym["q"],
-            sym["qd"],
-            sym["qdd"],
-            sym["theta"],
-            kinetic=self.kinetic,
-            axis_static=sym["axis_static"],
-        )
+        eqs = on_symbolic_chain(derive_chain_equations, self._spec, sym)
         n = self.n_joints
         rename = {}
         for i in range(n):

@@ -18,6 +18,25 @@ from .codegen import cholesky_solve_lines, source_to_function
 from .spec_types import ChainSpec
 
 
+def on_symbolic_chain(fn, spec: ChainSpec, sym: dict):
+    """``fn`` (`lagrange.derive_chain_equations` or `lagrange.regressor_columns`) applied to the
+    symbolic chain ``sym = symbolic_chain(spec)``: the one place that spells their arguments."""
+    return fn(
+        sym["transforms"],
+        sym["masses"],
+        sym["rotor_inertias"],
+        sym["viscous"],
+        sym["coulomb"],
+        spec.gravity,
+        sym["q"],
+        sym["qd"],
+        sym["qdd"],
+        sym["theta"],
+        kinetic=spec.kinetic,
+        axis_static=sym["axis_static"],
+    )
+
+
 def _derive(spec: ChainSpec) -> dict:
     """Derive the equations of `spec` and generate the source of every numeric function.
 
@@ -35,20 +54,7 @@ def _derive(spec: ChainSpec) -> dict:
     sym = symbolic_chain(spec)
     q, qd, qdd, th = sym["q"], sym["qd"], sym["qdd"], sym["theta"]
     n = len(q)
-    eqs = derive_chain_equations(
-        sym["transforms"],
-        sym["masses"],
-        sym["rotor_inertias"],
-        sym["viscous"],
-        sym["coulomb"],
-        spec.gravity,
-        q,
-        qd,
-        qdd,
-        th,
-        kinetic=spec.kinetic,
-        axis_static=sym["axis_static"],
-    )
+    eqs = on_symbolic_chain(derive_chain_equations, spec, sym)
     M = eqs.mass_matrix
     lower = [(i, j) for i in range(n) for j in range(i + 1)]
     zero_lower = [[i, j] for i, j in lower if M[i, j] == 0]
@@ -99,20 +105,7 @@ def _derive_jacobian(spec: ChainSpec) -> dict:
 
     sym = symbolic_chain(spec)
     q, qd, qdd, th = sym["q"], sym["qd"], sym["qdd"], sym["theta"]
-    eqs = derive_chain_equations(
-        sym["transforms"],
-        sym["masses"],
-        sym["rotor_inertias"],
-        sym["viscous"],
-        sym["coulomb"],
-        spec.gravity,
-        q,
-        qd,
-        qdd,
-        th,
-        kinetic=spec.kinetic,
-        axis_static=sym["axis_static"],
-    )
+    eqs = on_symbolic_chain(derive_chain_equations, spec, sym)
     tau = eqs.tau
     outputs = [tau[i].diff(t) for i in range(len(q)) for t in th]
     src = vector_function_source(
@@ -205,23 +198,10 @@ def _derive_regressor(spec: ChainSpec) -> dict:
     from .lagrange import monomial_name, regressor_columns
 
     sym = symbolic_chain(spec)
-    q, qd, qdd, th = sym["q"], sym["qd"], sym["qdd"], sym["theta"]
+    q, qd, qdd = sym["q"], sym["qd"], sym["qdd"]
     n = len(q)
     try:
-        monomials, columns = regressor_columns(
-            sym["transforms"],
-            sym["masses"],
-            sym["rotor_inertias"],
-            sym["viscous"],
-            sym["coulomb"],
-            spec.gravity,
-            q,
-            qd,
-            qdd,
-            th,
-            kinetic=spec.kinetic,
-            axis_static=sym["axis_static"],
-        )
+        monomials, columns = on_symbolic_chain(regressor_columns, spec, sym)
     except sp.PolynomialError as exc:
         raise IdentifiabilityError(
             f"model {spec.name!r} is not polynomial in its parameters ({exc}), so it has no "
