@@ -264,18 +264,17 @@ class IDIMEstimator(EstimatorMixin):
         return self
 
     # the steps ----------------------------------------------------------------------------
-    def _rows(self, recs, info: BaseInfo) -> IDIMRows:
-        """Filtered, decimated rows of the recordings, with the fit's settings."""
-        return idim_rows(
-            self.model,
-            recs,
-            info=info,
-            differentiation=self.differentiation,
-            cutoff=self.cutoff,
-            half_width=self.half_width,
-            decimate=self.decimate,
-            stick_threshold=self.stick_threshold,
-        )
+    def _rows(self, recs, info: BaseInfo, **changes) -> IDIMRows:
+        """Filtered, decimated rows of the recordings, with the fit's settings (``changes``
+        override some: the cut-off and decimation a first pass chose, another stiction rule)."""
+        settings = {
+            "differentiation": self.differentiation,
+            "cutoff": self.cutoff,
+            "half_width": self.half_width,
+            "decimate": self.decimate,
+            "stick_threshold": self.stick_threshold,
+        }
+        return idim_rows(self.model, recs, info=info, **{**settings, **changes})
 
     def _check_rows(self, rows: IDIMRows, info: BaseInfo, notes: list[str], recs=()) -> None:
         """Enough equations, every column excited, conditioning (its warning also in notes)."""
@@ -294,7 +293,7 @@ class IDIMEstimator(EstimatorMixin):
             except IdentifiabilityError as exc:
                 self._blame_stiction_rule(recs, rows, info, exc)
                 raise
-        sentence, heavy = dropped_summary(rows.stuck, self.stick_threshold)
+        _, heavy = dropped_summary(rows.stuck, self.stick_threshold)
         heavy = heavy + _motionless(recs, nj)
         for text in heavy:
             warnings.warn(text, StictionWarning, stacklevel=3)
@@ -312,15 +311,8 @@ class IDIMEstimator(EstimatorMixin):
         if rows.stuck is None or not rows.stuck.any() or not recs:
             return
         try:
-            full = idim_rows(
-                self.model,
-                recs,
-                info=info,
-                differentiation=self.differentiation,
-                cutoff=rows.cutoff,
-                half_width=self.half_width,
-                decimate=rows.decimate,
-                stick_threshold=0.0,
+            full = self._rows(
+                recs, info, cutoff=rows.cutoff, decimate=rows.decimate, stick_threshold=0.0
             )
             check_excitation(full.W, info, "the recording(s)", warn=False)
         except (IdentifiabilityError, SamplingError):
