@@ -15,6 +15,18 @@ from ...filters.state_variable import state_variable_filter
 MAX_BIAS_TO_STDERR = 0.5
 
 
+def _weighted_rows(X, Y, theta, M: int, last: int, lam: float):
+    """``(w, X, e)`` of the final estimate at row ``last``: each row's forgetting weight
+    ``λ^age`` (the initial rows up to ``M`` share the age of row ``M + 1``), the rows and their
+    residuals."""
+    i = np.arange(last + 1)
+    age = np.where(i <= M, max(last - M - 1, 0), last - i).astype(float)
+    with np.errstate(under="ignore"):
+        w = lam**age
+    Xw = X[: last + 1]
+    return w, Xw, Y[: last + 1] - Xw @ theta
+
+
 def _final_covariance(X, Y, theta, M: int, last: int, lam: float):
     """Nominal covariance of θ̂ at row ``last``: the weighted-LS sandwich with white row noise.
 
@@ -23,12 +35,7 @@ def _final_covariance(X, Y, theta, M: int, last: int, lam: float):
     with ``n = (Σ w)² / Σ w²`` the effective number of rows. For λ = 1 this is the textbook
     ``σ̂² (XᵀX)⁻¹`` (R cancels). Noise in the regressors (errors in variables) is not included.
     """
-    i = np.arange(last + 1)
-    age = np.where(i <= M, max(last - M - 1, 0), last - i).astype(float)
-    with np.errstate(under="ignore"):
-        w = lam**age
-    Xw = X[: last + 1]
-    e = Y[: last + 1] - Xw @ theta
+    w, Xw, e = _weighted_rows(X, Y, theta, M, last, lam)
     S = (Xw * w[:, None]).T @ Xw
     A = (Xw * (w**2)[:, None]).T @ Xw
     n_eff = w.sum() ** 2 / (w**2).sum()
@@ -56,12 +63,7 @@ def _hac_covariance(X, Y, theta, M: int, last: int, lam: float, bandwidth: int):
     regressors biases θ̂ at low SNR (errors in variables); that bias is not in the interval (see
     docs/recursive.md for the measured coverage).
     """
-    i = np.arange(last + 1)
-    age = np.where(i <= M, max(last - M - 1, 0), last - i).astype(float)
-    with np.errstate(under="ignore"):
-        w = lam**age
-    Xw = X[: last + 1]
-    e = Y[: last + 1] - Xw @ theta
+    w, Xw, e = _weighted_rows(X, Y, theta, M, last, lam)
     g = Xw * (w * e)[:, None]  # (n, p) scores
     S = (Xw * w[:, None]).T @ Xw
     n = g.shape[0]
