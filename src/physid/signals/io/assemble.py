@@ -172,11 +172,11 @@ def _time(path, variables, t_text, rate=None, rate_source="rate="):
             t_raw = _time_values(path, t_var)
             t_unit = t_unit_given if t_unit_given is not None else t_var.unit
         else:
-            t_name = None
+            t_name, t_var = None, None
             values = _expression_values(path, variables, 0, "t", t_text)
             t_raw = np.asarray(values, dtype=float).reshape(-1)
             t_unit = t_unit_given or ""
-    t, origin = time_to_seconds(path, t_raw, t_unit)
+    t, origin = time_to_seconds(path, t_raw, t_unit, t_var.origin if t_name else None)
     unit_hint(path, t_name if t_name is not None else t_text, t, t_unit)
     return t, t_name, origin
 
