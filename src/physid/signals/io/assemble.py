@@ -299,7 +299,9 @@ class _Output:
         path = self.path
         values = np.asarray(values, dtype=float)
         _check_magnitude(path, target, values, self.row_label)
-        si_values, si_unit = _convert(path, target, values, unit_text, strict=strict, column=column)
+        si_values, si_unit = _convert(
+            path, target, values, unit_text, strict=strict, column=column, row_label=self.row_label
+        )
         if si_unit is None:
             self.unconverted[target] = unit_text
             si_unit = unit_text
@@ -364,7 +366,9 @@ def _add_mapped(path, target, body, unit, variables, t_name, table, out, n) -> N
     for name in _expression_names(body, variables):
         if name in refused:
             raise DataFileError(f"{path}: channels[{target!r}] = {body!r} uses {refused[name]}.")
-    values = _expression_values(path, variables, n, target, body, columns, scalars)
+    values = _expression_values(
+        path, variables, n, target, body, columns, scalars, row_label=out.row_label
+    )
     out.add(target, values, unit or "", strict=True)
 
 

@@ -317,11 +317,15 @@ class FileBlocks:
         starts = block_starts(self.n_samples, size)
         prev = None
         with self._reader.reading() as read:
-            for a, b in zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True):
+            pairs = list(zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True))
+            for j, (a, b) in enumerate(pairs):
                 rec = self._assemble(read(a, b), a, b, warn=False)
                 if rec.n_samples != b - a:
                     raise _length_error(self.path, a, b, rec.n_samples)
-                t = self._block_time(rec, a, b, prev)
+                try:
+                    t = self._block_time(rec, a, b, prev)
+                except _Drift as drift:
+                    self._locate(read, pairs[j + 1 :], drift)
                 prev = rec.t[-1] if not self._rate_time else None
                 units = [rec.unit(n) for n in names]
                 yield Recording(t, rec.select(names), names, units, self.metadata)
@@ -379,28 +383,59 @@ class FileBlocks:
         steps = np.diff(full)
         first = a if prev is None else a - 1  # the sample each step starts at
         if prev is not None and steps[0] <= 0:
-            raise DataFileError(
-                f"{self.path}: time is not strictly increasing: t = {float(t[0])!r} at sample "
-                f"{a} follows t = {float(prev)!r} at sample {a - 1}. Sort the rows by time and "
-                "remove duplicates."
-            )
+            raise self._back(a, float(t[0]), float(prev))
         if rtol is None:
             return t
         deviation = np.abs(steps - self.dt) / self.dt
         if deviation.size and float(deviation.max()) > rtol:
-            i = int(deviation.argmax())
-            g = first + i
-            raise DataFileError(
-                f"{self.path}: time is not uniformly sampled: the interval from sample {g} "
-                f"(t = {float(full[i]):.6g} s) "
-                f"to sample {g + 1} is {steps[i]:.6g} s against the record's period "
-                f"{self.dt:.6g} s (relative deviation {float(deviation[i]):.3g}, tolerance "
-                f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and "
-                "fit the parts as separate experiments (physid.signals.join_recordings, or "
-                "physid identify --join, splits files at gaps), or pass uniform_rtol=None to "
-                "keep the times as they are."
-            )
+            local = float(np.median(steps))  # the interval here: a gap stands out of it
+            off = np.abs(steps - local) / local
+            if float(off.max()) > rtol:
+                i = int(off.argmax())
+                raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol)
+            raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
+
+    def _locate(self, read, rest, drift: _Drift):
+        """After a block whose intervals all differ from the record's period: read on to the
+        gap that makes the difference (the whole-file load names the worst interval)."""
+        rtol, prev = self._options.uniform_rtol, drift.prev
+        for a, b in rest:
+            t = np.asarray(self._assemble(read(a, b), a, b, warn=False).t)
+            full = np.concatenate([[prev], t])
+            steps = np.diff(full)
+            if steps[0] <= 0:
+                raise self._back(a, float(t[0]), float(prev))
+            off = np.abs(steps - drift.local) / drift.local
+            if float(off.max()) > rtol:
+                i = int(off.argmax())
+                raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol)
+            prev = t[-1]
+        raise DataFileError(
+            f"{self.path}: time is not uniformly sampled: its intervals drift from "
+            f"{drift.local:.6g} s to the record's mean period {self.dt:.6g} s "
+            f"((t_last − t_first) / (n − 1)) by more than the tolerance {rtol:g}, without one "
+            "gap to split at. Resample it (load_recording(..., resample=True) reads it whole), "
+            "or pass uniform_rtol=None to keep the times as they are."
+        )
+
+    def _back(self, a: int, t_a: float, prev: float) -> DataFileError:
+        return DataFileError(
+            f"{self.path}: time is not strictly increasing: t = {t_a!r} at sample {a} follows "
+            f"t = {prev!r} at sample {a - 1}. Sort the rows by time and remove duplicates (or "
+            f"split the file at sample {a})."
+        )
+
+    def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
+        return DataFileError(
+            f"{self.path}: time is not uniformly sampled: the interval from sample {g} "
+            f"(t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s against a period of "
+            f"{period:.6g} s (relative deviation {abs(step - period) / period:.3g}, tolerance "
+            f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
+            "the parts as separate experiments (physid.signals.join_recordings, or physid "
+            "identify --join, splits files at gaps), or pass uniform_rtol=None to keep the "
+            "times as they are."
+        )
 
     # ------------------------------------------------------------------ the rest
     def close(self) -> None:
@@ -417,6 +452,14 @@ class FileBlocks:
             f"FileBlocks({str(self.path)!r}, {self.format}, {self.n_samples} samples at "
             f"{self.dt:.6g} s, channels {list(self.names)})"
         )
+
+
+class _Drift(Exception):
+    """A block whose intervals all differ from the record's period by the same amount."""
+
+    def __init__(self, local: float, prev: float):
+        super().__init__(local, prev)
+        self.local, self.prev = local, prev
 
 
 def _stat(path: Path) -> tuple:

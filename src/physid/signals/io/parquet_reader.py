@@ -102,7 +102,12 @@ def _source_from_table(table, columns, metadata) -> _Source:
     """The variables of a table (the whole file, or one block of its rows)."""
     variables: dict[str, _Var] = {}
     for column, name, unit in columns:
-        variables[name] = _classify(name, _column_values(table.column(column)), unit)
+        values = table.column(column)
+        if _timestamp_unit(values.type):  # stamps: int64 kept exact (time_to_seconds)
+            array = _column_values(values)
+            variables[name] = _Var(name, array, unit, size=int(array.size))
+        else:
+            variables[name] = _classify(name, _column_values(values), unit)
     for key, value in metadata.items():  # numbers in the metadata: scalars for channel maps
         if (
             isinstance(key, str)
