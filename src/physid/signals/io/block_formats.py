@@ -84,16 +84,27 @@ class _Mapping:
     unread: dict  # name -> _Var without values
     metadata: dict
     n: int = 0
-    misfit: dict = field(default_factory=dict)  # name -> a non-channel array too large to read
+    misfit: dict = field(default_factory=dict)  # name -> (shape, dtype) of a large non-channel
     replace_unread: bool = False  # NPZ: an unread variable replaces the one of the same name
 
     def source(self, arrays: dict) -> _Source:
         """The `_Source` of one range of rows (``arrays``: its slice of every column)."""
-        items = {k: arrays[k] if k in self.columns else self.fixed[k] for k in self.order}
+        items = {}
+        for k in self.order:
+            if k in self.columns:
+                items[k] = arrays[k]
+            elif k in self.misfit:  # its shape only, no memory (and nothing to pickle)
+                items[k] = np.broadcast_to(np.zeros((), self.misfit[k][1]), self.misfit[k][0])
+            else:
+                items[k] = self.fixed[k]
         source = _from_mapping(self.path, items, self.units)
-        for name, var in self.misfit.items():
+        for name, (shape, _) in self.misfit.items():
             if name in source.variables:
-                source.variables[name] = var
+                source.variables[name] = _Var(
+                    name, None, self.units.get(name, ""), "other",
+                    f"an array of shape {shape}, not one value per sample ({self.n} samples)",
+                    int(np.prod(shape, dtype=object)),
+                )  # fmt: skip
         for name, var in self.unread.items():
             if self.replace_unread:
                 source.variables[name] = var
@@ -106,7 +117,7 @@ class _Mapping:
         self.n = _record_length(self.path, shapes, self.fixed, channels, defaults)
         n = self.n
         for name in self.order:
-            if name in self.fixed:
+            if name in self.fixed or name in self.misfit:
                 continue
             shape = shapes[name]
             axis = _sample_axis(shape, n)
@@ -117,11 +128,7 @@ class _Mapping:
             if size <= _SMALL:
                 self.fixed[name] = load(name)
             else:  # never a channel: only its shape matters (refused or ignored as whole)
-                self.fixed[name] = np.broadcast_to(np.zeros((), dtypes[name]), shape)
-                self.misfit[name] = _Var(
-                    name, None, self.units.get(name, ""), "other",
-                    f"an array of shape {shape}, not one value per sample ({n} samples)", size,
-                )  # fmt: skip
+                self.misfit[name] = (shape, dtypes[name])
 
     def row_bytes(self) -> int:
         """Bytes one sample takes across the columns, read and then as float64."""

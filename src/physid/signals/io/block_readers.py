@@ -310,9 +310,11 @@ class FileBlocks:
         size = check_int(size, "size", minimum=2)
         names = self._check_channels(channels)
         if self._whole is not None:
-            yield from self._whole.blocks(size, names)
-            return
+            return self._whole.blocks(size, names)
         self._check_block_memory(size)
+        return self._blocks(size, names)
+
+    def _blocks(self, size: int, names: list) -> Iterator[Recording]:
         self._check_unchanged()
         starts = block_starts(self.n_samples, size)
         prev = None
