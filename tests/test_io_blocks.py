@@ -317,22 +317,50 @@ def test_a_compressed_channel_major_member_is_refused(tmp_path):
 
 
 # ----------------------------------------------------------------------------- memory
-@pytest.mark.parametrize("fmt", ["hdf5", "npz", "mat73"])
+@pytest.mark.parametrize("fmt", ["hdf5", "npz", "npz_compressed", "mat73"])
 def test_a_block_read_does_not_grow_with_the_file(tmp_path, fmt, monkeypatch):
     largest = {}
-    original = block_formats._read_slice
+    readers = {"hdf5": "_read_slice", "mat73": "_read_slice", "npz": "_StoredMember",
+               "npz_compressed": "_StreamedMember"}  # fmt: skip
+    if readers[fmt] == "_read_slice":
+        original = block_formats._read_slice
 
-    def counting(ds, axis, a, b, transposed):
-        out = original(ds, axis, a, b, transposed)
-        largest[n] = max(largest.get(n, 0), out.shape[0])
-        return out
+        def counting(ds, axis, a, b, transposed):
+            out = original(ds, axis, a, b, transposed)
+            largest[n] = max(largest.get(n, 0), out.shape[0])
+            return out
 
-    monkeypatch.setattr(block_formats, "_read_slice", counting)
+        monkeypatch.setattr(block_formats, "_read_slice", counting)
+    else:
+        cls = getattr(block_formats, readers[fmt])
+        original = cls.read
+
+        def counting(self, a, b):
+            out = original(self, a, b)
+            largest[n] = max(largest.get(n, 0), out.shape[0])
+            return out
+
+        monkeypatch.setattr(cls, "read", counting)
     for n in (2_099, 20_000):
         path = _write(fmt, tmp_path / f"r{n}{SUFFIX[fmt]}", *_signals(n=n))
         for block in open_blocks(path, MAP).blocks(300):
             assert block.data.shape[0] < 600
     assert largest == {2_099: 599, 20_000: 500}  # the longest block, not the file
+
+
+def test_parquet_batches_do_not_grow_with_the_file(tmp_path, monkeypatch):
+    rows = {}
+    original = block_formats._ParquetBlocks._table
+
+    def counting(self, batches):
+        rows[self.n] = max(rows.get(self.n, 0), sum(b.num_rows for b in batches))
+        return original(self, batches)
+
+    monkeypatch.setattr(block_formats._ParquetBlocks, "_table", counting)
+    for n in (2_099, 20_000):
+        path = _write("parquet", tmp_path / f"r{n}.parquet", *_signals(n=n))
+        list(open_blocks(path, MAP).blocks(300))
+    assert rows == {2_099: 599, 20_000: 500}
 
 
 def test_csv_chunks_do_not_grow_with_the_file(tmp_path, monkeypatch):
@@ -362,3 +390,24 @@ def test_in_memory_bytes_from_shapes_alone(tmp_path):
     parquet = _write("parquet", tmp_path / "r.parquet", t, q, cur)
     assert in_memory_bytes(parquet) == N * 4 * 16
     assert set(BLOCK_FORMATS) == {"hdf5", "npz", "csv", "parquet", "mat"}
+
+
+@pytest.mark.parametrize(
+    "layout", ["fortran", "channel_major", "compressed_fortran_channel_major", "big_endian"]
+)
+def test_npz_storage_orders(tmp_path, layout):
+    t, q, cur = _signals()
+    stored = {
+        "fortran": np.asfortranarray(q),  # (n, 2) stored column by column
+        "channel_major": np.ascontiguousarray(q.T),  # (2, n): one read per channel
+        "compressed_fortran_channel_major": np.asfortranarray(q.T),  # samples together
+        "big_endian": q.astype(">f8"),
+    }[layout]
+    path = tmp_path / "r.npz"
+    save = np.savez_compressed if layout.startswith("compressed") else np.savez
+    save(path, t=t, q=stored, cur=cur, g=2.5)
+    whole = load_recording(path, MAP)
+    assert whole.names == ("tau1", "q1", "q2")
+    t_b, data, _ = _concat(open_blocks(path, MAP).blocks(97))
+    np.testing.assert_array_equal(data, whole.data)
+    np.testing.assert_array_equal(t_b, whole.t)

@@ -9,7 +9,7 @@ HDF5 / MATLAB v7.3
     h5py dataset slices (MATLAB's column-major storage transposed back); the links and storage
     of every dataset are checked by the whole-file reader's walk, on every pass.
 NPZ
-    An uncompressed member is memory-mapped at its offset inside the zip (read by slices); a
+    An uncompressed member is read at its offset inside the zip (one read per block); a
     compressed one is decompressed forward only, one block of rows after the other (a pass
     restarts the stream).
 CSV
@@ -173,7 +173,7 @@ def _record_length(path, shapes: dict, fixed: dict, channels, defaults) -> int:
         names.append(_find_time(path, dict.fromkeys([*shapes, *fixed])))
     for name in names:
         found = length(name)
-        if found and found > 1:
+        if found and found >= 1:
             return int(found)
     if "data" in shapes and "names" in fixed and len(shapes["data"]) == 2:
         k = np.size(fixed["names"])
@@ -287,9 +287,9 @@ class _Member:
 
 
 class _NpzBlocks:
-    """NPZ by slices: stored members memory-mapped, compressed ones decompressed forward."""
+    """NPZ by slices: stored members read at their offset, compressed ones decompressed forward."""
 
-    how = "by slices (uncompressed members memory-mapped, compressed ones streamed forward)"
+    how = "by slices (uncompressed members at their offset, compressed ones streamed forward)"
 
     def __init__(self, path: Path, channels, defaults):
         self.path = path
@@ -344,7 +344,7 @@ class _NpzBlocks:
             for key, col in layout.columns.items():
                 m = self.members[key]
                 if m.info.compress_type == zipfile.ZIP_STORED:
-                    readers[key] = _MappedMember(self.path, raw, m, col)
+                    readers[key] = _StoredMember(self.path, raw, m, col)
                 else:
                     readers[key] = _StreamedMember(self.path, zf, m, col)
 
@@ -403,8 +403,9 @@ def _rows_contiguous(m: _Member, col: _Column) -> bool:
     return (col.axis == 0) != m.fortran
 
 
-class _MappedMember:
-    """An uncompressed member, memory-mapped at its offset in the zip (slices read as needed)."""
+class _StoredMember:
+    """An uncompressed member read at its offset in the zip: a block's rows are one read, or
+    one per column when the member is stored channel-major (nothing mapped, nothing kept)."""
 
     def __init__(self, path, raw, m: _Member, col: _Column):
         raw.seek(m.info.header_offset)
@@ -412,16 +413,30 @@ class _MappedMember:
         if len(local) < 30 or local[:4] != b"PK\x03\x04":
             raise DataFileError(_npz_error(path, ValueError("a damaged local header")))
         name_len, extra_len = struct.unpack("<HH", local[26:30])
-        offset = m.info.header_offset + 30 + name_len + extra_len + m.header
-        order = "F" if m.fortran else "C"
-        self.map = np.memmap(path, m.dtype, "r", offset=offset, shape=m.shape, order=order)
-        self.axis = col.axis
+        self.offset = m.info.header_offset + 30 + name_len + extra_len + m.header
+        self.path, self.m, self.raw = path, m, raw
+        self.n = m.shape[col.axis]
+        self.row = int(np.prod(m.shape, dtype=object)) // max(self.n, 1)
+        self.together = _rows_contiguous(m, col)
+
+    def _bytes(self, start: int, count: int) -> np.ndarray:
+        item = self.m.dtype.itemsize
+        self.raw.seek(self.offset + start * item)
+        buf = self.raw.read(count * item)
+        if len(buf) != count * item:
+            raise _changed(self.path, f"member {self.m.info.filename!r} ended early")
+        return np.frombuffer(buf, dtype=self.m.dtype)
 
     def read(self, a, b):
-        return _read_slice(self.map, self.axis, a, b, False)
+        m = b - a
+        if self.together:
+            arr = self._bytes(a * self.row, m * self.row)
+            return arr if len(self.m.shape) == 1 else arr.reshape(m, self.row)
+        columns = [self._bytes(j * self.n + a, m) for j in range(self.row)]  # one per channel
+        return np.column_stack(columns)
 
     def close(self):
-        self.map = None
+        self.raw = None
 
 
 class _StreamedMember:
@@ -622,7 +637,7 @@ class _ParquetBlocks:
 
         from .parquet_reader import _open_parquet
 
-        pf = _open_parquet(self.path)
+        pf = _open_parquet(self.path, streaming=True)
         if int(pf.metadata.num_rows) != self.n:
             raise _changed(self.path, f"it has {pf.metadata.num_rows} rows, not {self.n}")
         batches = pf.iter_batches(batch_size=65536, use_threads=False)
@@ -660,13 +675,23 @@ class _ParquetBlocks:
                 pf.close()
 
     def probe(self, a: int, b: int) -> _Source:
-        """Rows ``a:b`` read from the row groups that hold them."""
+        """The first rows, or the last ones (the last row group streamed, its tail kept)."""
+        import pyarrow as pa
+
         from .parquet_reader import _open_parquet
 
-        pf = _open_parquet(self.path)
-        ends = np.cumsum([0, *self.groups])
-        first = int(np.searchsorted(ends, a, side="right")) - 1
-        last = int(np.searchsorted(ends, b, side="left")) - 1
-        table = pf.read_row_groups(list(range(first, last + 1)), use_threads=False)
-        rows = table.slice(a - int(ends[first]), b - a)
-        return self._table(rows.to_batches())
+        pf = _open_parquet(self.path, streaming=True)
+        if a == 0:
+            batch = next(pf.iter_batches(batch_size=b, use_threads=False))
+            return self._table([batch])
+        last = len(self.groups) - 1
+        while last > 0 and self.groups[last] < b - a:  # the last rows may span row groups
+            last -= 1
+        tail: deque = deque()
+        groups = range(last, len(self.groups))
+        for batch in pf.iter_batches(batch_size=65536, row_groups=groups, use_threads=False):
+            tail.append(batch)
+            while sum(x.num_rows for x in tail) - tail[0].num_rows >= b - a:
+                tail.popleft()
+        table = pa.Table.from_batches(list(tail))
+        return self._table(table.slice(table.num_rows - (b - a)).to_batches())

@@ -39,7 +39,7 @@ __all__ = ["open_blocks", "FileBlocks", "BLOCK_FORMATS", "in_memory_bytes", "MAX
 #: How each format is read by `open_blocks` (for messages and the docs).
 BLOCK_FORMATS = {
     "hdf5": "by dataset slices (h5py); MATLAB v7.3 files the same",
-    "npz": "by slices (uncompressed members memory-mapped, compressed ones decompressed forward)",
+    "npz": "by slices (uncompressed members at their offset, compressed ones decompressed forward)",
     "csv": "in chunks of lines, after a first scan that counts the rows",
     "parquet": "by row batches (pyarrow)",
     "mat": "MATLAB v7.3 by dataset slices; a v5 file is read whole (up to MAX_WHOLE_MAT_BYTES)",

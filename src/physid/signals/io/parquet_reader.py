@@ -35,11 +35,13 @@ def _pyarrow(path):
     return pq
 
 
-def _open_parquet(path: Path):
-    """The `pyarrow.parquet.ParquetFile` (a damaged file is a `DataFileError`)."""
+def _open_parquet(path: Path, *, streaming: bool = False):
+    """The `pyarrow.parquet.ParquetFile` (a damaged file is a `DataFileError`); ``streaming``:
+    column chunks read through a 1 MiB buffer, not whole (a block read stays small)."""
     pq = _pyarrow(path)
+    kwargs = {"buffer_size": 1 << 20, "pre_buffer": False} if streaming else {}
     try:
-        return pq.ParquetFile(path)
+        return pq.ParquetFile(path, **kwargs)
     except Exception as exc:  # pyarrow raises ArrowInvalid, OSError ... on damaged files
         raise DataFileError(
             f"{path}: not a readable Parquet file ({type(exc).__name__}: {exc}); write it again "
