@@ -411,3 +411,17 @@ def test_npz_storage_orders(tmp_path, layout):
     t_b, data, _ = _concat(open_blocks(path, MAP).blocks(97))
     np.testing.assert_array_equal(data, whole.data)
     np.testing.assert_array_equal(t_b, whole.t)
+
+
+def test_a_block_larger_than_memory_is_refused_before_reading(tmp_path, monkeypatch):
+    path = _write("hdf5", tmp_path / "r.h5", *_signals())
+    original = block_readers.check_memory
+
+    def small_machine(nbytes, **kwargs):
+        return original(nbytes, available=20_000, **kwargs)  # 10 kB may be claimed
+
+    monkeypatch.setattr(block_readers, "check_memory", small_machine)
+    src = open_blocks(path, MAP)
+    assert len(list(src.blocks(10))) == N // 10  # 10 rows × 4 columns × 16 B × 2: 1.3 kB
+    with pytest.raises(DataFileError, match=r"r\.h5: one block of 500 samples .*read smaller"):
+        src.blocks(500)
