@@ -425,3 +425,16 @@ def test_a_block_larger_than_memory_is_refused_before_reading(tmp_path, monkeypa
     assert len(list(src.blocks(10))) == N // 10  # 10 rows × 4 columns × 16 B × 2: 1.3 kB
     with pytest.raises(DataFileError, match=r"r\.h5: one block of 500 samples .*read smaller"):
         src.blocks(500)
+
+
+def test_a_table_rate_leaves_a_file_with_its_own_time_alone(tmp_path):
+    # a [recording] table's rate applies to files without time only; this file has both a time
+    # and a "rate" in its metadata, which must not be taken for a time made from the rate
+    t = 5 + np.arange(500) * 0.01
+    rows = "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, np.sin(t), strict=True))
+    path = tmp_path / "r.csv"
+    path.write_text('# metadata: {"rate": 100.0}\nt,x\n' + rows)
+    whole = load_recording(path, channel_defaults={"rate": "100"})
+    src = open_blocks(path, channel_defaults={"rate": "100"})
+    assert src.t0 == 5.0 and src.dt == pytest.approx(0.01, rel=1e-12)
+    np.testing.assert_array_equal(_concat(src.blocks(64))[0], whole.t)

@@ -32,6 +32,7 @@ from .block_formats import _CsvBlocks, _Hdf5Blocks, _NpzBlocks, _ParquetBlocks
 from .files import _check_readable, _format_of, _rate_of
 from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .rosbag_reader import is_rosbag
+from .timebase import rate_time
 from .variables import DEFAULT_UNIFORM_RTOL, SUPPORTED_SUFFIXES
 
 __all__ = ["open_blocks", "FileBlocks", "BLOCK_FORMATS", "in_memory_bytes", "MAX_WHOLE_MAT_BYTES"]
@@ -229,17 +230,19 @@ class FileBlocks:
         if n < 2:
             raise DataFileError(
                 f"{path}: the file holds {'only 1 sample' if n == 1 else 'no samples'}; it "
-                "needs at least 2."
+                "needs at least 2 rows."
             )
         self._origin = None
         first = self._assemble(self._probe(0, 2), 0, 2, warn=True)
-        stamp = first.metadata.get("time_origin", {}).get("first_stamp", 0)
-        self._origin = int(stamp)
-        self._rate_time = "rate" in first.metadata and first.metadata["rate"] is not None
+        self._origin = int(first.metadata.get("time_origin", {}).get("first_stamp", 0))
+        last = self._assemble(self._probe(n - 2, n), n - 2, n, warn=False)
+        rate = options.rate
+        # the time of a file without one: k / rate, which a block's own rows start again at 0
+        grid = None if rate is None else rate_time(2, rate)
+        self._rate_time = grid is not None and all(np.array_equal(r.t, grid) for r in (first, last))
         if self._rate_time:
-            self.t0, self.dt = 0.0, 1.0 / float(first.metadata["rate"])
+            self.t0, self.dt = 0.0, 1.0 / rate
         else:
-            last = self._assemble(self._probe(n - 2, n), n - 2, n, warn=False)
             self.t0 = float(first.t[0])
             self.dt = float((last.t[-1] - first.t[0]) / (n - 1))
             if not self.dt > 0:
@@ -378,7 +381,7 @@ class FileBlocks:
         """The block's times [s], checked against the record's period (edges included)."""
         k = np.arange(a, b)
         if self._rate_time:
-            return k / float(self.metadata["rate"])  # as rate_time: k / rate
+            return k / self._options.rate  # as rate_time: k / rate
         t = np.asarray(rec.t)
         rtol = self._options.uniform_rtol
         full = t if prev is None else np.concatenate([[prev], t])
