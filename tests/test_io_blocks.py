@@ -16,7 +16,7 @@ import pytest
 import physid.signals.io.block_formats as block_formats
 import physid.signals.io.block_readers as block_readers
 from physid.errors import DataFileError, InputError, MissingDependencyError
-from physid.signals.blocks import BlockSource
+from physid.signals.blocks import BlockSource, block_starts
 from physid.signals.io import (
     BLOCK_FORMATS,
     in_memory_bytes,
@@ -114,6 +114,7 @@ def test_blocks_concatenated_equal_the_whole_load(tmp_path, fmt):
             t, data, blocks = _concat(src.blocks(size))
             lengths = [b.n_samples for b in blocks]
             assert lengths[:-1] == [size] * (len(lengths) - 1) and size <= lengths[-1] < 2 * size
+            assert np.cumsum([0, *lengths]).tolist() == block_starts(N, size).tolist()
             np.testing.assert_array_equal(data, whole.data)  # bit for bit
             np.testing.assert_array_equal(t, whole.t)  # both on the grid t0 + k·dt
         t2, data2, _ = _concat(src.blocks(7))  # a second pass: the same numbers

@@ -25,7 +25,7 @@ import numpy as np
 from ..._resources import check_memory, format_bytes
 from ..._validate import check_int
 from ...errors import DataFileError, InputError
-from ..blocks import RecordingBlocks, block_starts
+from ..blocks import RecordingBlocks
 from ..recording import Recording
 from .assemble import _assemble
 from .block_formats import _CsvBlocks, _Hdf5Blocks, _NpzBlocks, _ParquetBlocks
@@ -319,18 +319,18 @@ class FileBlocks:
 
     def _blocks(self, size: int, names: list) -> Iterator[Recording]:
         self._check_unchanged()
-        starts = block_starts(self.n_samples, size)
+        count = max(self.n_samples // size, 1)  # block_starts' partition, without its array
         prev = None
         with self._reader.reading() as read:
-            pairs = list(zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True))
-            for j, (a, b) in enumerate(pairs):
+            for j in range(count):
+                a, b = j * size, (j + 1) * size if j < count - 1 else self.n_samples
                 rec = self._assemble(read(a, b), a, b, warn=False)
                 if rec.n_samples != b - a:
                     raise _length_error(self.path, a, b, rec.n_samples)
                 try:
                     t = self._block_time(rec, a, b, prev)
                 except _Drift as drift:
-                    self._locate(read, pairs[j + 1 :], drift)
+                    self._locate(read, size, j + 1, count, drift)
                 prev = rec.t[-1] if not self._rate_time else None
                 units = [rec.unit(n) for n in names]
                 yield Recording(t, rec.select(names), names, units, self.metadata)
@@ -401,11 +401,12 @@ class FileBlocks:
             raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
 
-    def _locate(self, read, rest, drift: _Drift):
+    def _locate(self, read, size: int, start: int, count: int, drift: _Drift):
         """After a block whose intervals all differ from the record's period: read on to the
         gap that makes the difference (the whole-file load names the worst interval)."""
         rtol, prev = self._options.uniform_rtol, drift.prev
-        for a, b in rest:
+        for j in range(start, count):
+            a, b = j * size, (j + 1) * size if j < count - 1 else self.n_samples
             t = np.asarray(self._assemble(read(a, b), a, b, warn=False).t)
             full = np.concatenate([[prev], t])
             steps = np.diff(full)
