@@ -113,9 +113,10 @@ def test_cli_iv_reads_the_controller_from_the_log_or_the_flag(tmp_path):
             assert main([*argv, *extra]) == 0
         messages[tuple(extra)] = json.loads(out.getvalue())["message"]
     assert "IV simulated the controller tau = Kp (r - q) - Kd qd + g(q)" in messages[()]
-    assert "IV simulated the controller tau = Kp (r - q) - Kd qd." in messages[
-        ("--feedforward", "none")
-    ]
+    assert (
+        "IV simulated the controller tau = Kp (r - q) - Kd qd."
+        in messages[("--feedforward", "none")]
+    )
     err = io.StringIO()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
         argv = ["identify", log, "--model", str(URDF), "--method", "idim-ols"]
