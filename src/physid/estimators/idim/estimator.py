@@ -26,7 +26,7 @@ from .._stiction import (
 )
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
-from ..plausibility import gate, too_perfect, unchanging
+from ..plausibility import gate, implausible_scale, too_perfect, unchanging
 from .base_parameters import BaseInfo, base_regressor_info, unit_of
 from .iv import controller, describe_controller, iv_iterations
 from .result import IDIMResult
@@ -244,7 +244,8 @@ class IDIMEstimator(EstimatorMixin):
         rel = _relative_errors(rows.tau, e)
         success, message = self._verdict(est, rows, rel, cond, recs)
         message += describe_controller(loops) if loops else ""
-        success, message = gate(success, message, _implausible(rows.tau, e))
+        scale = implausible_scale(dict(zip(info.names, est.beta, strict=True)), model, recs)
+        success, message = gate(success, message, [*_implausible(rows.tau, e), *scale])
         consistent = None
         if self.consistent:
             consistent = consistent_estimate(model, info, rows.W, rows.tau, est.beta, est.weights)
