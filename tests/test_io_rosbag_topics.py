@@ -188,3 +188,97 @@ def test_a_gap_in_one_topic_is_refused_naming_it(files, tmp_path):
     with pytest.raises(DataFileError, match=r"have gaps: 1 gap\(s\) longer than 5 periods.*"
                        r"in effort_controller\.commands"):  # fmt: skip
         load_recording(bag, topic=BOTH)
+
+
+# ------------------------------------------------- control_msgs/JointTrajectoryControllerState
+JTC = "control_msgs/msg/JointTrajectoryControllerState"
+JTC_ROS1 = """std_msgs/Header header
+string[] joint_names
+trajectory_msgs/JointTrajectoryPoint desired
+trajectory_msgs/JointTrajectoryPoint actual
+trajectory_msgs/JointTrajectoryPoint error
+"""
+JTC_HUMBLE = (
+    JTC_ROS1
+    + """trajectory_msgs/JointTrajectoryPoint reference
+trajectory_msgs/JointTrajectoryPoint feedback
+trajectory_msgs/JointTrajectoryPoint output
+"""
+)
+
+
+def _write_jtc(path, kind, stamps, cols):
+    """The controller state, joints (elbow, shoulder): ROS 1 fills desired/actual; ROS 2 Humble
+    fills reference/feedback and leaves the deprecated desired/actual empty."""
+    from rosbags.typesys import get_types_from_msg
+
+    ros1 = kind == "ros1"
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    store.register(get_types_from_msg(JTC_ROS1 if ros1 else JTC_HUMBLE, JTC))
+    types = store.types
+    point = types["trajectory_msgs/msg/JointTrajectoryPoint"]
+    zero = types["builtin_interfaces/msg/Duration"](sec=0, nanosec=0)
+    empty = np.zeros(0)
+
+    def pt(pos=empty, vel=empty, eff=empty):
+        return point(positions=pos, velocities=vel, accelerations=empty, effort=eff,
+                     time_from_start=zero)  # fmt: skip
+
+    writer = Writer1(path) if ros1 else Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    with writer:
+        conn = writer.add_connection("/arm_controller/state", JTC, typestore=store)
+        for k, s in enumerate(stamps):
+            s = int(s)
+
+            def two(c, k=k):
+                return np.array([cols[f"{c}2"][k], cols[f"{c}1"][k]])  # elbow, shoulder
+
+            measured = pt(two("q"), two("qd"), two("tau"))
+            commanded = pt(two("r"))
+            err = pt(two("r") - two("q"))
+            if ros1:
+                msg = types[JTC](header=_header(types, True, k, s), joint_names=["elbow", "shoulder"],
+                                 desired=commanded, actual=measured, error=err)  # fmt: skip
+            else:
+                msg = types[JTC](header=_header(types, False, k, s),
+                                 joint_names=["elbow", "shoulder"], desired=pt(), actual=pt(),
+                                 error=err, reference=commanded, feedback=measured, output=pt())  # fmt: skip
+            writer.write(conn, s, serialize(msg, JTC))
+    return path
+
+
+@pytest.fixture(scope="module")
+def jtc(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("jtc")
+    sim = planar2_pd_run(physid.load_model(PLANAR2), duration=4.0)
+    rng = np.random.default_rng(5)
+    n = 1900
+    stamps = T0 + np.arange(n, dtype=np.int64) * 2_000_000 + rng.integers(-200_000, 200_000, n)
+    t = (stamps - T0).astype(float) * 1e-9 + 0.05
+    names = ("q1", "q2", "qd1", "qd2", "tau1", "tau2", "r1", "r2")
+    cols = {c: np.interp(t, sim.t, sim[c]) for c in names}
+    csv = _csv(folder / "state.csv", "header.stamp [ns]," + ",".join(names), stamps,
+               [cols[c] for c in names])  # fmt: skip
+    return {
+        "csv": csv,
+        "mcap": _write_jtc(folder / "state_mcap", "mcap", stamps, cols),
+        "ros1": _write_jtc(folder / "state.bag", "ros1", stamps, cols),
+    }
+
+
+@pytest.mark.parametrize("kind", ["mcap", "ros1"])
+def test_controller_state_by_name_with_references(jtc, kind):
+    """No map: q, q̇, τ from the measured point and r from the commanded one, matched by name;
+    the same channels as the equivalent CSV; and the same fit to 1e-9."""
+    rec = load_recording(jtc[kind], topic="/arm_controller/state",
+                         joint_names=("shoulder", "elbow"), resample=True)  # fmt: skip
+    ref = load_recording(jtc["csv"], resample=True)
+    np.testing.assert_array_equal(rec.t, ref.t)
+    for c in ("q1", "q2", "qd1", "qd2", "tau1", "tau2", "r1", "r2"):
+        np.testing.assert_allclose(rec[c], ref[c], rtol=0, atol=1e-12)
+    point = "feedback" if kind == "mcap" else "actual"
+    assert rec.metadata["channel_map"]["q2"] == f"{point}.positions.elbow"
+    got, _ = _base(["identify", jtc[kind], "--model", PLANAR2, "--topic", "/arm_controller/state"])
+    want, _ = _base(["identify", jtc["csv"], "--model", PLANAR2, "--resample"])
+    assert max(abs(got[k] - want[k]) for k in want) <= 1e-9

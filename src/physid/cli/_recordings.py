@@ -66,6 +66,7 @@ def add_recording_options(parser, *, what="the recording", detrend=True) -> None
         metavar="TOPIC",
         help="ROS bags: the sensor_msgs/JointState topic to read, e.g. /joint_states (default: "
         "the bag's only one); joints are matched to the model's by name. Also "
+        "control_msgs/JointTrajectoryControllerState (by name, with r1..rn) and "
         "std_msgs/Float64MultiArray topics (values LABEL.data1..n, for --map); several "
         "topics separated by commas are joined on their stamps",
     )

@@ -1,5 +1,6 @@
-"""ROS bags: ``sensor_msgs/JointState`` and ``std_msgs/Float64MultiArray`` messages of ROS 1
-(``.bag``) and ROS 2 (MCAP or sqlite3) bags, read with
+"""ROS bags: ``sensor_msgs/JointState``, ``control_msgs/JointTrajectoryControllerState`` and
+``std_msgs/Float64MultiArray`` messages of ROS 1 (``.bag``) and ROS 2 (MCAP or sqlite3) bags,
+read with
 `rosbags <https://gitlab.com/ternaris/rosbags>`_ (pure Python, optional:
 ``pip install "physid[ros]"``).
 
@@ -17,6 +18,12 @@ names, in an order the controller's configuration sets. Its values become ``<lab
 slash, ``/`` read as ``.``), timed by the bag's receive time (the message has no header), and
 are never assigned to joints by guess: the channel map says which is which
 (``tau1 = effort_controller.commands.data2``), which is where the joint order is stated.
+
+A ``control_msgs/JointTrajectoryControllerState`` topic (its definition is read from the bag)
+names its joints: each filled array becomes ``<point>.<array>.<joint>``
+(``feedback.positions.shoulder``), and by name ``q, q̇, τ`` come from the measured point
+(``feedback``, else ``actual``) and the references ``r`` from the commanded one (``reference``,
+else ``desired``).
 
 Several topics of one run (``topic="/joint_states,/effort_controller/commands"``) are joined on
 their stamps onto one uniform grid by `physid.signals.join_recordings`, exactly as the
@@ -43,8 +50,20 @@ _JOINT_STATE = ("sensor_msgs/msg/JointState", "sensor_msgs/JointState")
 _ARRAY = tuple(
     f"std_msgs{sep}{kind}MultiArray" for kind in ("Float64", "Float32") for sep in ("/msg/", "/")
 )
-_READABLE = "sensor_msgs/JointState, std_msgs/Float64MultiArray or std_msgs/Float32MultiArray"
+_READABLE = (
+    "sensor_msgs/JointState, control_msgs/JointTrajectoryControllerState, "
+    "std_msgs/Float64MultiArray or std_msgs/Float32MultiArray"
+)
 _FIELDS = (("position", "q"), ("velocity", "qd"), ("effort", "tau"))
+_TRAJECTORY_STATE = (
+    "control_msgs/msg/JointTrajectoryControllerState",
+    "control_msgs/JointTrajectoryControllerState",
+)
+_NAMED = _JOINT_STATE + _TRAJECTORY_STATE  # messages that name their joints
+#: JointTrajectoryControllerState's points (ROS 2 Humble adds reference/feedback/output to
+#: ROS 1's desired/actual/error) and their arrays.
+_POINTS = ("reference", "feedback", "output", "desired", "actual", "error")
+_ARRAYS = ("positions", "velocities", "accelerations", "effort")
 
 
 def is_rosbag(path) -> bool:
@@ -133,8 +152,8 @@ def _connections(path, reader, topics):
                 f"{path}: the bag has no topic {topic!r}; its topics are {listed}. Choose one "
                 f"of them with topic=."
             )
-        if chosen[0].msgtype not in _JOINT_STATE + _ARRAY:
-            readable = [t for t, m in found if m in _JOINT_STATE + _ARRAY]
+        if chosen[0].msgtype not in _NAMED + _ARRAY:
+            readable = [t for t, m in found if m in _NAMED + _ARRAY]
             raise DataFileError(
                 f"{path}: topic {topic!r} carries {chosen[0].msgtype}, not {_READABLE}; physid "
                 f"reads those ({', '.join(readable) or 'none in this bag'})."
@@ -223,8 +242,42 @@ class _Topic:
     topic: str
     stamps: np.ndarray
     values: dict  # variable name -> (n_messages,) float
-    joints: tuple | None = None  # JointState: the joint names; None for an array topic
-    fields: tuple = ()  # JointState: the fields the messages fill
+    joints: tuple | None = None  # the joint names; None for an array topic
+    sources: dict | None = None  # channel stem (q, qd, tau, r) -> variable prefix, by name
+
+
+def _sources(columns) -> dict:
+    """Which filled fields give ``q, qd, tau`` (and ``r``) of the joints, by name.
+
+    JointState: position, velocity, effort. JointTrajectoryControllerState: the measured point
+    (``feedback``, else ``actual``) for q, q̇ and τ, and the commanded one (``reference``, else
+    ``desired``) positions for the references r that IDIM-IV needs.
+    """
+    if "position" in columns or "velocity" in columns or "effort" in columns:
+        return {stem: field for field, stem in _FIELDS if field in columns}
+    out = {}
+    for stem, array, points in (
+        ("q", "positions", ("feedback", "actual")),
+        ("qd", "velocities", ("feedback", "actual")),
+        ("tau", "effort", ("feedback", "actual")),
+        ("r", "positions", ("reference", "desired")),
+    ):
+        filled = [f"{pt}.{array}" for pt in points if f"{pt}.{array}" in columns]
+        if filled:
+            out[stem] = filled[0]
+    return out
+
+
+def _fields_of(msg) -> tuple[tuple, dict]:
+    """(joint names, field -> values) of a JointState or JointTrajectoryControllerState."""
+    if hasattr(msg, "name"):
+        return tuple(msg.name), {f: getattr(msg, f) for f, _ in _FIELDS}
+    fields = {}
+    for point in _POINTS:
+        value = getattr(msg, point, None)
+        if value is not None:
+            fields.update({f"{point}.{a}": getattr(value, a) for a in _ARRAYS})
+    return tuple(msg.joint_names), fields
 
 
 def _label(topic: str) -> str:
@@ -234,14 +287,14 @@ def _label(topic: str) -> str:
 
 def _read_topic(path, reader, topic, connections) -> _Topic:
     """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
-    if connections[0].msgtype in _JOINT_STATE:
+    if connections[0].msgtype in _NAMED:
         columns, stamps, names = _read_messages(path, reader, connections, topic)
         values = {
             f"{field}.{name}": values[:, j]
             for field, values in columns.items()
             for j, name in enumerate(names)
         }
-        return _Topic(topic, stamps, values, tuple(names), tuple(columns))
+        return _Topic(topic, stamps, values, tuple(names), _sources(columns))
     data, stamps = _read_arrays(path, reader, connections, topic)
     label = _label(topic)
     values = {f"{label}.data{k + 1}": data[:, k] for k in range(data.shape[1])}
@@ -304,16 +357,17 @@ def _read_messages(path, reader, connections, topic):
             f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
         )
     first = None
-    rows: dict[str, list] = {f: [] for f, _ in _FIELDS}
+    rows: dict[str, list] = {}
     stamps = []
     for connection, logtime, raw in reader.messages(connections=connections):
         msg = reader.deserialize(raw, connection.msgtype)
-        names = tuple(msg.name)
+        names, fields = _fields_of(msg)
         if first is None:
             first = names
             width = len(first)
+            rows = {f: [] for f in fields}
             check_memory(
-                8.0 * count * (3 * width + 1) * 3,
+                8.0 * count * (len(fields) * width + 1) * 3,
                 what=f"reading topic {topic!r} of {path} ({count} messages of {width} joints)",
                 fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
             )
@@ -328,8 +382,8 @@ def _read_messages(path, reader, connections, topic):
         else:
             index = np.arange(len(first))
         stamps.append(_stamp(msg, logtime))
-        for field, _ in _FIELDS:
-            values = np.asarray(getattr(msg, field), dtype=float)
+        for field, raw_values in fields.items():
+            values = np.asarray(raw_values, dtype=float)
             rows[field].append(values[index] if values.size == len(first) else None)
     columns = {
         field: np.vstack(values) for field, values in rows.items()
@@ -368,8 +422,8 @@ def _read_arrays(path, reader, connections, topic):
 
 
 def _joint_map(path, topics, parts, joint_names, mapped) -> dict:
-    """``q<j>/qd<j>/tau<j>`` → ``position.<name>`` ... for the model's joints, by name, from
-    the JointState topics (the first that fills a field gives it)."""
+    """``q<j>/qd<j>/tau<j>`` (``r<j>``) → ``position.<name>`` ... for the model's joints, by
+    name, from the topics that name their joints (the first that fills a field gives it)."""
     if not joint_names or not parts:
         return {}
     out: dict[str, str] = {}
@@ -380,10 +434,10 @@ def _joint_map(path, topics, parts, joint_names, mapped) -> dict:
             if f"q{j}" not in mapped:
                 missing.append(name)
             continue
-        for field, stem in _FIELDS:
+        for stem in ("q", "qd", "tau", "r"):
             for p in having:
-                if field in p.fields and f"{stem}{j}" not in out:
-                    out[f"{stem}{j}"] = f"{field}.{name}"
+                if stem in p.sources and f"{stem}{j}" not in out:
+                    out[f"{stem}{j}"] = f"{p.sources[stem]}.{name}"
     if missing:
         names = list(dict.fromkeys(n for p in parts for n in p.joints))
         where = f"topic {topics[0]!r}" if len(topics) == 1 else f"topics {', '.join(topics)}"
