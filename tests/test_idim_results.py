@@ -114,7 +114,7 @@ def test_idim_estimator_uses_the_shared_mixin(planar, clean):
         assert name not in IDIMEstimator.__dict__, name
     params = est.get_params()
     assert params["method"] == "iv" and params["decimate"] == 5 and params["model"] is planar
-    assert len(params) == 16
+    assert len(params) == 17  # feedforward included
     twin = IDIMEstimator(**params)
     assert twin.get_params() == params
     assert twin.set_params(decimate=7, tol=1e-3) is twin and twin.decimate == 7

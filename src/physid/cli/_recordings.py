@@ -65,7 +65,10 @@ def add_recording_options(parser, *, what="the recording", detrend=True) -> None
         default=None,
         metavar="TOPIC",
         help="ROS bags: the sensor_msgs/JointState topic to read, e.g. /joint_states (default: "
-        "the bag's only one); joints are matched to the model's by name",
+        "the bag's only one); joints are matched to the model's by name. Also "
+        "control_msgs/JointTrajectoryControllerState (by name, with r1..rn) and "
+        "std_msgs/Float64MultiArray topics (values LABEL.data1..n, for --map); several "
+        "topics separated by commas are joined on their stamps",
     )
     if not detrend:
         return
@@ -253,6 +256,8 @@ def _load_notes(path, rec, where, bag) -> None:
     if bag:
         joints = meta.get("bag_joint_names") or []
         progress(f"physid: note: {path}: topic {meta.get('topic')}, joints {', '.join(joints)}")
+        for note in meta.get("bag_join") or ():
+            progress(f"physid: note: {path}: {note}")
     resampled = meta.get("resampled_from")
     if resampled and "max_sampling_deviation" in meta:
         progress(
@@ -298,6 +303,10 @@ def _warn_implausible_data(model, rec) -> None:
 def warn_implausible_estimates(model, result, recordings) -> bool:
     """Warn (stderr) about estimated masses 100× away from the model's nominal ones.
 
+    The estimators' verdict already fails such a fit (`physid.estimators.plausibility.
+    implausible_scale` in their gate); the warning repeats it on stderr, where a ``--json``
+    reader sees it too.
+
     Parameters
     ----------
     model : model
@@ -312,24 +321,11 @@ def warn_implausible_estimates(model, result, recordings) -> bool:
     bool
         True when something was warned about.
     """
-    from ..signals.io.plausibility import implausible_estimates
+    from ..estimators.plausibility import implausible_scale
 
-    nominal = getattr(model, "parameters", None)
-    units = dict(getattr(model, "units", None) or {})
-    units.update(getattr(result, "units", None) or {})
-    if not isinstance(nominal, dict):
-        return False
-    unitless = sorted(
-        {
-            n
-            for rec in recordings
-            for n in rec.names
-            if re.fullmatch(r"q\d+", n)
-            and not rec.unit(n)
-            and n not in (rec.metadata.get("original_units") or {})
-        }
+    messages = implausible_scale(
+        result.parameters, model, recordings, getattr(result, "units", None)
     )
-    messages = implausible_estimates(result.parameters, nominal, units, unitless)
     for text in messages:
         print(f"physid: warning: {text}", file=sys.stderr)
     return bool(messages)

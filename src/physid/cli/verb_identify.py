@@ -136,6 +136,12 @@ def register(subparsers) -> None:
         "(default: file metadata)",
     )
     p.add_argument(
+        "--feedforward",
+        choices=("none", "gravity", "gravity+friction"),
+        default=None,
+        help="--method idim-iv: the feed-forward the controller added to PD (default: metadata)",
+    )
+    p.add_argument(
         "--start",
         choices=("initial", "linear"),
         default="initial",
@@ -289,18 +295,24 @@ def _check_method_options(args, method: str) -> None:
     from ..errors import InputError
 
     if method == "input-error":
-        unused = dict(_IDIM_ONLY, max_iter=("--max-iter", 10))
+        unused = dict(_IDIM_ONLY, max_iter=("--max-iter", 10), feedforward=("--feedforward", None))
         family = "the idim-* methods"  # --kp/--kd without --torque pd: the estimator refuses
     else:
         unused = dict(_INPUT_ERROR_ONLY)
         family = "--method input-error"
         if method != "idim-iv":
             unused.update(kp=("--kp", None), kd=("--kd", None), max_iter=("--max-iter", 10))
+            unused.update(feedforward=("--feedforward", None))
     given = [flag for name, (flag, default) in unused.items() if getattr(args, name) != default]
     if not given:
         return
     verb = "apply" if len(given) > 1 else "applies"
-    if method in ("idim-ols", "idim-wls") and set(given) <= {"--kp", "--kd", "--max-iter"}:
+    if method in ("idim-ols", "idim-wls") and set(given) <= {
+        "--kp",
+        "--kd",
+        "--max-iter",
+        "--feedforward",
+    }:
         raise InputError(
             f"{', '.join(given)} {verb} to --method idim-iv (its simulated closed loop); "
             f"--method {method} does not use {'them' if len(given) > 1 else 'it'}. Use --method idim-iv, or leave them out."
@@ -446,6 +458,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
         stderr=args.stderr,
         kp=float_list(args.kp, "--kp") if args.kp else None,
         kd=float_list(args.kd, "--kd") if args.kd else None,
+        feedforward=args.feedforward,
         max_iter=args.max_iter,
         consistent=args.consistent,
         stick_threshold=args.stick_threshold,

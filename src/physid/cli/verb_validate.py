@@ -12,7 +12,7 @@ errors as fractions); ``--plot DIR`` writes PNGs and ``DIR/index.html``.
 from __future__ import annotations
 
 from ..errors import InputError
-from ._common import check_output_folder, cli_words, print_json, progress
+from ._common import check_output_folder, cli_words, float_list, print_json, progress
 from ._recordings import add_recording_options, read_recording
 
 ORDER = 45
@@ -44,6 +44,25 @@ def register(subparsers) -> None:
         ),
     )
     add_recording_options(parser)
+    parser.add_argument(
+        "--kp",
+        default=None,
+        metavar="LIST",
+        help="PD proportional gains [N·m/rad] of the closed-loop re-simulation, one per joint "
+        "(default: the result file's, else the held-out file's metadata)",
+    )
+    parser.add_argument(
+        "--kd",
+        default=None,
+        metavar="LIST",
+        help="PD derivative gains [N·m·s/rad], one per joint (default: as --kp)",
+    )
+    parser.add_argument(
+        "--feedforward",
+        choices=("none", "gravity", "gravity+friction"),
+        default=None,
+        help="feed-forward the controller added to PD (default: the held-out file's metadata)",
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.add_argument(
         "--plot", default=None, metavar="DIR", help="write PNG figures and DIR/index.html"
@@ -55,7 +74,12 @@ def run(args) -> int:
     from ..analysis.validation import load_result, validate
 
     check_output_folder(args.plot, "--plot")  # before any work
-    structure = _structure_result(args)
+    controller = {
+        "kp": float_list(args.kp, "--kp") if args.kp is not None else None,
+        "kd": float_list(args.kd, "--kd") if args.kd is not None else None,
+        "feedforward": args.feedforward,
+    }
+    structure = _structure_result(args, controller)
     if structure is not None:
         return structure
     loaded = load_result(args.result, model=args.model)
@@ -71,7 +95,7 @@ def run(args) -> int:
     rec = read_recording(reading, args.file, model=getattr(loaded, "model", None), period=period)
     progress(f"validate: {loaded.method} result on {args.file} ({rec.n_samples} samples)")
     try:
-        report = validate(loaded, rec)
+        report = validate(loaded, rec, **controller)
     except InputError as exc:  # another sample period: name the flag that resamples
         if "(Recording.resample)" not in str(exc):
             raise
@@ -94,7 +118,7 @@ def _finite(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def _structure_result(args):
+def _structure_result(args, controller):
     """Validate an equation-error / output-error result of a structure: fit [%] per output of
     the model simulated on the held-out forces. None when the file is another kind."""
     from pathlib import Path
@@ -104,6 +128,12 @@ def _structure_result(args):
     data = read_result_json(Path(args.result))  # size, nesting and values checked
     if data.get("method") not in ("equation-error", "output-error"):
         return None
+    named = [f"--{k}" for k, v in controller.items() if v is not None]
+    if named:
+        raise InputError(
+            f"{', '.join(named)}: a {data['method']} result is simulated from rest on the "
+            "held-out forces, with no controller; leave them out."
+        )
     from ..estimators.equation_error import StructureResult
     from ..models import load_model
 

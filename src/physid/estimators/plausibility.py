@@ -15,6 +15,9 @@ and each returns a sentence (what is wrong, with the numbers, and what to change
     another: the sign of the output or of the gain changed during the record.
 `too_perfect`
     A residual at the rounding floor of float64 on an output that carries nothing to explain.
+`implausible_scale`
+    Estimated masses 100 times (or more) away from the model's nominal ones: a channel in
+    another unit than the one assumed (a position in mm read as m), named when it has no unit.
 
 `gate` turns the sentences into ``(success, message)``. The algebraic, recursive, input-error
 and IDIM estimators all call it as the last step of their verdict.
@@ -36,6 +39,7 @@ __all__ = [
     "too_perfect",
     "unchanging",
     "gate",
+    "implausible_scale",
     "check_magnitude",
     "MAX_MAGNITUDE",
     "linear_ode_problems",
@@ -368,6 +372,60 @@ def check_magnitude(signals, names: Sequence[str]) -> None:
                 "Rescale the channel (record it in a larger unit, e.g. with a [unit] header or "
                 "the channel map's scale factor)."
             )
+
+
+def implausible_scale(parameters, model, recordings=(), units=None) -> list[str]:
+    """Sentences for estimated masses 100 times (or more) away from the model's nominal values.
+
+    A fit on a position logged in mm and read as m converges to masses 1000 times too small;
+    only the scale gives it away (`physid.signals.io.plausibility.implausible_estimates`). The
+    position channels the recordings carry without a unit are named as the likely culprits,
+    with the likely unit.
+
+    Parameters
+    ----------
+    parameters : mapping of str to float
+        Estimates that are standard parameters of ``model`` (a base parameter that stands for
+        a sum of several is left out by the caller).
+    model : model
+        With ``parameters`` (nominal values) and ``units``; any other model gives ``[]``.
+    recordings : sequence of Recording
+        The fitted recordings.
+    units : mapping of str to str, optional
+        Units of the estimates, over the model's.
+
+    Returns
+    -------
+    list of str
+        One sentence per implausible estimate, with both numbers and the likely unit.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as NS
+    >>> model = NS(parameters={"m1": 18.0}, units={"m1": "kg"})
+    >>> implausible_scale({"m1": 0.018}, model)[0][:57]
+    'm1 = 0.018 kg is 1000 times below the model nominal 18 kg'
+    """
+    import re
+
+    from ..signals.io.plausibility import implausible_estimates
+
+    nominal = getattr(model, "parameters", None)
+    if not isinstance(nominal, dict):
+        return []
+    all_units = dict(getattr(model, "units", None) or {})
+    all_units.update(units or {})
+    unitless = sorted(
+        {
+            n
+            for rec in recordings
+            for n in rec.names
+            if re.fullmatch(r"q\d+", n)
+            and not rec.unit(n)
+            and n not in (rec.metadata.get("original_units") or {})
+        }
+    )
+    return implausible_estimates(parameters, nominal, all_units, unitless)
 
 
 def gate(success: bool, message: str, problems: Sequence[str | None]) -> tuple[bool, str]:

@@ -13,7 +13,8 @@ Three tests, the ones robotics and system-identification practice use:
     cut-off, and says so), the estimated output offset subtracted from ``y`` first.
 (b) **Output-error test** — the identified model simulated on the held-out input (open loop for a
     linear ODE, with the initial state fitted by least squares as MATLAB ``compare`` does; closed
-    loop with the recording's PD controller ``kp``, ``kd`` and reference ``r`` for chains; an
+    loop for chains with the controller that ran: PD gains ``kp``, ``kd`` given, saved in the
+    result file or in the recording's metadata, the recording's feed-forward and reference ``r``; an
     IDIM result without a consistent estimate as its fitted base model, each base value on its
     kept column and 0 on the others), and the fit ``100 (1 − ‖y − ŷ‖ / ‖y − ȳ‖)`` per output
     (MATLAB ``compare``'s NRMSE fit) and the relative error ``‖y − ŷ‖ / ‖y‖``.
@@ -46,7 +47,7 @@ from ...estimators.results import jsonable
 from .inverse import _chain_inverse as _chain_inverse
 from .inverse import _idim_inverse, _linear_inverse, _rowless_joints, _stick_note
 from .loaded import LoadedResult, _as_loaded, load_result
-from .output_error import _chain_output_error, _relative, fit_percent
+from .output_error import _chain_output_error, _relative, check_controller, fit_percent
 from .parameters import _base_theta as _base_theta
 from .parameters import _idim_parameters as _idim_parameters
 from .parameters import _idim_threshold as _idim_threshold
@@ -147,7 +148,9 @@ class ValidationReport:
         return "\n".join(lines)
 
 
-def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> ValidationReport:
+def validate(
+    result, recording, *, model=None, max_lag: int = MAX_LAG, kp=None, kd=None, feedforward=None
+) -> ValidationReport:
     """Validate an identified model on held-out data: tests (a), (b), (c) of the module docstring.
 
     Parameters
@@ -160,6 +163,12 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
         The model, where the result file does not name it.
     max_lag : int
         Lags of the residual tests.
+    kp, kd : array_like (n_joints,), optional
+        Chains: the PD gains [N·m/rad], [N·m·s/rad] of test (b)'s closed-loop re-simulation;
+        default: the gains saved in the result file, else the recording's metadata. The note of
+        (b) says which gains were used and where they came from.
+    feedforward : {None, "none", "gravity", "gravity+friction"}
+        Chains: the feed-forward added to the PD law in (b); default: the recording's metadata.
 
     Returns
     -------
@@ -168,16 +177,30 @@ def validate(result, recording, *, model=None, max_lag: int = MAX_LAG) -> Valida
     Raises
     ------
     InputError
-        The held-out recording lacks a channel of the model or has another sample period.
+        The held-out recording lacks a channel of the model or has another sample period; a
+        gain that is negative or not one per joint, an unknown feed-forward, or a controller
+        given for a linear ODE (which is simulated in open loop).
     """
     loaded = _as_loaded(result, model)
+    given = {"kp": kp, "kd": kd, "feedforward": feedforward}
+    if loaded.is_linear and any(v is not None for v in given.values()):
+        named = ", ".join(arg(k) for k, v in given.items() if v is not None)
+        raise InputError(
+            f"{named}: a linear ODE's output-error test is an open-loop simulation on the "
+            "recorded input, with no controller; leave them out."
+        )
+    controller = None if loaded.is_linear else check_controller(loaded.model.n_joints, **given)
     notes: list[str] = []
     for note in (_check_sampling(loaded, recording), _options_note(loaded)):
         if note:
             notes.append(note)
     series: dict[str, Any] = {}
-    run = _validate_linear if loaded.is_linear else _validate_chain
-    rel, fits, out_rel, residual = run(loaded, recording, max_lag, notes, series)
+    if loaded.is_linear:
+        rel, fits, out_rel, residual = _validate_linear(loaded, recording, max_lag, notes, series)
+    else:
+        rel, fits, out_rel, residual = _validate_chain(
+            loaded, recording, max_lag, notes, series, controller
+        )
     if residual:
         series["residual"] = residual
     failures = tuple(series.pop("failures", ()))
@@ -228,7 +251,7 @@ def _impulse_response(loaded, t):
     return np.append((g - rest)[1:], 0.0)
 
 
-def _validate_chain(loaded, recording, max_lag, notes, series):
+def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     """Tests (a), (b), (c) of a chain; (c) on the inverse-model error of (a)."""
     residual: dict[str, Any] = {}
     stuck = None
@@ -269,7 +292,7 @@ def _validate_chain(loaded, recording, max_lag, notes, series):
                 "(c) runs on every row, the dropped equations counting as zero residual: "
                 f"only {int(free.sum())} rows have every joint's equation kept"
             )
-    fits, out_rel, note = _chain_output_error(loaded, recording, series)
+    fits, out_rel, note = _chain_output_error(loaded, recording, series, controller)
     notes.append(note)
     what = "filtered, decimated rows" if _is_idim(loaded) else "filtered samples"
     if _enough_for_residual(tau_f.shape[0], max_lag, what, notes):

@@ -1,6 +1,7 @@
 """Test (b) of `physid.analysis.validation`: the output error, MATLAB ``compare``'s fit and the
 relative error; for chains the closed-loop re-simulation with the recording's PD controller (a
-linear ODE's open-loop simulation is `LoadedResult.predict`)."""
+linear ODE's open-loop simulation is `LoadedResult.predict`). The controller: PD gains given,
+saved in the result file or in the recording's metadata, plus the recording's feed-forward."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 from .parameters import _idim_parameters, _input_error_parameters, _is_idim
 
-__all__ = ["fit_percent"]
+__all__ = ["check_controller", "fit_percent"]
 
 
 def fit_percent(y, y_hat) -> float:
@@ -43,20 +44,107 @@ def _relative(err, ref) -> float:
     return float(np.linalg.norm(err)) / den if den > 0 else float("nan")
 
 
-def _chain_output_error(loaded, recording, series):
-    """Closed-loop re-simulation with the recording's PD controller (needs kp, kd and r)."""
+def check_controller(nj: int, kp=None, kd=None, feedforward=None) -> dict:
+    """Check the controller given to `validate`: ``{"kp": (nj,), "kd": (nj,), "feedforward"}``.
+
+    Parameters
+    ----------
+    nj : int
+        Number of joints.
+    kp, kd : array_like (nj,), optional
+        PD gains [N·m/rad], [N·m·s/rad], one per joint (or one for all), each >= 0.
+    feedforward : {None, "none", "gravity", "gravity+friction"}
+
+    Returns
+    -------
+    dict
+        Only the keys given.
+
+    Raises
+    ------
+    InputError, ShapeError
+        A gain that is not a number, negative, or not one per joint; an unknown feed-forward.
+    """
+    from ..._validate import per_joint
+    from ...errors import InputError, arg
+    from ...simulate.feedforward import FEEDFORWARD
+
+    out: dict = {}
+    for name, value in (("kp", kp), ("kd", kd)):
+        if value is None:
+            continue
+        gains = per_joint(value, name, nj)
+        if np.any(gains < 0):
+            raise InputError(
+                f"{arg(name)} must be gains >= 0, one per joint ({nj}); got "
+                f"{gains.tolist()!r}. A negative gain destabilises the loop: check the sign."
+            )
+        out[name] = gains
+    if feedforward is not None:
+        if feedforward not in FEEDFORWARD:
+            raise InputError(
+                f"{arg('feedforward')} must be one of {sorted(FEEDFORWARD)}; got {feedforward!r}."
+            )
+        out["feedforward"] = str(feedforward)
+    return out
+
+
+def _controller_of(loaded, meta, given: dict):
+    """The gains and feed-forward to simulate, each with where it came from.
+
+    Gains: given (``kp=``/``kd=``, the command line's ``--kp/--kd``), else the fit's saved gains
+    (``gains`` of the result file: identify's ``--kp/--kd``), else the held-out recording's
+    metadata. Feed-forward: given, else the recording's metadata, else none.
+    """
+    saved = loaded.data.get("gains") or {}
+    out, sources = {}, {}
+    for name in ("kp", "kd"):
+        if name in given:
+            out[name], sources[name] = given[name], "given"
+        elif saved.get(name) is not None:
+            out[name], sources[name] = saved[name], "the result file"
+        elif meta.get(name) is not None:
+            out[name], sources[name] = meta[name], "the held-out recording's metadata"
+    if "feedforward" in given:
+        ff, sources["feedforward"] = given["feedforward"], "given"
+    elif meta.get("feedforward") is not None:
+        ff, sources["feedforward"] = str(meta["feedforward"]), "the recording's metadata"
+    else:
+        ff, sources["feedforward"] = "none", "none recorded"
+    return out, ff, sources
+
+
+def _describe(kp, kd, law: str, sources: dict) -> str:
+    """``controller tau = … with kp [...] (from …), kd [...] (from …)``."""
+
+    def fmt(v):
+        return "[" + ", ".join(f"{float(x):.4g}" for x in np.ravel(v)) + "]"
+
+    return (
+        f"controller {law} with kp {fmt(kp)} (from {sources['kp']}), kd {fmt(kd)} (from "
+        f"{sources['kd']}), feed-forward from {sources['feedforward']}"
+    )
+
+
+def _chain_output_error(loaded, recording, series, given=None):
+    """Closed-loop re-simulation with the controller that ran (needs kp, kd and r).
+
+    ``given``: the controller passed to `validate` (`check_controller`'s dict).
+    """
     meta = dict(getattr(recording, "metadata", {}) or {})
     model = loaded.model
     nj = int(model.n_joints)
     r_names = [f"r{j + 1}" for j in range(nj)]
     q_names = [f"q{j + 1}" for j in range(nj)]
-    if "kp" not in meta or "kd" not in meta or not all(n in recording.names for n in r_names):
+    gains, feedforward, sources = _controller_of(loaded, meta, dict(given or {}))
+    if "kp" not in gains or "kd" not in gains or not all(n in recording.names for n in r_names):
         return (
             {},
             {},
             (
-                "(b) skipped: closed-loop re-simulation needs the controller gains kp, kd in the "
-                "recording's metadata and the reference channels r1..rn"
+                "(b) skipped: closed-loop re-simulation needs the controller gains kp, kd (given, "
+                "in the result file or in the recording's metadata) and the reference channels "
+                "r1..rn"
             ),
         )
     from ...simulate.closed_loop import simulate_closed_loop
@@ -86,13 +174,13 @@ def _chain_output_error(loaded, recording, series):
     try:
         sim = simulate_closed_loop(
             model,
-            kp=meta["kp"],
-            kd=meta["kd"],
+            kp=gains["kp"],
+            kd=gains["kd"],
             reference=reference,
             t=t,
             q0=q0,
             params=params,
-            feedforward=str(meta.get("feedforward", "none")),  # the log's controller
+            feedforward=feedforward,  # the log's controller
         )
     except Exception as exc:  # a diverging identified model: report, do not crash
         return {}, {}, f"(b) closed-loop re-simulation failed: {exc}"
@@ -105,11 +193,9 @@ def _chain_output_error(loaded, recording, series):
         rel[n] = _relative(y - y_hat, y)
         data[n] = (y, y_hat)
     series["output"] = (t, data)
+    law = sim.metadata.get("controller", "tau = Kp (r - q) - Kd qd")
     return (
         fits,
         rel,
-        (
-            f"(b) {what} with the recording's kp, kd and reference; controller "
-            f"{sim.metadata.get('controller', 'tau = Kp (r - q) - Kd qd')}"
-        ),
+        f"(b) {what} with the recording's reference; {_describe(gains['kp'], gains['kd'], law, sources)}",
     )

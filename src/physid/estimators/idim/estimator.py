@@ -26,9 +26,9 @@ from .._stiction import (
 )
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
-from ..plausibility import gate, too_perfect, unchanging
+from ..plausibility import gate, implausible_scale, too_perfect, unchanging
 from .base_parameters import BaseInfo, base_regressor_info, unit_of
-from .iv import controller, iv_iterations
+from .iv import controller, describe_controller, iv_iterations
 from .result import IDIMResult
 from .rows import IDIMRows, idim_rows
 from .solve import (
@@ -109,6 +109,9 @@ class IDIMEstimator(EstimatorMixin):
         HAC bandwidth in decimated rows (default: from the residual's correlation length).
     kp, kd : array_like (n_joints,), optional
         PD gains of the closed loop (IV only; default: the recording's metadata ``kp``/``kd``).
+    feedforward : {None, "none", "gravity", "gravity+friction"}
+        IV only: the feed-forward the controller added to the PD law, simulated at the current
+        estimate (`physid.estimators.idim.iv`); None: the metadata's ``feedforward``, else PD.
     max_iter : int
         IV iterations at most.
     tol : float
@@ -142,6 +145,7 @@ class IDIMEstimator(EstimatorMixin):
         hac_lag: int | None = None,
         kp=None,
         kd=None,
+        feedforward: str | None = None,
         max_iter: int = 10,
         tol: float = 1e-4,
         consistent: bool = False,
@@ -159,6 +163,7 @@ class IDIMEstimator(EstimatorMixin):
         self.hac_lag = hac_lag
         self.kp = kp
         self.kd = kd
+        self.feedforward = feedforward
         self.max_iter = max_iter
         self.tol = tol
         self.consistent = consistent
@@ -216,7 +221,7 @@ class IDIMEstimator(EstimatorMixin):
         info = base_regressor_info(model)
         loops = None
         if self.method == "iv":
-            loops = controller(recs, int(model.n_joints), self.kp, self.kd)
+            loops = controller(recs, int(model.n_joints), self.kp, self.kd, self.feedforward)
         rows = self._rows(recs, info)
         notes: list[str] = []
         self._check_rows(rows, info, notes, recs)
@@ -238,7 +243,9 @@ class IDIMEstimator(EstimatorMixin):
         cond = float(condition_number(rows.W * est.weights[None, :, None]))
         rel = _relative_errors(rows.tau, e)
         success, message = self._verdict(est, rows, rel, cond, recs)
-        success, message = gate(success, message, _implausible(rows.tau, e))
+        message += describe_controller(loops) if loops else ""
+        scale = implausible_scale(dict(zip(info.names, est.beta, strict=True)), model, recs)
+        success, message = gate(success, message, [*_implausible(rows.tau, e), *scale])
         consistent = None
         if self.consistent:
             consistent = consistent_estimate(model, info, rows.W, rows.tau, est.beta, est.weights)

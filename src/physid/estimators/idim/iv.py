@@ -1,11 +1,29 @@
 """IDIM-IV: instruments from a simulated closed loop of the current estimate.
 
 IDIM-IV replaces the noisy regressor in the normal equations by an instrument Z: the same base
-regressor evaluated on a *simulated* closed loop of the current estimate (same PD controller,
+regressor evaluated on a *simulated* closed loop of the current estimate (same controller,
 same references ``r1..rn``), so that Z is correlated with W but not with the measurement noise:
 ``β̂_IV = (Zᵀ W)⁻¹ Zᵀ τ``, repeated with the new estimate until it stops changing (Janot,
 Vandanjon & Gautier, IEEE TCST 2014). The simulated q goes through the same state filter,
 regressor, parallel filter and decimation as the measured q (`.rows`).
+
+The controller is the one that ran: PD, or PD plus the model's gravity (and friction)
+feed-forward (`physid.simulate.feedforward`), from the ``feedforward`` argument or the
+recording's metadata (``physid simulate --feedforward`` writes it).
+
+Which gravity the simulated compensation uses. The logged loop is
+``M(q; θ) q̈ + h(q, q̇; θ) = Kp (r − q) − Kd q̇ + g(q; θ_c) [+ τ_f(q̇; θ_c)]`` with θ the plant
+and θ_c the controller's model. The instruments must (i) be uncorrelated with the measurement
+noise and (ii) be as correlated with the noise-free regressor as possible, i.e. the simulated q
+should approach the noise-free logged q. A logged feed-forward torque ``g(q_meas(t); θ_c)`` is
+a function of the *measured*, noisy position; fed into the simulation as an input it would
+carry that noise into Z and break (i). The compensation is therefore recomputed inside the
+simulation from the simulated state with the *current estimate*: ``g(q_sim; θ̂)``. When the
+controller compensates with the plant's own parameters (θ_c = θ, as `simulate_closed_loop`
+does), the simulated loop equals the logged one exactly as θ̂ → θ, so the instruments become
+the noise-free regressor, as for pure PD. When θ_c differs from θ, the mismatch
+``g(θ) − g(θ_c)`` is a disturbance the simulation lacks: the instruments stay noise-free, hence
+the estimate stays consistent, only less efficient.
 """
 
 from __future__ import annotations
@@ -25,7 +43,14 @@ from .decimation import parallel_decimate
 from .filtering import states
 from .solve import iv_solve
 
-__all__ = ["controller", "iv_iterations", "params_for_base", "IV_RTOL", "IV_ATOL"]
+__all__ = [
+    "controller",
+    "describe_controller",
+    "iv_iterations",
+    "params_for_base",
+    "IV_RTOL",
+    "IV_ATOL",
+]
 
 #: Integrator tolerances of IV's closed-loop simulations (the instruments). Looser than
 #: `simulate_closed_loop`'s defaults (1e-9, 1e-11): half the right-hand-side evaluations, and on
@@ -44,11 +69,46 @@ def _gains_from(value, name: str, n: int, metadata: Mapping[str, Any]) -> np.nda
     return per_joint(value, name, n)
 
 
-def controller(recs, nj: int, kp=None, kd=None) -> list:
-    """PD gains and references ``(kp, kd, r)`` per recording; refuse when the controller is unknown."""
+def _feedforward_of(value, meta: Mapping[str, Any], k: int) -> str:
+    """The feed-forward kind: the argument, else the recording's metadata, else ``"none"``."""
+    from ...simulate.feedforward import FEEDFORWARD
+
+    kind = value if value is not None else meta.get("feedforward", "none")
+    if kind not in FEEDFORWARD:
+        where = (
+            arg("feedforward", repr(kind), cli=str(kind))
+            if value is not None
+            else f"recording {k + 1}'s metadata feedforward={kind!r}"
+        )
+        raise InputError(
+            f"{where}: the feed-forward must be one of {sorted(FEEDFORWARD)} (PD alone, PD + "
+            "g(q), PD + g(q) + τ_f(q̇))."
+        )
+    return str(kind)
+
+
+def controller(recs, nj: int, kp=None, kd=None, feedforward=None) -> list:
+    """The controller of each recording: ``(kp, kd, r, feedforward)``; refuse when unknown.
+
+    Parameters
+    ----------
+    recs : sequence of Recording
+    nj : int
+    kp, kd : array_like (n_joints,), optional
+        PD gains [N·m/rad], [N·m·s/rad]; default: each recording's metadata ``kp``/``kd``.
+    feedforward : {None, "none", "gravity", "gravity+friction"}
+        The feed-forward added to the PD law; None: the metadata's ``feedforward``, else
+        ``"none"``.
+
+    Returns
+    -------
+    list of tuple
+        ``(kp (nj,), kd (nj,), r (n_samples, nj), feedforward)`` per recording.
+    """
     out = []
     for k, rec in enumerate(recs):
         meta = dict(rec.metadata)
+        ff = _feedforward_of(feedforward, meta, k)
         kp_k = _gains_from(kp, "kp", nj, meta)
         kd_k = _gains_from(kd, "kd", nj, meta)
         refs = [f"r{j + 1}" for j in range(nj)]
@@ -68,11 +128,20 @@ def controller(recs, nj: int, kp=None, kd=None) -> list:
                 f"{arg('method', repr('ols'), cli='idim-ols')}/"
                 f"{arg('method', repr('wls'), cli='idim-wls')}."
             )
-        out.append((kp_k, kd_k, rec.select(refs)))
+        out.append((kp_k, kd_k, rec.select(refs), ff))
     return out
 
 
-def simulate_loop(simulate, model, kp, kd, ref, t, q_meas, theta, theta_nominal, notes):
+def describe_controller(loops) -> str:
+    """One sentence naming the controller(s) IV simulated (for the result's message)."""
+    from ...simulate.feedforward import FEEDFORWARD
+
+    laws = sorted({FEEDFORWARD[loop[3]] for loop in loops})
+    est = " (feed-forward at the current estimate)" if any(lp[3] != "none" for lp in loops) else ""
+    return f" IV simulated the controller {' and '.join(laws)}{est}."
+
+
+def simulate_loop(simulate, model, loop, t, q_meas, theta, theta_nominal, notes):
     """The closed loop of the current estimate; shrunk towards the nominal model if needed.
 
     A poor estimate can have a mass matrix that is not positive definite somewhere on the
@@ -80,6 +149,7 @@ def simulate_loop(simulate, model, kp, kd, ref, t, q_meas, theta, theta_nominal,
     with the regressor, so the parameters are moved towards the model's nominal values
     (θ = θ_nom + α (θ̂ − θ_nom), α = 1, ½, ¼, 0) until the loop can be simulated.
     """
+    kp, kd, ref, feedforward = loop
     q0 = ref[0] if np.allclose(q_meas[0], ref[0], atol=1e-2) else q_meas[0]
     for alpha in (1.0, 0.5, 0.25, 0.0):
         params = theta_nominal + alpha * (theta - theta_nominal)
@@ -94,6 +164,7 @@ def simulate_loop(simulate, model, kp, kd, ref, t, q_meas, theta, theta_nominal,
                 params=params,
                 rtol=IV_RTOL,
                 atol=IV_ATOL,
+                feedforward=feedforward,  # g(q_sim; θ) [+ τ_f]: the module's docstring says why
             )
         except SimulationError:
             continue
@@ -123,11 +194,10 @@ def instruments(model, info, recs, rows, loops, theta, theta_nominal, notes, dif
     q_names = [f"q{j + 1}" for j in range(nj)]
     Zs = []
     for k, rec in enumerate(recs):
-        kp, kd, ref = loops[k]
         t = np.asarray(rec.t, dtype=float)
         q_meas = rec.select(q_names)
         sim, _ = simulate_loop(
-            simulate_closed_loop, model, kp, kd, ref, t, q_meas, theta, theta_nominal, notes
+            simulate_closed_loop, model, loops[k], t, q_meas, theta, theta_nominal, notes
         )
         qs = sim.select(q_names)
         _, qf, qdf, qddf, _ = states(qs, rec.dt, differentiation, rows.cutoff, rows.half_width)

@@ -10,7 +10,7 @@ import warnings
 import numpy as np
 
 from ...filters.band import choose_filter, noise_floor
-from ..plausibility import gate, still_joints, too_perfect
+from ..plausibility import gate, implausible_scale, still_joints, too_perfect
 from .core import NOISE_SHARE, RESIDUAL_WARN, FilterWarning, quality_factor
 from .prepare import _Problem
 from .result import InputErrorResult
@@ -18,8 +18,9 @@ from .solve import _Solution
 from .uncertainty import _expression_values, hac_lags, iid_covariance, sandwich_covariance
 
 
-def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
-    """Residual balance check, uncertainty, message and the result object."""
+def conclude(est, problem: _Problem, solution: _Solution, recordings=()) -> InputErrorResult:
+    """Residual balance check, uncertainty, message and the result object (``recordings``: the
+    fitted ones, whose channels without a unit an implausible mass names)."""
     names, free_names = problem.names, problem.free_names
     e_hat, tau_f, notes = solution.residuals, problem.tau_f, problem.notes
     cost = quality_factor(e_hat)
@@ -47,7 +48,8 @@ def conclude(est, problem: _Problem, solution: _Solution) -> InputErrorResult:
     if withhold is not None:
         combo_errors = {k: float("nan") for k in combo_errors}
     success, message = _message(est, problem, solution)
-    success, message = gate(success, message, _implausible(problem, solution))
+    scale = implausible_scale(problem.as_params(solution.theta_hat), problem.model, recordings)
+    success, message = gate(success, message, [*_implausible(problem, solution), *scale])
     sol, after, f = solution.sol, solution.after, problem.filtered
     return InputErrorResult(
         parameters=problem.as_params(theta_hat),

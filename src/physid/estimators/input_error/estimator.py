@@ -257,7 +257,7 @@ class InputErrorEstimator(EstimatorMixin):
         else:
             problem = prepare(self, recording, initial)
             solution = solve(self, problem)
-        result = conclude(self, problem, solution)
+        result = conclude(self, problem, solution, (recording,))
         if base:
             bp = problem.base
             columns = tuple(bp.independent)

@@ -159,7 +159,8 @@ def load_recording(
         ``t = k / rate``, k = 0 .. n-1. A file that has a time column is refused with it.
     topic : str, optional
         ROS bags: the ``sensor_msgs/JointState`` topic to read (CLI: ``--topic
-        /joint_states``); default the bag's only one.
+        /joint_states``); default the bag's only one. Also a ``Float64MultiArray`` topic, or
+        several separated by commas, joined on their stamps (`.rosbag_reader`).
     joint_names : sequence of str, optional
         ROS bags: the model's joint names; the bag's joints of these names become ``q1..qn``,
         ``qd1..qdn``, ``tau1..taun`` in this order (matched by name, in any order in the bag).

@@ -1,5 +1,7 @@
-"""ROS bags: ``sensor_msgs/JointState`` messages of ROS 1 (``.bag``) and ROS 2 (MCAP or sqlite3)
-bags, read with `rosbags <https://gitlab.com/ternaris/rosbags>`_ (pure Python, optional:
+"""ROS bags: ``sensor_msgs/JointState``, ``control_msgs/JointTrajectoryControllerState`` and
+``std_msgs/Float64MultiArray`` messages of ROS 1 (``.bag``) and ROS 2 (MCAP or sqlite3) bags,
+read with
+`rosbags <https://gitlab.com/ternaris/rosbags>`_ (pure Python, optional:
 ``pip install "physid[ros]"``).
 
 Each joint of the messages becomes the variables ``position.<joint>``, ``velocity.<joint>`` and
@@ -8,10 +10,29 @@ nanoseconds (the bag's receive time where the stamp is unset), kept exact. Given
 joint names, the joints are matched **by name** (in any order in the bag) and a channel map
 ``q<j> = position.<name>``, ``qd<j> = velocity.<name>``, ``tau<j> = effort.<name>`` is made, so a
 bag whose names match the URDF needs no map at all.
+
+A ``Float64MultiArray`` (or ``Float32MultiArray``) topic, as ros2_control's effort and
+forward-command controllers publish and many drivers log currents, carries values without joint
+names, in an order the controller's configuration sets. Its values become ``<label>.data1`` …
+``<label>.data<n>`` (``data[0]`` is ``data1``; ``<label>`` is the topic without its leading
+slash, ``/`` read as ``.``), timed by the bag's receive time (the message has no header), and
+are never assigned to joints by guess: the channel map says which is which
+(``tau1 = effort_controller.commands.data2``), which is where the joint order is stated.
+
+A ``control_msgs/JointTrajectoryControllerState`` topic (its definition is read from the bag)
+names its joints: each filled array becomes ``<point>.<array>.<joint>``
+(``feedback.positions.shoulder``), and by name ``q, q̇, τ`` come from the measured point
+(``feedback``, else ``actual``) and the references ``r`` from the commanded one (``reference``,
+else ``desired``).
+
+Several topics of one run (``topic="/joint_states,/effort_controller/commands"``) are joined on
+their stamps onto one uniform grid by `physid.signals.join_recordings`, exactly as the
+equivalent files with ``--join``; a gap that would split the run is refused, naming it.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +47,23 @@ __all__ = ["is_rosbag", "read_rosbag", "ROSBAG_SUFFIXES"]
 ROSBAG_SUFFIXES = (".bag", ".mcap", ".db3")
 
 _JOINT_STATE = ("sensor_msgs/msg/JointState", "sensor_msgs/JointState")
+_ARRAY = tuple(
+    f"std_msgs{sep}{kind}MultiArray" for kind in ("Float64", "Float32") for sep in ("/msg/", "/")
+)
+_READABLE = (
+    "sensor_msgs/JointState, control_msgs/JointTrajectoryControllerState, "
+    "std_msgs/Float64MultiArray or std_msgs/Float32MultiArray"
+)
 _FIELDS = (("position", "q"), ("velocity", "qd"), ("effort", "tau"))
+_TRAJECTORY_STATE = (
+    "control_msgs/msg/JointTrajectoryControllerState",
+    "control_msgs/JointTrajectoryControllerState",
+)
+_NAMED = _JOINT_STATE + _TRAJECTORY_STATE  # messages that name their joints
+#: JointTrajectoryControllerState's points (ROS 2 Humble adds reference/feedback/output to
+#: ROS 1's desired/actual/error) and their arrays.
+_POINTS = ("reference", "feedback", "output", "desired", "actual", "error")
+_ARRAYS = ("positions", "velocities", "accelerations", "effort")
 
 
 def is_rosbag(path) -> bool:
@@ -77,12 +114,27 @@ def _open(path: Path):
     return reader
 
 
-def _connections(path, reader, topic):
-    """The connections of the JointState topic to read (``topic`` or the only one)."""
-    topics = sorted({(c.topic, c.msgtype) for c in reader.connections})
-    listed = ", ".join(f"{t} ({m})" for t, m in topics) or "none"
-    states = sorted({t for t, m in topics if m in _JOINT_STATE})
+def _topic_list(topic) -> list[str] | None:
+    """``topic`` as a list of names (a comma-separated string gives several); None: default."""
     if topic is None:
+        return None
+    names = [t.strip() for t in topic.split(",")] if isinstance(topic, str) else []
+    if not names or not all(names):
+        raise InputError(
+            f"topic must be a topic name such as '/joint_states', or several separated by "
+            f"commas ('/joint_states,/effort_controller/commands'); got {topic!r}."
+        )
+    if len(set(names)) < len(names):
+        raise InputError(f"topic names a topic twice: {topic!r}; give each once.")
+    return names
+
+
+def _connections(path, reader, topics):
+    """``[(topic, connections)]`` of the topics to read (``topics`` or the only JointState)."""
+    found = sorted({(c.topic, c.msgtype) for c in reader.connections})
+    listed = ", ".join(f"{t} ({m})" for t, m in found) or "none"
+    states = sorted({t for t, m in found if m in _JOINT_STATE})
+    if topics is None:
         if len(states) != 1:
             which = "no sensor_msgs/JointState topic" if not states else (
                 f"{len(states)} sensor_msgs/JointState topics"
@@ -91,19 +143,23 @@ def _connections(path, reader, topic):
                 f"{path}: the bag has {which}; its topics are {listed}. Choose one with "
                 f"topic='{states[0] if states else '/joint_states'}'."
             )
-        topic = states[0]
-    chosen = [c for c in reader.connections if c.topic == topic]
-    if not chosen:
-        raise DataFileError(
-            f"{path}: the bag has no topic {topic!r}; its topics are {listed}. Choose one of "
-            f"them with topic=."
-        )
-    if chosen[0].msgtype not in _JOINT_STATE:
-        raise DataFileError(
-            f"{path}: topic {topic!r} carries {chosen[0].msgtype}, not sensor_msgs/JointState; "
-            f"physid reads JointState topics ({', '.join(states) or 'none in this bag'})."
-        )
-    return topic, chosen
+        topics = states[:1]
+    out = []
+    for topic in topics:
+        chosen = [c for c in reader.connections if c.topic == topic]
+        if not chosen:
+            raise DataFileError(
+                f"{path}: the bag has no topic {topic!r}; its topics are {listed}. Choose one "
+                f"of them with topic=."
+            )
+        if chosen[0].msgtype not in _NAMED + _ARRAY:
+            readable = [t for t, m in found if m in _NAMED + _ARRAY]
+            raise DataFileError(
+                f"{path}: topic {topic!r} carries {chosen[0].msgtype}, not {_READABLE}; physid "
+                f"reads those ({', '.join(readable) or 'none in this bag'})."
+            )
+        out.append((topic, chosen))
+    return out
 
 
 def _stamp(msg, logtime: int) -> int:
@@ -116,14 +172,15 @@ def _stamp(msg, logtime: int) -> int:
 
 
 def read_rosbag(path, *, topic=None, joint_names=None, mapped=()) -> _Source:
-    """The JointState messages of one topic as variables (see the module's docstring).
+    """The messages of one topic, or of several joined, as variables (see the module's docstring).
 
     Parameters
     ----------
     path : str or Path
         A ``.bag`` (ROS 1), ``.mcap`` or ``.db3`` file, or a ROS 2 bag folder.
     topic : str, optional
-        The JointState topic; default the bag's only one.
+        The topic to read (JointState or Float64/Float32MultiArray), or several separated by
+        commas, joined on their stamps; default the bag's only JointState topic.
     joint_names : sequence of str, optional
         The model's joints, in its order (q1 is the first).
     mapped : collection of str
@@ -132,36 +189,164 @@ def read_rosbag(path, *, topic=None, joint_names=None, mapped=()) -> _Source:
     Returns
     -------
     _Source
-        Variables ``t`` [ns] (int64) and ``position.<joint>`` etc.; metadata ``topic``,
-        ``bag_joint_names`` and ``joint_map`` (the channel map by name).
+        Variables ``t`` (one topic: [ns] int64; several: the joined grid [s]) and
+        ``position.<joint>``, ``<label>.data<k>`` etc.; metadata ``topic``, ``bag_joint_names``,
+        ``joint_map`` (the channel map by name) and, for several topics, ``bag_join`` (the
+        grid, the jitter).
 
     Raises
     ------
     DataFileError
-        Not a bag, no such topic (the message lists the bag's topics), a model joint not in the
-        messages (the message lists the bag's joint names), messages without samples.
+        Not a bag, no such topic (the message lists the bag's topics), a topic of another
+        type, a model joint not in the messages (the message lists the bag's joint names),
+        messages without samples, topics whose times do not overlap or that have a gap.
     InputError
-        The bag does not fit in memory (the message gives the size).
+        The bag does not fit in memory (the message gives the size); a bad ``topic``.
     MissingDependencyError
         rosbags is not installed.
     """
     path = Path(path)
-    if topic is not None and (not isinstance(topic, str) or not topic.strip()):
-        raise InputError(f"topic must be a topic name such as '/joint_states'; got {topic!r}.")
+    topics = _topic_list(topic)
     reader = _open(path)
     try:
-        topic, connections = _connections(path, reader, topic)
-        columns, stamps, names = _read_messages(path, reader, connections, topic)
+        parts = [
+            _read_topic(path, reader, name, connections)
+            for name, connections in _connections(path, reader, topics)
+        ]
     finally:
         reader.close()
-    variables = {"t": _Var("t", stamps, "ns", size=stamps.size)}
-    for field, values in columns.items():
-        for j, name in enumerate(names):
-            key = f"{field}.{name}"
-            variables[key] = _Var(key, values[:, j], "", size=stamps.size)
-    joint_map = _joint_map(path, topic, names, columns, joint_names, set(mapped))
-    metadata = {"topic": topic, "bag_joint_names": list(names), "joint_map": joint_map}
+    names = [n for p in parts if p.joints is not None for n in p.joints]
+    fields = [p for p in parts if p.joints is not None]
+    joint_map = _joint_map(path, [p.topic for p in parts], fields, joint_names, set(mapped))
+    metadata = {
+        "topic": ",".join(p.topic for p in parts),
+        "bag_joint_names": list(dict.fromkeys(names)),
+        "joint_map": joint_map,
+    }
+    if len(parts) == 1:
+        stamps = parts[0].stamps
+        variables = {"t": _Var("t", stamps, "ns", size=stamps.size)}
+        variables.update({k: _Var(k, v, "", size=stamps.size) for k, v in parts[0].values.items()})
+        return _Source(variables, metadata)
+    grid, columns, notes = _join_topics(path, parts)
+    variables = {"t": _Var("t", grid, "s", size=grid.size)}
+    variables.update({k: _Var(k, v, "", size=grid.size) for k, v in columns.items()})
+    metadata["bag_join"] = notes
     return _Source(variables, metadata)
+
+
+@dataclass
+class _Topic:
+    """One topic's messages: stamps [ns] (int64), variables, and its joints (JointState)."""
+
+    topic: str
+    stamps: np.ndarray
+    values: dict  # variable name -> (n_messages,) float
+    joints: tuple | None = None  # the joint names; None for an array topic
+    sources: dict | None = None  # channel stem (q, qd, tau, r) -> variable prefix, by name
+
+
+def _sources(columns) -> dict:
+    """Which filled fields give ``q, qd, tau`` (and ``r``) of the joints, by name.
+
+    JointState: position, velocity, effort. JointTrajectoryControllerState: the measured point
+    (``feedback``, else ``actual``) for q, q̇ and τ, and the commanded one (``reference``, else
+    ``desired``) positions for the references r that IDIM-IV needs.
+    """
+    if "position" in columns or "velocity" in columns or "effort" in columns:
+        return {stem: field for field, stem in _FIELDS if field in columns}
+    out = {}
+    for stem, array, points in (
+        ("q", "positions", ("feedback", "actual")),
+        ("qd", "velocities", ("feedback", "actual")),
+        ("tau", "effort", ("feedback", "actual")),
+        ("r", "positions", ("reference", "desired")),
+    ):
+        filled = [f"{pt}.{array}" for pt in points if f"{pt}.{array}" in columns]
+        if filled:
+            out[stem] = filled[0]
+    return out
+
+
+def _fields_of(msg) -> tuple[tuple, dict]:
+    """(joint names, field -> values) of a JointState or JointTrajectoryControllerState."""
+    if hasattr(msg, "name"):
+        return tuple(msg.name), {f: getattr(msg, f) for f, _ in _FIELDS}
+    fields = {}
+    for point in _POINTS:
+        value = getattr(msg, point, None)
+        if value is not None:
+            fields.update({f"{point}.{a}": getattr(value, a) for a in _ARRAYS})
+    return tuple(msg.joint_names), fields
+
+
+def _label(topic: str) -> str:
+    """``/effort_controller/commands`` -> ``effort_controller.commands``."""
+    return topic.strip("/").replace("/", ".") or "topic"
+
+
+def _read_topic(path, reader, topic, connections) -> _Topic:
+    """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
+    if connections[0].msgtype in _NAMED:
+        columns, stamps, names = _read_messages(path, reader, connections, topic)
+        values = {
+            f"{field}.{name}": values[:, j]
+            for field, values in columns.items()
+            for j, name in enumerate(names)
+        }
+        return _Topic(topic, stamps, values, tuple(names), _sources(columns))
+    data, stamps = _read_arrays(path, reader, connections, topic)
+    label = _label(topic)
+    values = {f"{label}.data{k + 1}": data[:, k] for k in range(data.shape[1])}
+    return _Topic(topic, stamps, values)
+
+
+def _join_topics(path, parts):
+    """Several topics of one run on one uniform grid (`physid.signals.join_recordings`).
+
+    Each topic becomes a `Recording` timed exactly as `load_recording` times a file of integer
+    nanosecond stamps (``(stamp − first) · 1e-9`` with the first stamp as ``time_origin``), so
+    the joined bag equals the same topics exported to files and read with ``--join``.
+    """
+    from ..join import join_recordings
+    from ..recording import Recording
+
+    recs, labels = [], []
+    seen: dict[str, int] = {}
+    for part in parts:
+        order = np.argsort(part.stamps, kind="stable")
+        stamps = part.stamps[order]
+        names = list(part.values)
+        for n in names:
+            seen[n] = seen.get(n, 0) + 1
+        recs.append(
+            Recording(
+                (stamps - stamps[0]).astype(float) * 1e-9,
+                np.column_stack([part.values[n][order] for n in names]),
+                names,
+                metadata={
+                    "time_origin": {"first_stamp": int(stamps[0]), "unit": "ns"},
+                    "source": f"{path}:{part.topic}",
+                },
+            )
+        )
+        labels.append(_label(part.topic))
+    twice = sorted(n for n, c in seen.items() if c > 1)
+    if twice:
+        raise DataFileError(
+            f"{path}: the topics {', '.join(p.topic for p in parts)} all carry {twice}; read "
+            "one of them, or read them one at a time."
+        )
+    run = join_recordings(recs, labels)
+    if len(run.segments) > 1:
+        raise DataFileError(
+            f"{path}: the topics of the run have gaps: {' '.join(run.notes[1:])}. Read the "
+            "topics exported to files with --join (each segment a separate experiment), or "
+            "read one topic."
+        )
+    seg = run.segments[0]
+    notes = [n.replace("files", "topics").replace("a file's", "a topic's") for n in run.notes]
+    return seg.t, {n: seg[n] for n in seg.names}, notes
 
 
 def _read_messages(path, reader, connections, topic):
@@ -172,16 +357,17 @@ def _read_messages(path, reader, connections, topic):
             f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
         )
     first = None
-    rows: dict[str, list] = {f: [] for f, _ in _FIELDS}
+    rows: dict[str, list] = {}
     stamps = []
     for connection, logtime, raw in reader.messages(connections=connections):
         msg = reader.deserialize(raw, connection.msgtype)
-        names = tuple(msg.name)
+        names, fields = _fields_of(msg)
         if first is None:
             first = names
             width = len(first)
+            rows = {f: [] for f in fields}
             check_memory(
-                8.0 * count * (3 * width + 1) * 3,
+                8.0 * count * (len(fields) * width + 1) * 3,
                 what=f"reading topic {topic!r} of {path} ({count} messages of {width} joints)",
                 fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
             )
@@ -196,8 +382,8 @@ def _read_messages(path, reader, connections, topic):
         else:
             index = np.arange(len(first))
         stamps.append(_stamp(msg, logtime))
-        for field, _ in _FIELDS:
-            values = np.asarray(getattr(msg, field), dtype=float)
+        for field, raw_values in fields.items():
+            values = np.asarray(raw_values, dtype=float)
             rows[field].append(values[index] if values.size == len(first) else None)
     columns = {
         field: np.vstack(values) for field, values in rows.items()
@@ -206,24 +392,58 @@ def _read_messages(path, reader, connections, topic):
     return columns, np.asarray(stamps, dtype=np.int64), first
 
 
-def _joint_map(path, topic, names, columns, joint_names, mapped) -> dict:
-    """``q<j>/qd<j>/tau<j>`` → ``position.<name>`` ... for the model's joints, by name."""
-    if not joint_names:
+def _read_arrays(path, reader, connections, topic):
+    """((n_messages, width) float array, receive times [ns] int64) of a MultiArray topic."""
+    count = sum(int(c.msgcount) for c in connections)
+    if count < 2:
+        raise DataFileError(
+            f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
+        )
+    rows, stamps = [], []
+    width = None
+    for connection, logtime, raw in reader.messages(connections=connections):
+        values = np.asarray(reader.deserialize(raw, connection.msgtype).data, dtype=float)
+        if width is None:
+            width = values.size
+            check_memory(
+                8.0 * count * (width + 1) * 3,
+                what=f"reading topic {topic!r} of {path} ({count} messages of {width} values)",
+                fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
+            )
+        if values.size != width or width == 0:
+            raise DataFileError(
+                f"{path}: topic {topic!r} has {width} values in its first message and "
+                f"{values.size} in message {len(rows) + 1}; physid reads arrays of one length "
+                "(one value per joint)."
+            )
+        rows.append(values)
+        stamps.append(int(logtime))  # no header: the bag's receive time
+    return np.vstack(rows), np.asarray(stamps, dtype=np.int64)
+
+
+def _joint_map(path, topics, parts, joint_names, mapped) -> dict:
+    """``q<j>/qd<j>/tau<j>`` (``r<j>``) → ``position.<name>`` ... for the model's joints, by
+    name, from the topics that name their joints (the first that fills a field gives it)."""
+    if not joint_names or not parts:
         return {}
-    out = {}
+    out: dict[str, str] = {}
     missing = []
     for j, name in enumerate(joint_names, start=1):
-        if name not in names:
+        having = [p for p in parts if name in p.joints]
+        if not having:
             if f"q{j}" not in mapped:
                 missing.append(name)
             continue
-        for field, stem in _FIELDS:
-            if field in columns:
-                out[f"{stem}{j}"] = f"{field}.{name}"
+        for stem in ("q", "qd", "tau", "r"):
+            for p in having:
+                if stem in p.sources and f"{stem}{j}" not in out:
+                    out[f"{stem}{j}"] = f"{p.sources[stem]}.{name}"
     if missing:
+        names = list(dict.fromkeys(n for p in parts for n in p.joints))
+        where = f"topic {topics[0]!r}" if len(topics) == 1 else f"topics {', '.join(topics)}"
         raise DataFileError(
-            f"{path}: the model's joint(s) {missing} are not in topic {topic!r}, whose joints are "
-            f"{list(names)}; rename them in the model, or map them, e.g. "
+            f"{path}: the model's joint(s) {missing} are not in {where}, whose joints are "
+            f"{names}; rename them in the model, or map them, e.g. "
             f"channels={{'q1': 'position.{names[0]}'}}."
         )
     return out
