@@ -84,10 +84,11 @@ class RecordStats:
 
     ``check_magnitude`` runs on every block (the same limit); the input-equals-output test
     (`check_distinct_signals`) uses sums about the first sample (no cancellation of a large
-    mean); the unchanging-output test uses the output's extremes.
+    mean); the unchanging-output test uses the output's extremes (both of ``y − offset``).
     """
 
     names: tuple[str, str]
+    offset: float = 0.0  # subtracted from y for the extremes and sums (a held output offset)
     n: int = 0
     shift: tuple[float, float] | None = None
     sums: np.ndarray = field(default_factory=lambda: np.zeros(5))  # Σu Σy Σuu Σyy Σuy (shifted)
@@ -98,6 +99,7 @@ class RecordStats:
     def add(self, u: np.ndarray, y: np.ndarray) -> None:
         """Take one block (the magnitude check raises on it)."""
         check_magnitude((u, y), self.names)
+        y = y - self.offset
         if self.shift is None:
             self.shift = (float(u[0]), float(y[0]))
         a, b = u - self.shift[0], y - self.shift[1]
@@ -156,8 +158,8 @@ class Thinned:
         if self.step == 1:
             return None
         return (
-            f"the per-sample histories (t, estimates, covariance) hold every {self.step}-th of "
-            f"the {n_samples} samples (keep); the final estimate uses them all"
+            f"the per-sample histories hold every {self.step}-th of the {n_samples} samples "
+            "(keep); the final estimate uses them all"
         )
 
 
