@@ -293,3 +293,27 @@ def test_cli_block_samples_is_checked(msd_file, capsys, blocks_from_file):
     code, _, err = _run(capsys, msd_file, "--method", "rls", "--stream", "on", "--block-samples", 1)
     assert code == 2
     assert "--block-samples" in err
+
+
+def test_block_fits_show_progress_of_the_samples_read(record, monkeypatch):
+    import io
+
+    from physid import _progress
+
+    stream = io.StringIO()
+
+    class Shown(_progress.Progress):
+        def __init__(self, total, label, **kw):
+            super().__init__(total, label, **{**kw, "delay": 0.0, "stream": stream, "force": True})
+
+    monkeypatch.setattr(_progress, "Progress", Shown)
+    recursive_blocks(RecursiveLeastSquares("msd"), record, block_samples=4000, progress=False)
+    assert stream.getvalue() == ""  # progress=False: nothing
+    recursive_blocks(RecursiveLeastSquares("msd"), record, block_samples=4000)
+    last = stream.getvalue().rstrip("\n").rsplit("\r", 1)[-1]
+    assert last.startswith(f"rls, streamed (3 passes): {3 * N}/{3 * N} samples read")
+    stream.seek(0), stream.truncate()
+    algebraic_blocks(
+        AlgebraicEstimator("msd", final="bias-compensated"), record, block_samples=4000
+    )
+    assert f"algebraic, streamed (3 passes): {3 * N}/{3 * N} samples read" in stream.getvalue()

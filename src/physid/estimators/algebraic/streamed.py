@@ -136,7 +136,7 @@ def fit_blocks(
             f"({n} samples, {(n - 1) * plan.dt:g} s). Shorten the window or record longer."
         )
     run = _Run(model, s, streamed, src, (in_name, out_name), size, keep)
-    bar = progress_bar(progress, 3 * n, "algebraic, streamed")
+    bar = progress_bar(progress, 3 * n, "algebraic, streamed (3 passes)")
     try:
         run.survey(plan, bar)
         estimate = run.final(plan, bar)

@@ -135,7 +135,7 @@ def fit_blocks(
     spec = as_linear_ode_model(est.model)
     src, in_name, out_name, size, keep = open_source(source, spec, est.known, block_samples, keep)
     channels = (in_name, out_name)
-    bar = progress_bar(progress, 3 * src.n_samples, "rls, streamed")
+    bar = progress_bar(progress, 3 * src.n_samples, "rls, streamed (3 passes)")
     try:
         survey = _survey(est, spec, src, channels, size, keep, bar)
         moments = _moments(est, spec, src, channels, size, survey, bar)
