@@ -102,7 +102,7 @@ def test_rls_blocks_equal_the_in_memory_fit(record, settings, size):
     np.testing.assert_allclose(streamed.t, batch.t[::step], rtol=0, atol=1e-12)
     np.testing.assert_allclose(streamed.estimates, batch.estimates[::step], rtol=1e-8)
     np.testing.assert_allclose(streamed.covariance, batch.covariance[::step], rtol=1e-8)
-    assert any("every 20-th" in n for n in streamed.metadata["notes"])
+    assert any("hold one sample in 20 of the 12000" in n for n in streamed.metadata["notes"])
     # the white-row standard errors kept for comparison agree too
     white, white_batch = (r.metadata["stderr_white_rows"] for r in (streamed, batch))
     assert _rel(list(white.values()), list(white_batch.values())) < 1e-8
@@ -166,6 +166,46 @@ def test_algebraic_blocks_from_another_source(record):
     streamed = algebraic_blocks(est, src, block_samples=4000, keep=N, progress=False)
     _same_final(streamed, est.fit(record).result_)
     assert src.largest < 8000
+
+
+def _offset_model():
+    """ẍ + θ1 ẋ + θ2 x = u, measured x + offset (the offset estimated)."""
+    from physid.models.linear_ode import LinearODEModel
+
+    values = {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "offset": 0.0}
+    return LinearODEModel(
+        "msd_offset", ("theta2", "theta1"), ("b0",), values, unknown=("theta1", "theta2"),
+        output_offset="offset",
+    )  # fmt: skip
+
+
+def _lead_model():
+    """ẍ + θ1 ẋ + θ2 x = u + b1 u̇ (b1 estimated): an input derivative in the realisation."""
+    from physid.models.linear_ode import LinearODEModel
+
+    values = {"theta2": 100.0, "theta1": 2.0, "b0": 1.0, "b1": 0.05}
+    return LinearODEModel(
+        "msd_lead", ("theta2", "theta1"), ("b0", "b1"), values, unknown=("theta1", "theta2", "b1")
+    )
+
+
+@pytest.mark.parametrize(
+    ("model", "num", "offset"), [("offset", [1.0], 0.3), ("lead", [0.05, 1.0], 0)]
+)
+def test_block_fits_of_models_with_an_offset_or_an_input_derivative(model, num, offset):
+    model = _offset_model() if model == "offset" else _lead_model()
+    t = np.arange(N) * DT
+    u = np.sin(10 * t) + 0.5 * np.sin(23 * t)
+    x = signal.lsim((num, [1.0, 2.0, 100.0]), u, t)[1]
+    x = x + 0.01 * np.std(x) * np.random.default_rng(1).normal(size=N) + offset
+    rec = Recording(t, np.c_[u, x], ["u", "x"])
+    for est, fit_blocks in (
+        (RecursiveLeastSquares(model, bias_compensation=True), recursive_blocks),
+        (AlgebraicEstimator(model, final="bias-compensated"), algebraic_blocks),
+    ):
+        batch = est.fit(rec).result_
+        assert batch.success and batch.stderr is not None  # a case with intervals to compare
+        _same_final(fit_blocks(est, rec, block_samples=1999, progress=False), batch)
 
 
 def test_block_fits_refuse_what_cannot_stream(record):

@@ -161,7 +161,7 @@ class Thinned:
         if self.step == 1:
             return None
         return (
-            f"the per-sample histories hold every {self.step}-th of the {n_samples} samples "
+            f"the per-sample histories hold one sample in {self.step} of the {n_samples} "
             "(keep); the final estimate uses them all"
         )
 
