@@ -4,6 +4,7 @@ the block fit equals the in-memory fit of the same record; settings that cannot 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,6 +269,9 @@ def blocks_from_file(monkeypatch):
 
     if not hasattr(signals_io, "open_blocks"):
         monkeypatch.setattr(signals_io, "open_blocks", open_blocks, raising=False)
+    if not hasattr(signals_io, "in_memory_bytes"):
+        size = lambda path: 3 * Path(path).stat().st_size  # noqa: E731 (a CSV's estimate)
+        monkeypatch.setattr(signals_io, "in_memory_bytes", size, raising=False)
 
 
 def _run(capsys, *argv):
@@ -309,7 +313,11 @@ def test_cli_stream_auto_streams_a_record_too_large_for_memory(
     code, out, err = _run(capsys, msd_file, "--method", "rls", "--json")
     assert code == 0
     assert json.loads(out)["streamed"] is True
-    assert "the in-memory fit would need about" in err
+    assert "the in-memory fit would need about 3.2 MB" in err  # 8000 samples × 400 B
+    # settings that cannot stream fit in memory, with a note
+    code, out, err = _run(capsys, msd_file, "--method", "algebraic", "--json")
+    assert (code, json.loads(out)["streamed"]) == (0, False)
+    assert "but cannot stream: --final lstsq needs every window's estimate" in err
 
 
 @pytest.mark.parametrize(

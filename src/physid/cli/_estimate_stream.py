@@ -74,11 +74,12 @@ def block_source(args, model, method: str):
     if mode == "off":
         return None
     why = _why_not(args, method)
-    if why is not None:
-        if mode == "on":
-            raise InputError(f"--stream on: {why}. Drop --stream on to fit in memory.")
-        return None
+    if why is not None and mode == "on":
+        raise InputError(f"--stream on: {why}. Drop --stream on to fit in memory.")
+    per_sample = BYTES_PER_SAMPLE.get(method, max(BYTES_PER_SAMPLE.values()))
     try:
+        if mode == "auto" and _surely_small(args.file, per_sample):
+            return None
         src = _open(args, model)
     except ImportError:
         if mode == "on":
@@ -92,18 +93,39 @@ def block_source(args, model, method: str):
             raise
         return None  # the in-memory read says what is wrong with the file, or reads it whole
     if mode == "auto":
-        from .._resources import available_memory, format_bytes
+        from .._resources import format_bytes
 
-        need = BYTES_PER_SAMPLE[method] * src.n_samples
-        limit = min(STREAM_ABOVE, available_memory() // 4)
-        if need <= limit:
+        need = per_sample * src.n_samples
+        limit = _limit()
+        if need <= limit or why is not None:
             _close(src)
+            if why is not None and need > limit:
+                progress(
+                    f"estimate: note: the in-memory fit would need about {format_bytes(need)} "
+                    f"(more than {format_bytes(limit)}) but cannot stream: {why}"
+                )
             return None
         progress(
             f"estimate: the in-memory fit would need about {format_bytes(need)} (more than "
             f"{format_bytes(limit)}): streaming {args.file} in blocks (--stream off to refuse)"
         )
     return src
+
+
+def _limit() -> int:
+    """The in-memory fit's peak [bytes] above which ``--stream auto`` streams."""
+    from .._resources import available_memory
+
+    return min(STREAM_ABOVE, available_memory() // 4)
+
+
+def _surely_small(path, per_sample: int) -> bool:
+    """Whether the record is small enough for memory whatever its channels, from the file's
+    estimated in-memory size alone (no pass over the file): at least 16 bytes per sample are
+    two channels, so ``bytes / 16`` bounds the samples."""
+    from ..signals.io import in_memory_bytes
+
+    return in_memory_bytes(path) // 16 * per_sample <= _limit()
 
 
 def _open(args, model):
