@@ -208,19 +208,7 @@ def run(args) -> int:
 
     options = _options(args, _ALGEBRAIC_ONLY if args.method == "algebraic" else _RLS_ONLY)
     est = make(args.method, model, **options, **common)
-    src = block_source(args, model, args.method)
-    if src is not None:
-        progress(
-            f"estimate: {args.method} on {args.file} ({src.n_samples} samples, model "
-            f"{args.model}), streamed"
-        )
-        result = fit_streamed(est, args.method, src, args.block_samples)
-    else:
-        rec = read_recording(args, args.file, model=model)
-        progress(
-            f"estimate: {args.method} on {args.file} ({rec.n_samples} samples, model {args.model})"
-        )
-        result = est.fit(rec).result_
+    result, streamed = _fit(args, model, est)
     if args.save:
         from ..estimators.results import save_result
 
@@ -244,7 +232,7 @@ def run(args) -> int:
                 "valid_fraction": result.valid_fraction,
                 "fit_percent": result.fit_percent,
                 "physical": result.physical,
-                "streamed": src is not None,
+                "streamed": streamed,
             }
         )
     else:
@@ -252,6 +240,18 @@ def run(args) -> int:
     if not result.success:
         print(f"physid: estimate failed: {cli_words(result.message)}", file=sys.stderr)
     return 0 if result.success else 1
+
+
+def _fit(args, model, est):
+    """``(result, streamed)``: the fit of the file in memory, or block by block (``--stream``)."""
+    src = block_source(args, model, args.method)
+    what = f"estimate: {args.method} on {args.file}"
+    if src is not None:
+        progress(f"{what} ({src.n_samples} samples, model {args.model}), streamed")
+        return fit_streamed(est, args.method, src, args.block_samples), True
+    rec = read_recording(args, args.file, model=model)
+    progress(f"{what} ({rec.n_samples} samples, model {args.model})")
+    return est.fit(rec).result_, False
 
 
 def _run_structure(args, model) -> int:
