@@ -8,8 +8,9 @@ parameters of a model in physical terms: mass, damping, stiffness for msd-force,
 defined), ``derived_stderr`` (delta method; None whenever ``stderr`` is), ``units``, ``success``,
 ``message`` (which says which physical parameters are not identifiable, and which combinations
 are), ``valid_fraction``, ``fit_percent`` and ``physical`` (identifiable, unidentifiable,
-combinations, message; null for models without expressions); ``--save RESULT.json`` writes the
-result file that ``physid validate`` reads.
+combinations, message; null for models without expressions) and ``streamed``; ``--save
+RESULT.json`` writes the result file that ``physid validate`` reads. ``--stream``: a long record
+is fitted block by block in constant memory (`_estimate_stream`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import sys
 
 from ..errors import InputError
 from ._common import assignments, cli_words, print_json, progress
+from ._estimate_stream import add_stream_options, block_source, fit_streamed
 from ._recordings import add_recording_options, read_recording
 
 ORDER = 40
@@ -150,6 +152,7 @@ def register(subparsers) -> None:
         help="values of known coefficients overriding the model's",
     )
     add_recording_options(parser)
+    add_stream_options(parser)
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.add_argument(
         "--save",
@@ -191,7 +194,6 @@ def run(args) -> int:
             "physid estimate needs 'msd' or a TOML file of kind 'linear_ode'. Use "
             "'physid identify' for chains."
         )
-    rec = read_recording(args, args.file, model=model)
     common = {}
     if args.unknown is not None:
         common["unknown"] = tuple(n.strip() for n in args.unknown.split(",") if n.strip())
@@ -202,14 +204,11 @@ def run(args) -> int:
     known = assignments(args.known, "--known")
     if known:
         common["known"] = known
-    progress(
-        f"estimate: {args.method} on {args.file} ({rec.n_samples} samples, model {args.model})"
-    )
     from ..estimators.registry import make
 
     options = _options(args, _ALGEBRAIC_ONLY if args.method == "algebraic" else _RLS_ONLY)
     est = make(args.method, model, **options, **common)
-    result = est.fit(rec).result_
+    result, streamed = _fit(args, model, est)
     if args.save:
         from ..estimators.results import save_result
 
@@ -233,6 +232,7 @@ def run(args) -> int:
                 "valid_fraction": result.valid_fraction,
                 "fit_percent": result.fit_percent,
                 "physical": result.physical,
+                "streamed": streamed,
             }
         )
     else:
@@ -240,6 +240,18 @@ def run(args) -> int:
     if not result.success:
         print(f"physid: estimate failed: {cli_words(result.message)}", file=sys.stderr)
     return 0 if result.success else 1
+
+
+def _fit(args, model, est):
+    """``(result, streamed)``: the fit of the file in memory, or block by block (``--stream``)."""
+    src = block_source(args, model, args.method)
+    what = f"estimate: {args.method} on {args.file}"
+    if src is not None:
+        progress(f"{what} ({src.n_samples} samples, model {args.model}), streamed")
+        return fit_streamed(est, args.method, src, args.block_samples), True
+    rec = read_recording(args, args.file, model=model)
+    progress(f"{what} ({rec.n_samples} samples, model {args.model})")
+    return est.fit(rec).result_, False
 
 
 def _run_structure(args, model) -> int:
@@ -254,6 +266,11 @@ def _run_structure(args, model) -> int:
     if stray or args.known:
         flags = ", ".join("--" + k.replace("_", "-") for k in stray) or "--known"
         raise InputError(f"{flags} do(es) not apply to structure models; drop it.")
+    if args.stream == "on":
+        raise InputError(
+            f"--stream on: --method {method} fits structure models in memory only. Drop "
+            "--stream on."
+        )
     rec = read_recording(args, args.file, model=model)
     settings = {}
     if args.unknown is not None:

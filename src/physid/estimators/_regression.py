@@ -53,7 +53,36 @@ def check_excitation(
        not to the system; 1e-6 is the resolution of 20-bit data (120 dB), finer than any sensor;
     3. linearly dependent columns (smallest eigenvalue of the unit-diagonal Σ x xᵀ ≤ 1e-8).
     """
-    S = X.T @ X
+    moments = None
+    if Y is not None:
+        Y = np.asarray(Y, dtype=float)
+        moments = (X.T @ Y, float(Y @ Y), lambda: np.linalg.lstsq(X, Y, rcond=None)[0])
+    check_excitation_moments(X.T @ X, X.shape[0], names, moments, nominal)
+
+
+def check_excitation_moments(S, n_rows: int, names: Sequence[str], moments=None, nominal=None):
+    """`check_excitation` from the accumulated moments of the rows (a record read in blocks).
+
+    Parameters
+    ----------
+    S : ndarray (p, p)
+        Σ x xᵀ over the rows.
+    n_rows : int
+        Number of rows (for the column RMS in the message).
+    names : sequence of str
+        One name per column.
+    moments : (ndarray (p,), float, callable) or None
+        ``(Σ x Y, Σ Y², least-squares θ)``: the last a callable returning the least-squares
+        estimate, used where the nominal value is 0 or undefined. None skips test 2.
+    nominal : ndarray (p,), optional
+        The model's nominal values of the unknowns.
+
+    Raises
+    ------
+    IdentifiabilityError
+        As `check_excitation`.
+    """
+    S = np.asarray(S, dtype=float)
     diag = np.diag(S)
     scale_ref = max(float(diag.max()), np.finfo(float).tiny)
     dead = [names[i] for i in range(len(names)) if diag[i] <= 1e-24 * scale_ref or diag[i] == 0]
@@ -63,8 +92,9 @@ def check_excitation(
             f"{dead} cannot be estimated. Excite the system (non-zero, varying input) or fix "
             f"them with {arg('known', '{NAME: VALUE}', cli='NAME=VALUE')}."
         )
-    if Y is not None:
-        y_norm = float(np.linalg.norm(Y))
+    if moments is not None:
+        _, yy, least_squares = moments
+        y_norm = float(np.sqrt(yy))
         col_norm = np.sqrt(diag)
         theta = (
             np.abs(np.asarray(nominal, dtype=float))
@@ -73,7 +103,7 @@ def check_excitation(
         )
         missing = ~np.isfinite(theta) | (theta == 0)
         if missing.any():
-            theta_ls = np.linalg.lstsq(X, Y, rcond=None)[0]
+            theta_ls = least_squares()
             theta = np.where(missing, np.abs(theta_ls), theta)
         if y_norm > 0:
             share = col_norm * theta / y_norm
@@ -81,7 +111,7 @@ def check_excitation(
             if weak:
                 detail = ", ".join(
                     f"{names[i]} (‖X‖·|θ|/‖Y‖ = {share[i]:.1e}, column RMS "
-                    f"{col_norm[i] / np.sqrt(X.shape[0]):.2e})"
+                    f"{col_norm[i] / np.sqrt(n_rows):.2e})"
                     for i in weak
                 )
                 raise IdentifiabilityError(

@@ -129,7 +129,9 @@ def still_joints(q) -> list[int]:
     return [int(j) for j in np.flatnonzero(still)]
 
 
-def flipped_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8) -> str | None:
+def flipped_segments(
+    t, y, y_hat, *, name: str = "the output", segments: int = 8, parts=None
+) -> str | None:
     """A sentence when the prediction follows ``y`` in one part of the record and ``-y`` in
     another (a sign flip of the output or the gain during the record), else None.
 
@@ -147,12 +149,16 @@ def flipped_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
         The output's name, for the sentence.
     segments : int
         Parts of the record compared.
+    parts : tuple, optional
+        ``(t, edges, correlation, energy)`` already computed (a record read in blocks); then
+        ``t`` is only indexed at the edges and ``y``, ``y_hat`` are not used.
 
     Returns
     -------
     str or None
     """
-    parts = _segment_correlations(t, y, y_hat, segments)
+    if parts is None:
+        parts = _segment_correlations(t, y, y_hat, segments)
     if parts is None:
         return None
     t, edges, corr, _ = parts
@@ -203,7 +209,9 @@ FOLLOW_CORRELATION = 0.8
 MISS_CORRELATION = 0.35
 
 
-def partial_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8) -> str | None:
+def partial_segments(
+    t, y, y_hat, *, name: str = "the output", segments: int = 8, parts=None
+) -> str | None:
     """A sentence when the prediction follows ``y`` closely in one part of the record and misses
     it in at least a quarter of the record where ``y`` moves, else None.
 
@@ -222,12 +230,16 @@ def partial_segments(t, y, y_hat, *, name: str = "the output", segments: int = 8
         The output's name, for the sentence.
     segments : int
         Parts of the record compared.
+    parts : tuple, optional
+        ``(t, edges, correlation, energy)`` already computed (a record read in blocks); then
+        ``t`` is only indexed at the edges and ``y``, ``y_hat`` are not used.
 
     Returns
     -------
     str or None
     """
-    parts = _segment_correlations(t, y, y_hat, segments)
+    if parts is None:
+        parts = _segment_correlations(t, y, y_hat, segments)
     if parts is None:
         return None
     t, edges, corr, energy = parts

@@ -33,6 +33,9 @@ Where we differ from the paper (details and evidence in ``docs/algebraic.md``):
 * eq. 19 writes ``s d²X/ds`` for ``s d²X/ds²`` in the θ1 term; eq. 21 ends with the sample ``(n)``
   where ``(L)`` is meant, and its step ``Ts`` multiplies ``T^(m+n)`` (the dimensionless step is
   ``Ts / T``); that extra common factor ``T`` cancels in eq. 20.
+
+A record read in blocks (`physid.signals.io.open_blocks`) is fitted in constant memory by
+`fit_blocks` (``final="bias-compensated"``, the rule whose pooled sums stream).
 """
 
 # Re-exported so that the names importable from this path before it became a package still are.
@@ -48,6 +51,7 @@ from .result import MAX_CONDITION as MAX_CONDITION
 from .result import MIN_FIT_PERCENT as MIN_FIT_PERCENT
 from .result import AlgebraicResult
 from .solve import _trailing_median as _trailing_median
+from .streamed import fit_blocks
 from .streaming import StreamingAlgebraicEstimator
 from .streaming import StreamingUpdate as StreamingUpdate
 from .uncertainty import BIAS_COMPENSATION_ITERATIONS as BIAS_COMPENSATION_ITERATIONS
@@ -59,6 +63,7 @@ __all__ = [
     "AlgebraicResult",
     "AlgebraicSettings",
     "StreamingAlgebraicEstimator",
+    "fit_blocks",
     "algebraic_estimates",
     "algebraic_kernels",
     "quadrature_taps",

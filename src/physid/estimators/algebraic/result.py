@@ -189,13 +189,28 @@ def _make_result(
     signals=None,
 ) -> AlgebraicResult:
     """The result of the per-window estimates: the final estimate, its uncertainty and verdict."""
-    names = plan.names
     exists = np.isfinite(level)
     valid_fraction = float(valid[exists].mean()) if exists.any() else 0.0
     tail = t >= t[-1] - final_fraction * (t[-1] - t[0])
-    final, condition, stderr, stderr_reason, cov_final = _final_estimate(
-        plan, t, theta, valid, level, tail, final_rule, equations
+    estimate = _final_estimate(plan, t, theta, valid, level, tail, final_rule, equations)
+    checks = None
+    if signals is not None:
+        checks = (
+            lambda model, values: _training_fit(model, values, signals, tail),
+            lambda model, values: linear_ode_problems(model, values, *signals),
+        )
+    return _assemble(
+        plan, (t, theta, valid, level), valid_fraction, estimate, checks, model, settings
     )
+
+
+def _assemble(plan: _Plan, history, valid_fraction: float, estimate, checks, model, settings):
+    """The `AlgebraicResult` of a final estimate ``(final, condition, stderr, stderr_reason,
+    covariance)``: its verdict, with ``checks = (training fit, gate problems)`` (callables of the
+    model and every coefficient's value; None: not run), derived quantities and units."""
+    t, theta, valid, level = history
+    names = plan.names
+    final, condition, stderr, stderr_reason, cov_final = estimate
     success, message = _window_verdict(final, condition, valid_fraction)
     if final is None:
         final = np.full(len(names), np.nan)
@@ -203,12 +218,10 @@ def _make_result(
     known = dict(plan.known)
     model = as_linear_ode_model(model if model is not None else "msd")
     success, message, fit = _model_verdict(
-        model, {**known, **params}, names, signals, tail, success, message
+        model, {**known, **params}, names, checks, success, message
     )
-    if success and signals is not None:
-        success, message = gate(
-            success, message, linear_ode_problems(model, {**known, **params}, *signals)
-        )
+    if success and checks is not None:
+        success, message = gate(success, message, checks[1](model, {**known, **params}))
     if not success:
         stderr, stderr_reason = None, stderr_reason or "no trustworthy estimate"
     if stderr is None:
@@ -340,9 +353,9 @@ def _window_verdict(final, condition: float, valid_fraction: float) -> tuple[boo
     return True, message
 
 
-def _model_verdict(model, values, names, signals, tail, success: bool, message: str):
+def _model_verdict(model, values, names, checks, success: bool, message: str):
     """Success, message and training fit [%] after the identified model's own checks: finite
-    derived quantities and an output-error fit of at least `MIN_FIT_PERCENT`."""
+    derived quantities and an output-error fit (``checks[0]``) of at least `MIN_FIT_PERCENT`."""
     derived, _, _, _ = derived_with_stderr(model, values, names)
     if success and not all(np.isfinite(v) for v in derived.values()):
         success = False
@@ -351,8 +364,8 @@ def _model_verdict(model, values, names, signals, tail, success: bool, message: 
             "check the excitation and the sign conventions of u and x."
         )
     fit = float("nan")
-    if success and signals is not None:
-        fit = _training_fit(model, values, signals, tail)
+    if success and checks is not None:
+        fit = checks[0](model, values)
         if np.isfinite(fit) and fit < MIN_FIT_PERCENT:
             success = False
             message = (

@@ -98,6 +98,11 @@ class StreamingAlgebraicEstimator:
         StreamingUpdate
             The chunk's estimates.
         """
+        return self._update(u, y)[0]
+
+    def _update(self, u, y):
+        """`update`, and the new samples' window systems ``(A (n_eq, p, n_new), r (n_eq,
+        n_new))`` in the dimensionless unknowns (None for an empty chunk)."""
         u, y = check_signal_pair(u, y)
         y = y - self._offset
         plan = self._plan
@@ -108,12 +113,14 @@ class StreamingAlgebraicEstimator:
         t = self.t_start + self.dt * np.arange(self._n_seen, self._n_seen + n_new)
         if n_new == 0:
             p = plan.p
-            return StreamingUpdate(t, np.empty((0, p)), np.empty(0, bool), np.empty(0), plan.names)
-        theta, valid, level, self._history, _ = _run(
+            empty = StreamingUpdate(t, np.empty((0, p)), np.empty(0, bool), np.empty(0), plan.names)
+            return empty, None
+        theta, valid, level, self._history, (A, rhs) = _run(
             plan, u_all, y_all, first, n_new, self._history
         )
         keep = plan.span
         self._u = u_all[-keep:].copy()
         self._y = y_all[-keep:].copy()
         self._n_seen += n_new
-        return StreamingUpdate(t, theta, valid, level, plan.names)
+        upd = StreamingUpdate(t, theta, valid, level, plan.names)
+        return upd, (A[:, :, -n_new:], rhs[:, -n_new:])

@@ -59,9 +59,19 @@ def _bias_compensated(plan: _Plan, A, rhs, G, h, alpha):
     fit, ``E[(r − A α)²] = σ² ‖κ_e‖²`` (Zheng's bias-eliminated least squares; Söderström 2007,
     *Errors-in-variables methods in system identification*, sec. 4). Returns (α, G − W σ² M).
     """
+    W = A.shape[2]
+
+    def mean_square(a):  # mean of (r − A a)² over every equation of every window
+        return float(((rhs - np.einsum("epw,p->ew", A, a)) ** 2).mean())
+
+    return _bias_compensated_sums(plan, G, h, alpha, W, mean_square)
+
+
+def _bias_compensated_sums(plan: _Plan, G, h, alpha, W: int, mean_square):
+    """`_bias_compensated` from the pooled sums ``G``, ``h``, the number of windows ``W`` and the
+    residuals' mean square as a function of α (a record read in blocks)."""
     taps, _, _ = _noise_kernels(plan, alpha)
     n = plan.order
-    W = A.shape[2]
     y_cols = [(c, i) for c, (kind, i) in enumerate(plan.columns) if kind == "a"]
     known_y = [i for i in range(n + 1) if ("a", i) not in plan.columns]
     M = np.zeros((plan.p, plan.p))
@@ -75,8 +85,7 @@ def _bias_compensated(plan: _Plan, A, rhs, G, h, alpha):
     Gc = G
     for _ in range(BIAS_COMPENSATION_ITERATIONS):
         _, gamma, kappa = _noise_kernels(plan, a)
-        resid = rhs - np.einsum("epw,p->ew", A, a)
-        sigma2 = float((resid**2).mean() / (kappa**2).sum(axis=1).mean())
+        sigma2 = float(mean_square(a) / (kappa**2).sum(axis=1).mean())
         d = -(d_per[:, known_y] @ gamma[known_y])
         Gc = G - W * sigma2 * M
         a_new = np.linalg.solve(Gc, h - W * sigma2 * d)
@@ -139,25 +148,9 @@ def _withhold_if_biased(plan: _Plan, equations, t, every, final, stderr):
     )
 
 
-def _quadratic_term(plan: _Plan, kappa, used) -> np.ndarray:
-    """The second-order part of the pooled estimate's covariance, per σ⁴ (p, p).
-
-    The noise inside ``A`` (the y-columns ``c``: ``N_{e,w,c} = τ_{e,c} · ε`` over window ``w``)
-    meets the residual's noise ``κ_e · ε`` in the quadratic forms ``Q_c = Σ_{e,w} N_{e,w,c}
-    (κ_e · ε)_w = εᵀ B_c ε``. For Gaussian noise ``Cov(Q_c, Q_c') = σ⁴ [tr(B_c B_c'ᵀ) +
-    tr(B_c B_c')]``. The first trace is already in ``σ² C Cᵀ`` (``C`` is built from the noisy
-    ``A``); this is the second, ``Σ_{e,e'} Σ_d n(d) X^{ee'}_{c'}(d) X^{e'e}_c(−d)`` with the
-    kernel cross-correlations ``X^{ee'}_c(d) = Σ_i κ_e[i] τ_{e',c}[i + d]`` and ``n(d)`` the number
-    of pairs of used windows ``d`` samples apart. It is negative where the kernels are odd
-    against each other: without it the θ1 intervals of the ζ = 0.5 MSD at 30 dB (where the
-    quadratic part is a large share) over-cover (99 %).
-    """
-    taps = plan.taps(plan.L)
+def _window_pairs(plan: _Plan, used) -> np.ndarray:
+    """n(d), d = −L..L: the number of pairs of used windows (end samples ``used``) d apart."""
     L = plan.L
-    y_cols = [(c, i) for c, (kind, i) in enumerate(plan.columns) if kind == "a"]
-    T = np.zeros((plan.p, plan.p))
-    if not y_cols:
-        return T
     span = int(used[-1] - used[0]) + 1
     ind = np.zeros(span)
     ind[used - used[0]] = 1.0
@@ -166,6 +159,27 @@ def _quadratic_term(plan: _Plan, kappa, used) -> np.ndarray:
     n_d = np.zeros(2 * L + 1)  # n(d), d = -L..L
     lo, hi = max(0, mid - L), min(full.size, mid + L + 1)
     n_d[lo - (mid - L) : hi - (mid - L)] = np.round(full[lo:hi])
+    return n_d
+
+
+def _quadratic_term(plan: _Plan, kappa, n_d) -> np.ndarray:
+    """The second-order part of the pooled estimate's covariance, per σ⁴ (p, p).
+
+    The noise inside ``A`` (the y-columns ``c``: ``N_{e,w,c} = τ_{e,c} · ε`` over window ``w``)
+    meets the residual's noise ``κ_e · ε`` in the quadratic forms ``Q_c = Σ_{e,w} N_{e,w,c}
+    (κ_e · ε)_w = εᵀ B_c ε``. For Gaussian noise ``Cov(Q_c, Q_c') = σ⁴ [tr(B_c B_c'ᵀ) +
+    tr(B_c B_c')]``. The first trace is already in ``σ² C Cᵀ`` (``C`` is built from the noisy
+    ``A``); this is the second, ``Σ_{e,e'} Σ_d n(d) X^{ee'}_{c'}(d) X^{e'e}_c(−d)`` with the
+    kernel cross-correlations ``X^{ee'}_c(d) = Σ_i κ_e[i] τ_{e',c}[i + d]`` and ``n(d)`` the number
+    of pairs of used windows ``d`` samples apart (`_window_pairs`). It is negative where the kernels are odd
+    against each other: without it the θ1 intervals of the ζ = 0.5 MSD at 30 dB (where the
+    quadratic part is a large share) over-cover (99 %).
+    """
+    taps = plan.taps(plan.L)
+    y_cols = [(c, i) for c, (kind, i) in enumerate(plan.columns) if kind == "a"]
+    T = np.zeros((plan.p, plan.p))
+    if not y_cols:
+        return T
     n_eq = kappa.shape[0]
     # X[e, e', c][d + L] = Σ_i κ_e[i] τ_{e',c}[i + d]
     X = {
@@ -209,11 +223,6 @@ def _pooled_stderr(plan: _Plan, A, rhs, alpha, used, G=None):
     n_eq = A.shape[0]
     _, _, kappa = _noise_kernels(plan, alpha)  # effective kernel of each equation
     resid = rhs - np.einsum("epw,p->ew", A, alpha)
-    dof = resid.size - plan.p
-    k2 = (kappa**2).sum(axis=1)  # ‖κ_e‖²
-    if dof <= 0 or not np.all(k2 > 0):
-        return None, "too few window equations for a residual variance", None
-    sigma2 = float((resid**2).sum() / (A.shape[2] * k2.sum()) * resid.size / dof)
     span = int(used[-1] - used[0]) + 1
     dense = np.zeros((n_eq, plan.p, span))
     dense[:, :, used - used[0]] = A
@@ -227,7 +236,21 @@ def _pooled_stderr(plan: _Plan, A, rhs, alpha, used, G=None):
             )
     if G is None:
         G = np.einsum("epw,eqw->pq", A, A)
-    meat = sigma2 * (C @ C.T) + sigma2**2 * _quadratic_term(plan, kappa, used)
+    sums = (float((resid**2).sum()), resid.size, A.shape[2])
+    return _pooled_stderr_sums(plan, alpha, sums, C @ C.T, _window_pairs(plan, used), G)
+
+
+def _pooled_stderr_sums(plan: _Plan, alpha, sums, CCt, n_d, G):
+    """`_pooled_stderr` from accumulated sums: ``sums = (Σ resid², resid count, windows)``,
+    ``CCt = Σ_t c_t c_tᵀ``, the window pairs ``n_d`` (`_window_pairs`) and ``G``."""
+    _, _, kappa = _noise_kernels(plan, alpha)
+    see, n_res, W = sums
+    dof = n_res - plan.p
+    k2 = (kappa**2).sum(axis=1)  # ‖κ_e‖²
+    if dof <= 0 or not np.all(k2 > 0):
+        return None, "too few window equations for a residual variance", None
+    sigma2 = float(see / (W * k2.sum()) * n_res / dof)
+    meat = sigma2 * CCt + sigma2**2 * _quadratic_term(plan, kappa, n_d)
     left = np.linalg.solve(G, meat)
     cov = np.linalg.solve(G, left.T).T  # G⁻¹ meat G⁻¹
     var = np.clip(np.diag(0.5 * (cov + cov.T)), 0.0, None)

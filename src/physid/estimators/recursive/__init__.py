@@ -46,6 +46,9 @@ Two implementations that agree to rounding (tests: ≤ 1e-9):
   being excited, grows as ``λ^{-k}`` until it overflows ("covariance wind-up"). The streaming form
   also caps ``trace(P)`` (by forgetting less in that step) so that it stays bounded.
 
+A record read in blocks (`physid.signals.io.open_blocks`) is fitted in constant memory by
+`fit_blocks`, with the in-memory fit's final estimate, standard errors and verdict.
+
 References
 ----------
 Oueslati M., Thiery S., Gibaru O., Béarée R., Moraru G. (2011), section 3, eqs. 2–7.
@@ -73,6 +76,7 @@ from .prefilter import default_prefilter_cutoff
 from .regression import LinearRegression, build_regression
 from .result import MIN_FIT_PERCENT as MIN_FIT_PERCENT
 from .result import RecursiveResult
+from .streamed import fit_blocks
 from .streaming import DEFAULT_COVARIANCE_LIMIT_FACTOR as DEFAULT_COVARIANCE_LIMIT_FACTOR
 from .streaming import StreamingRLS, rls_update
 from .uncertainty import MAX_BIAS_TO_STDERR as MAX_BIAS_TO_STDERR
@@ -80,6 +84,7 @@ from .uncertainty import MAX_BIAS_TO_STDERR as MAX_BIAS_TO_STDERR
 __all__ = [
     "RecursiveLeastSquares",
     "RecursiveResult",
+    "fit_blocks",
     "StreamingRLS",
     "rls_update",
     "weighted_ls_path",

@@ -374,15 +374,17 @@ def _msd_series(spec: LinearODEModel, names, estimates, values):
     return natural_frequency_damping(th1, th2)
 
 
-def _verdict(spec: LinearODEModel, values, names, recording, channels, lost: int):
+def _verdict(spec: LinearODEModel, values, names, recording, channels, lost: int, fit_of=None):
     """Success, message and training fit [%] of the final estimate ``values`` (every
-    coefficient): finite, explaining the output, and with ``lost`` rows without information."""
+    coefficient): finite, explaining the output, and with ``lost`` rows without information.
+    ``fit_of`` (no arguments → fit [%]) replaces `_training_fit` of ``recording`` (a record read
+    in blocks)."""
     fitted = {nm: values[nm] for nm in names}
     derived, _, _, _ = derived_with_stderr(spec, values, names)
     finite = all(np.isfinite(v) for v in [*fitted.values(), *derived.values()])
     fit = float("nan")
     if finite:
-        fit = _training_fit(spec, values, recording, *channels)
+        fit = fit_of() if fit_of is not None else _training_fit(spec, values, recording, *channels)
     if not finite:
         return (
             False,

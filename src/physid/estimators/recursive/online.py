@@ -121,17 +121,22 @@ class StreamingRecursiveEstimator:
         """eq. 3's P after the last sample, shape (p, p)."""
         return self._rls.covariance
 
-    def update(self, u, y) -> StreamingRecursiveUpdate:
-        """Feed the next samples ``u``, ``y`` (shape (n_new,)); return their estimates."""
+    def _rows(self, u, y):
+        """The regression rows of the next samples (the pre-filter's state carried on).
+
+        Returns ``(index, keep, X, Y)``: the samples' global indices (n_new,), which of them give a
+        row (after the start-up transient, as in ``fit``), and those rows (n_rows, p), (n_rows,).
+        Advances the pre-filter and `n_samples`, not the recursion.
+        """
         u, y = check_signal_pair(u, y)
         y = y - self._spec.known_output_offset()  # as build_regression: a held offset removed
         n_new = u.size
         p = len(self._unknown)
         index = np.arange(self.n_samples, self.n_samples + n_new)
-        estimates = np.full((n_new, p), np.nan)
+        keep = index >= self.discarded  # rows after the start-up transient (as in fit)
+        X, Y = np.empty((0, p)), np.empty(0)
         if n_new:
             derivs = self._svf.update(np.column_stack([y, u]))  # (n_new, 2, highest + 1)
-            keep = index >= self.discarded  # rows after the start-up transient (as in fit)
             if keep.any():
                 X, Y = _regression_rows(
                     self._spec,
@@ -140,10 +145,17 @@ class StreamingRecursiveEstimator:
                     derivs[keep, 0, :],
                     derivs[keep, 1, :],
                 )
-                estimates[keep] = _offset_to_value(
-                    self._spec, self._unknown, self._rls.update(X, Y)
-                )
         self.n_samples += n_new
+        return index, keep, X, Y
+
+    def update(self, u, y) -> StreamingRecursiveUpdate:
+        """Feed the next samples ``u``, ``y`` (shape (n_new,)); return their estimates."""
+        index, keep, X, Y = self._rows(u, y)
+        n_new = index.size
+        p = len(self._unknown)
+        estimates = np.full((n_new, p), np.nan)
+        if Y.size:
+            estimates[keep] = _offset_to_value(self._spec, self._unknown, self._rls.update(X, Y))
         valid = np.all(np.isfinite(estimates), axis=1)
         omega0 = zeta = None
         if self._spec.is_msd:

@@ -4,6 +4,7 @@ output noise through the state-variable filter, and the bias-compensated least s
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -109,14 +110,28 @@ def _bias_compensated_ls(
     S = (X * w[:, None]).T @ X
     b = (X * w[:, None]).T @ Yv
     h = _svf_impulse(reg, spec, dt, order)
+
+    def weighted_sse(th):  # Σ w e², e = Y − X θ
+        e = Yv - X @ th
+        return float((w * e**2).sum())
+
+    return _bias_compensated_sums(
+        reg.names, spec, values, theta, S, b, float(w.sum()), weighted_sse, h
+    )
+
+
+def _bias_compensated_sums(names, spec, values, theta, S, b, sw: float, weighted_sse, h):
+    """`_bias_compensated_ls` from the weighted sums ``S = Σ w x xᵀ``, ``b = Σ w x Y``,
+    ``Σ w`` and the weighted residual sum of squares as a function of θ (a record read in
+    blocks); ``h`` the SVF impulse responses. Returns (θ, S − σ² Σw H)."""
     n_ord = spec.order
     a_names = list(spec.a_names)
-    cols = [a_names.index(nm) if nm in a_names else None for nm in reg.names]
+    cols = [a_names.index(nm) if nm in a_names else None for nm in names]
     eta = h[:, n_ord].copy()
     for j, name in enumerate(a_names):
-        if name not in reg.names:
+        if name not in names:
             eta += values[name] * h[:, j]
-    p = len(reg.names)
+    p = len(names)
     H = np.zeros((p, p))
     d = np.zeros(p)
     for q, cq in enumerate(cols):
@@ -126,16 +141,11 @@ def _bias_compensated_ls(
         for r, cr in enumerate(cols):
             if cr is not None:
                 H[q, r] = float(h[:, cq] @ h[:, cr])
-    sw = float(w.sum())
     th = np.asarray(theta, dtype=float)
     Sc = S
     for _ in range(20):
-        a = {**values, **dict(zip(reg.names, th, strict=True))}
-        kappa = h[:, n_ord].copy()
-        for j, name in enumerate(a_names):
-            kappa += a[name] * h[:, j]
-        e = Yv - X @ th
-        sigma2 = float((w * e**2).sum() / (sw * float(kappa @ kappa)))
+        kappa = _kappa(spec, h, {**values, **dict(zip(names, th, strict=True))})
+        sigma2 = weighted_sse(th) / (sw * float(kappa @ kappa))
         Sc = S - sigma2 * sw * H
         new = np.linalg.solve(Sc, b - sigma2 * sw * d)
         done = np.allclose(new, th, rtol=1e-12, atol=0)
@@ -143,6 +153,14 @@ def _bias_compensated_ls(
         if done:
             break
     return th, Sc
+
+
+def _kappa(spec, h, a) -> np.ndarray:
+    """κ = h_n + Σ_{j<n} a_j h_j: white output noise → the regression's residual."""
+    kappa = h[:, spec.order].copy()
+    for j, name in enumerate(spec.a_names):
+        kappa += a[name] * h[:, j]
+    return kappa
 
 
 def _output_noise_covariance(
@@ -166,7 +184,6 @@ def _output_noise_covariance(
     """
     from scipy.signal import fftconvolve
 
-    n_ord = spec.order
     i = np.arange(last + 1)
     age = np.where(i <= M, max(last - M - 1, 0), last - i).astype(float)
     with np.errstate(under="ignore"):
@@ -176,21 +193,35 @@ def _output_noise_covariance(
     if S is None:
         S = (X * w[:, None]).T @ X
     h = _svf_impulse(reg, spec, dt, order)
-    a = {**values, **dict(zip(reg.names, theta, strict=True))}
-    kappa = h[:, n_ord].copy()
-    for j, name in enumerate(spec.a_names):
-        kappa += a[name] * h[:, j]
-    k2 = float(kappa @ kappa)
+    kappa = _kappa(spec, h, {**values, **dict(zip(reg.names, theta, strict=True))})
     s_idx = reg.sample_index[: last + 1]
     N = int(s_idx[-1]) + 1
     xw = np.zeros((N, X.shape[1]))
     xw[s_idx] = X * w[:, None]
     # c_k = Σ_s xw[s] κ[s − k]: a convolution of the time-reversed xw with κ
     C = fftconvolve(xw[::-1], kappa[:, None], axes=0)[:N][::-1]
-    p = X.shape[1]
-    sigma2 = float((w * e**2).sum() / (w.sum() * k2)) * X.shape[0] / max(X.shape[0] - p, 1)
-    meat = sigma2 * (C.T @ C) + sigma2**2 * _quadratic_term(
-        reg, spec, h, kappa, _dense_weights(s_idx, w, N)
+    sums = (float((w * e**2).sum()), float(w.sum()), X.shape[0])
+    pairs = _pairs(_dense_weights(s_idx, w, N), kappa.size)
+    return _output_noise_sums(reg.names, spec, h, kappa, S, C.T @ C, sums, pairs)
+
+
+def _pairs(u, n_imp: int) -> np.ndarray:
+    """n(d), d = −D..D: the weighted number of row pairs d samples apart (``u`` dense weights)."""
+    from scipy.signal import correlate
+
+    N = u.size
+    D = min(N, n_imp) - 1
+    return correlate(u, u, mode="full", method="fft")[N - 1 - D : N + D]
+
+
+def _output_noise_sums(names, spec, h, kappa, S, CtC, sums, pairs):
+    """`_output_noise_covariance` from accumulated sums: ``CtC = Σ_k c_k c_kᵀ``, ``sums =
+    (Σ w e², Σ w, rows)`` and the row pairs ``pairs`` (`_pairs`)."""
+    see, sw, n_rows = sums
+    p = S.shape[0]
+    sigma2 = see / (sw * float(kappa @ kappa)) * n_rows / max(n_rows - p, 1)
+    meat = sigma2 * CtC + sigma2**2 * _quadratic_term(
+        SimpleNamespace(names=names), spec, h, kappa, None, pairs=pairs
     )
     left = np.linalg.solve(S, meat)
     cov = np.linalg.solve(S, left.T).T
@@ -203,7 +234,7 @@ def _dense_weights(s_idx, w, N: int) -> np.ndarray:
     return out
 
 
-def _quadratic_term(reg, spec, h, kappa, u) -> np.ndarray:
+def _quadratic_term(reg, spec, h, kappa, u, pairs=None) -> np.ndarray:
     """The second-order (noise × noise) part of the covariance per σ⁴ (p, p).
 
     The noise in the columns of the unknown ``a_j`` (``h_j`` through the SVF) meets the
@@ -211,7 +242,8 @@ def _quadratic_term(reg, spec, h, kappa, u) -> np.ndarray:
     ``Cov(Q_c, Q_c') = σ⁴ [tr(B_c B_c'ᵀ) + tr(B_c B_c')]``. The first trace is already in
     ``σ² Cᵀ C`` (``C`` is built from the noisy regressors); this is the second,
     ``Σ_d n(d) X_{c'}(d) X_c(−d)`` with ``X_c(d) = Σ_m κ[m] h_c[m + d]`` and ``n(d)`` the weighted
-    number of row pairs ``d`` samples apart. Without it the θ1 intervals of the ζ = 0.5 MSD at
+    number of row pairs ``d`` samples apart (``pairs``, lags −D..D, when already accumulated; else
+    from the dense weights ``u``). Without it the θ1 intervals of the ζ = 0.5 MSD at
     30 dB over-cover (99 %; benchmarks/bench_coverage.py), as the algebraic estimator's did.
     """
     from scipy.signal import correlate
@@ -222,9 +254,12 @@ def _quadratic_term(reg, spec, h, kappa, u) -> np.ndarray:
     T = np.zeros((p, p))
     if not cols:
         return T
-    n_imp, N = kappa.size, u.size
-    D = min(N, n_imp) - 1
-    pairs = correlate(u, u, mode="full", method="fft")[N - 1 - D : N + D]  # n(d), d = -D..D
+    n_imp = kappa.size
+    if pairs is None:
+        N = u.size
+        D = min(N, n_imp) - 1
+        pairs = correlate(u, u, mode="full", method="fft")[N - 1 - D : N + D]  # n(d), d = -D..D
+    D = (pairs.size - 1) // 2
     X = {
         j: correlate(h[:, j], kappa, mode="full", method="fft")[n_imp - 1 - D : n_imp + D]
         for _, j in cols
@@ -295,13 +330,20 @@ def final_uncertainty(
     else:
         cov = _hac_covariance(reg.X, reg.Y, theta, M, last, lam, bandwidth)
         method = f"Newey-West HAC, {bandwidth} lags"
-    stderr = {nm: float(np.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(reg.names)}
+    return _stderr_verdict(reg.names, theta, cov, eiv_bias, method)
+
+
+def _stderr_verdict(names, theta, cov, eiv_bias, method: str):
+    """``(θ̂, cov, stderr, reason, method)``: the standard errors, withheld with the reason where
+    the estimated errors-in-variables bias ``eiv_bias`` (None: not estimated) exceeds
+    `MAX_BIAS_TO_STDERR` of them."""
+    stderr = {nm: float(np.sqrt(max(cov[i, i], 0.0))) for i, nm in enumerate(names)}
     if eiv_bias is None:
         return theta, cov, stderr, None, method
     # an interval is honest only if the bias is small against its width
     biased = [
         f"{nm} (bias ≈ {eiv_bias[i]:.3g}, se {stderr[nm]:.3g})"
-        for i, nm in enumerate(reg.names)
+        for i, nm in enumerate(names)
         if abs(eiv_bias[i]) > MAX_BIAS_TO_STDERR * stderr[nm]
     ]
     if not biased:

@@ -1,0 +1,169 @@
+"""``estimate --stream``: whether a linear-ODE fit reads its record in blocks, and the source.
+
+The in-memory fits hold the recording and several per-sample arrays: measured peaks (tracemalloc,
+the MSD, 2e5 and 8e5 samples) of about 350 bytes per sample for ``--method rls`` and 540 for
+``--method algebraic``; their block fits (`physid.estimators.recursive.fit_blocks`,
+`physid.estimators.algebraic.fit_blocks`) hold a block and a few sums whatever the length, with
+the same estimate, standard errors and verdict. ``--stream auto`` (the default) streams when the
+in-memory fit would need more than `STREAM_ABOVE` bytes or a quarter of the available memory
+(about 6 million samples, 1.7 hours at 1 kHz, for rls) and the settings stream: below that the
+in-memory fit is faster (one pass instead of three) and keeps the full histories. ``on``
+streams whenever it can (and says why not otherwise); ``off`` never streams.
+"""
+
+from __future__ import annotations
+
+from ..errors import InputError, PhysidError
+from ._common import progress
+
+__all__ = ["add_stream_options", "block_source", "STREAM_ABOVE", "BYTES_PER_SAMPLE"]
+
+#: The in-memory fit's estimated peak [bytes] above which ``--stream auto`` streams.
+STREAM_ABOVE = 2 * 2**30
+#: Measured peak of the in-memory fit per sample [bytes] (with a margin), by method.
+BYTES_PER_SAMPLE = {"rls": 400, "algebraic": 600}
+
+
+def add_stream_options(parser) -> None:
+    """``--stream`` and ``--block-samples``."""
+    group = parser.add_argument_group("long records")
+    group.add_argument(
+        "--stream",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="fit the record block by block in constant memory, with the same estimate as in "
+        "memory (rls; algebraic with --final bias-compensated): auto = when the in-memory fit "
+        "would need more than 2 GiB or a quarter of the available memory (default: auto)",
+    )
+    group.add_argument(
+        "--block-samples",
+        type=int,
+        default=65536,
+        metavar="N",
+        help="samples read at a time by a streamed fit (default: 65536)",
+    )
+
+
+def _why_not(args, method: str) -> str | None:
+    """Why these settings cannot stream (in the command line's words), or None."""
+    if method not in BYTES_PER_SAMPLE:
+        return f"--method {method} fits the record in memory only"
+    if method == "algebraic" and (args.final or "lstsq") != "bias-compensated":
+        return (
+            f"--final {args.final or 'lstsq'} needs every window's estimate at once (a median); "
+            "--final bias-compensated streams"
+        )
+    if getattr(args, "resample", False):
+        return "--resample interpolates the whole record; a streamed fit reads a uniform file"
+    if getattr(args, "detrend", None):
+        return "--detrend subtracts the whole record's mean before the fit"
+    if getattr(args, "topic", None):
+        return "ROS bags are read whole (--topic)"
+    return None
+
+
+def block_source(args, model, method: str):
+    """The block source of ``args.file`` when the fit streams (``--stream``), else None.
+
+    Raises
+    ------
+    InputError
+        ``--stream on`` with settings or a file that cannot stream (the reason named).
+    """
+    mode = args.stream
+    if mode == "off":
+        return None
+    why = _why_not(args, method)
+    if why is not None and mode == "on":
+        raise InputError(f"--stream on: {why}. Drop --stream on to fit in memory.")
+    per_sample = BYTES_PER_SAMPLE.get(method, max(BYTES_PER_SAMPLE.values()))
+    try:
+        if mode == "auto" and _surely_small(args.file, per_sample):
+            return None
+        src = _open(args, model)
+    except ImportError:
+        if mode == "on":
+            raise InputError(
+                "--stream on: this installation has no block readers (physid.signals.io."
+                "open_blocks); fit in memory (--stream off)."
+            ) from None
+        return None
+    except PhysidError:
+        if mode == "on":
+            raise
+        return None  # the in-memory read says what is wrong with the file, or reads it whole
+    if mode == "auto":
+        from .._resources import format_bytes
+
+        need = per_sample * src.n_samples
+        limit = _limit()
+        if need <= limit or why is not None:
+            _close(src)
+            if why is not None and need > limit:
+                progress(
+                    f"estimate: note: the in-memory fit would need about {format_bytes(need)} "
+                    f"(more than {format_bytes(limit)}) but cannot stream: {why}"
+                )
+            return None
+        progress(
+            f"estimate: the in-memory fit would need about {format_bytes(need)} (more than "
+            f"{format_bytes(limit)}): streaming {args.file} in blocks (--stream off to refuse)"
+        )
+    return src
+
+
+def _limit() -> int:
+    """The in-memory fit's peak [bytes] above which ``--stream auto`` streams."""
+    from .._resources import available_memory
+
+    return min(STREAM_ABOVE, available_memory() // 4)
+
+
+def _surely_small(path, per_sample: int) -> bool:
+    """Whether the record is small enough for memory whatever its channels, from the file's
+    estimated in-memory size alone (no pass over the file): at least 16 bytes per sample are
+    two channels, so ``bytes / 16`` bounds the samples."""
+    from ..signals.io import in_memory_bytes
+
+    return in_memory_bytes(path) // 16 * per_sample <= _limit()
+
+
+def _open(args, model):
+    """`open_blocks` with the verb's reading options (the model file's table as defaults)."""
+    from ..signals.io import open_blocks, parse_channel_map
+    from ._recordings import _model_channel_map, _reworded, _table_name, _with_table_line
+
+    try:
+        return open_blocks(
+            args.file,
+            parse_channel_map(getattr(args, "channel_map", None)) or None,
+            rate=getattr(args, "rate", None),
+            channel_defaults=_model_channel_map(args, model) or None,
+            channel_defaults_source=_table_name(args),
+            uniform_rtol=1e-3,
+            decimal=getattr(args, "decimal", ".") or ".",
+            delimiter=getattr(args, "delimiter", None),
+        )
+    except PhysidError as exc:
+        raise _reworded(_with_table_line(args, exc)) from None
+
+
+def _close(src) -> None:
+    close = getattr(src, "close", None)
+    if callable(close):
+        close()
+
+
+def fit_streamed(est, method: str, src, block_samples: int):
+    """The block fit of ``est`` on ``src`` (closed afterwards), with a note on stderr."""
+    from ..estimators.algebraic import fit_blocks as algebraic_blocks
+    from ..estimators.recursive import fit_blocks as recursive_blocks
+
+    fit_blocks = recursive_blocks if method == "rls" else algebraic_blocks
+    try:
+        result = fit_blocks(est, src, block_samples=block_samples)
+    finally:
+        _close(src)
+    notes = (result.metadata if method == "rls" else result.settings).get("notes", [])
+    progress(f"estimate: {'; '.join(notes)}")
+    return result
