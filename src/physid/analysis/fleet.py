@@ -296,6 +296,7 @@ def run_fleet(
         backend=backend,
         elapsed_s=time.perf_counter() - start,
         reference=reference,
+        model_options=dict(model_options or {}),
     )
 
 

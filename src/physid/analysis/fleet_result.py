@@ -450,7 +450,7 @@ def write_fleet(result: FleetResult, out_dir) -> dict:
             if r["status"] == "ok" and data is not None:
                 save_result(
                     _Saved(data), staging / r["result_file"], model=result.model,
-                    recording=r["log"], model_options=result.model_options or None,
+                    recording=r["log"], model_options=dict(result.model_options),
                 )  # fmt: skip
         from ..report.fleet import fleet_html  # lazy: report comes after analysis
 
