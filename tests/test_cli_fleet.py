@@ -63,13 +63,20 @@ def test_each_summary_and_json(logs, tmp_path, capsys):
 
 def test_a_failed_log_exits_1_with_its_reason(logs, tmp_path, capsys):
     _, paths, _, _ = logs
-    argv = ["identify", paths[0], tmp_path / "gone.npz", "--model", MODEL, "--each",
+    rec = physid.load_recording(paths[1])
+    one = tmp_path / "one.npz"
+    physid.signals.save_recording(
+        physid.signals.Recording(rec.t, rec.select(["q1", "tau1"]), ["q1", "tau1"]), one
+    )
+    argv = ["identify", paths[0], tmp_path / "gone.npz", one, "--model", MODEL, "--each",
             "--scheduler", "serial", "--out", tmp_path / "f"]  # fmt: skip
     code, out, err = cli_output(argv, capsys)
     assert code == 1
     line = next(x for x in out.splitlines() if "gone.npz" in x)
     assert line.split()[:2] == ["gone.npz", "failed"] and "no such file" in line
-    assert "1 failed" in out
+    line = next(x for x in out.splitlines() if x.split()[:1] == ["one.npz"])
+    assert "lacks channel(s)" in line and "--map q2=" in line  # the reason in CLI words
+    assert "2 failed" in out
 
 
 def test_result_files_are_read_by_validate(logs, tmp_path, capsys):

@@ -113,15 +113,21 @@ def test_a_failing_log_is_a_row_and_the_others_fit(logs):
         physid.signals.Recording(t, np.column_stack([q, tau]), ["q1", "q2", "tau1", "tau2"]),
         still,
     )
+    rec = physid.load_recording(paths[1])  # another joint set: joint 2 not logged
+    one = folder / "one_joint.npz"
+    physid.signals.save_recording(
+        physid.signals.Recording(rec.t, rec.select(["q1", "tau1"]), ["q1", "tau1"]), one
+    )
     fleet = [paths[0], str(folder / "missing.npz"), str(folder), str(garbage), short, str(still)]
-    res = run_fleet(MODEL, [*fleet, paths[1]], scheduler="serial", progress=False)
+    res = run_fleet(MODEL, [*fleet, str(one), paths[1]], scheduler="serial", progress=False)
     status = [r["status"] for r in res.rows]
-    assert status == ["ok", "failed", "failed", "failed", "failed", "failed", "ok"]
+    assert status == ["ok"] + ["failed"] * 6 + ["ok"]
     reasons = [r["reason"] for r in res.rows]
     assert "no such file" in reasons[1] and "is a folder" in reasons[2]
     assert "garbage.npz" in reasons[3]
     assert "the recording has 4 samples" in reasons[4]
     assert "nothing in the recording(s) excites" in reasons[5]
+    assert "lacks channel(s) ['q2', 'tau2']" in reasons[6]
     assert not res.success
     assert "failed" in res.summary() and "missing.npz" in res.summary()
 
