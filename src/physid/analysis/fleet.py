@@ -232,8 +232,11 @@ def run_fleet(
         single-threaded worker per CPU, at most one per log; in-process when Dask is not
         installed), ``"serial"``, ``"local:N"``, ``"tcp://HOST:PORT"`` or a Client.
     retries : int
-        Dask: how many times a task is retried after an error of the infrastructure; a task
-        whose worker died is rerun by the scheduler.
+        Dask: how many times a task that raised is retried (a fit never raises for its log;
+        this covers the infrastructure, e.g. a result that could not be sent back). A task
+        whose worker died is rerun by the scheduler on another worker, up to Dask's
+        ``distributed.scheduler.allowed-failures`` (3) times; after that its row is failed with
+        the reason (``KilledWorker``).
     against : str or Path, optional
         A reference result file (``physid identify --save``) of the same model: `FleetResult.moved`
         then flags each base parameter that moved beyond its interval since it.

@@ -3,7 +3,7 @@
 An overview (one line per log: verdict, torque error, moved parameters), then per robot each base
 parameter with its 95 % interval (value ± 1.96·se) and, with a reference fit, the reference value
 and whether it moved (highlighted), then the failed logs with their reasons. Tables have at most
-six columns, so they stay inside the text column.
+six columns (parameter, unit, value, half-width of the interval, reference, moved), so they stay inside the text column.
 """
 
 from __future__ import annotations
@@ -52,16 +52,17 @@ def _overview(result) -> str:
     return _table("Robots: one fit per log", cols, rows, flagged)
 
 
-def _robot(result, row, entries) -> str:
+def _robot(result, row, data, entries) -> str:
     z = result.z
     by_name = {e["parameter"]: e for e in entries}
-    cols = ["parameter", "value", f"± {z:g}·se"]
+    units = (data or {}).get("units") or {}
+    cols = ["parameter", "unit", "value", f"± {z:g}·se"]
     if result.reference is not None:
         cols += ["reference", "moved"]
     rows, flagged = [], set()
     for i, name in enumerate(n for n in result.parameter_names if row.get(n) is not None):
         se = row.get(name + "_se")
-        cells = [name, row[name], None if se is None else z * se]
+        cells = [name, units.get(name, ""), row[name], None if se is None else z * se]
         if result.reference is not None:
             e = by_name.get(name, {})
             mark = {True: "moved", False: "no", None: "not comparable"}[e.get("moved")]
@@ -109,9 +110,10 @@ def fleet_html(result) -> str:
     ok = [r for r in result.rows if r["status"] == "ok"]
     if ok:
         parts.append("<h2>Base parameters per robot</h2>")
-        for r in ok:
-            mine = [e for e in entries if e["log"] == r["log"]]
-            parts.append(_robot(result, r, mine))
+        for r, data in zip(result.rows, result.results, strict=True):
+            if r["status"] == "ok":
+                mine = [e for e in entries if e["log"] == r["log"]]
+                parts.append(_robot(result, r, data, mine))
     failed = [r for r in result.rows if r["status"] != "ok"]
     if failed:
         parts.append("<h2>Failed logs</h2>")
