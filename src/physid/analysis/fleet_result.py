@@ -95,7 +95,8 @@ def read_reference(path, model) -> Reference:
         raise DataFileError(
             f"{where} is a result of another model: its parameters ({shown}) are none of this "
             f"model's base parameters ({', '.join(names[:6])}, ...). Give a result file written "
-            "by physid identify --save with the same model and an idim-* method.",
+            "by save_result (the identify command's save option) with the same model and an "
+            "idim-* method.",
             arguments=("against",),
         )
     return Reference(
