@@ -145,3 +145,13 @@ def test_an_unreachable_scheduler_is_a_clear_error(logs, tmp_path, capsys):
     assert code == 2
     assert "--scheduler 'tcp://127.0.0.1:9': no Dask scheduler answered within 2 s" in err
     assert not (tmp_path / "f").exists()
+
+
+def test_joint_is_the_default_for_several_files(logs, capsys):
+    _, paths, _, _ = logs
+    argv = ["identify", *paths, "--model", MODEL, "--json"]
+    code, out, _ = cli_output(argv, capsys)
+    code_joint, out_joint, _ = cli_output([*argv, "--joint"], capsys)
+    assert code == code_joint == 0
+    assert json.loads(out_joint)["parameters"] == json.loads(out)["parameters"]
+    assert json.loads(out)["n_recordings"] == 2
