@@ -9,8 +9,9 @@ rad), written to .npz in a temporary folder. Rows:
   faster than 1); each cluster is started and its workers load the model before the clock starts
   (the start-up is reported on its own row), so the ratio is that of the fits;
 * a tcp:// scheduler the benchmark starts (a LocalCluster of 2 workers, reached by its address);
-* the largest |Δ| between each Dask run's parameters and standard errors and the serial run's
-  (goal 0: the same fits, bit for bit).
+* the largest relative |Δ| between each Dask run's parameters and standard errors and the
+  serial run's (goal ≤ 1e-12: the same fits; the last bit may differ where this process's BLAS
+  is multi-threaded and the workers' is not).
 
 The 1-minute load average is printed beside the ratio: on a shared machine other work takes the
 second core and the ratio drops; the row says so rather than hiding it. ``--quick``: 4 logs of
@@ -60,7 +61,12 @@ def _write_logs(folder: Path, n: int, duration: float) -> list[str]:
 
 
 def _max_delta(a, b) -> float:
-    """Largest |Δ| over every parameter and standard error of two fleets' rows."""
+    """Largest relative |Δ| over every parameter and standard error of two fleets' rows.
+
+    Worker processes run a single-threaded BLAS (Dask's nanny sets OPENBLAS_NUM_THREADS=1) and
+    this process may not: the sums of a product are then taken in another order, and the last
+    bit of a result can differ (measured: 2.3e-16 on arm6). The goal is 1e-12 relative.
+    """
     cols = [c for n in a.parameter_names for c in (n, n + "_se")]
     worst = 0.0
     for ra, rb in zip(a.rows, b.rows, strict=True):
@@ -70,7 +76,7 @@ def _max_delta(a, b) -> float:
                 if x is not y:
                     return float("inf")
                 continue
-            worst = max(worst, abs(x - y))
+            worst = max(worst, abs(x - y) / max(abs(x), abs(y), 1e-300))
     return worst
 
 
@@ -153,10 +159,10 @@ def run(quick: bool) -> list[dict]:
         {"case": "tcp:// scheduler started here, 2 workers", "value": tcp.elapsed_s, "unit": "s",
          "baseline": "1 Dask worker", "baseline_value": one.elapsed_s,
          "ratio": one.elapsed_s / tcp.elapsed_s},
-        {"case": "max |Δ| parameters and se, 2 workers vs serial", "value": _max_delta(two, serial),
-         "unit": "", "goal": "0", "met": _max_delta(two, serial) == 0.0},
-        {"case": "max |Δ| parameters and se, tcp:// vs serial", "value": _max_delta(tcp, serial),
-         "unit": "", "goal": "0", "met": _max_delta(tcp, serial) == 0.0},
-        {"case": "max |Δ| parameters and se, 1 worker vs serial", "value": _max_delta(one, serial),
-         "unit": "", "goal": "0", "met": _max_delta(one, serial) == 0.0},
+        {"case": "max relative |Δ| parameters and se, 2 workers vs serial", "value": _max_delta(two, serial),
+         "unit": "", "goal": "<= 1e-12", "met": _max_delta(two, serial) <= 1e-12},
+        {"case": "max relative |Δ| parameters and se, tcp:// vs serial", "value": _max_delta(tcp, serial),
+         "unit": "", "goal": "<= 1e-12", "met": _max_delta(tcp, serial) <= 1e-12},
+        {"case": "max relative |Δ| parameters and se, 1 worker vs serial", "value": _max_delta(one, serial),
+         "unit": "", "goal": "<= 1e-12", "met": _max_delta(one, serial) <= 1e-12},
     ]  # fmt: skip
