@@ -184,7 +184,55 @@ def register(subparsers) -> None:
         "arm of a robot that branches); the others must hold still in the log and are held at "
         "its positions",
     )
+    _register_fleet_options(p)
     p.set_defaults(func=run)
+
+
+def _register_fleet_options(p) -> None:
+    """Options of a fleet: one fit per file (``--each``), on a Dask scheduler (docs/fleets.md)."""
+    g = p.add_argument_group("fleets: one fit per file (docs/fleets.md)")
+    g.add_argument(
+        "--each",
+        action="store_true",
+        help="fit each file on its own (a fleet: one robot or run per file), written to --out as "
+        "fleet.csv/.parquet, results/<file>.json and fleet.html; failed files are rows with the "
+        "reason",
+    )
+    g.add_argument(
+        "--joint",
+        action="store_true",
+        help="one fit over all the files, each an experiment of the same robot (the default for "
+        "several files; the opposite of --each)",
+    )
+    g.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="local|local:N|tcp://HOST:PORT",
+        help="with --each: where the fits run: local (default: in-process for 1-2 files, else "
+        "a Dask cluster with a worker per CPU), local:N (N worker processes) or the address of a "
+        "running Dask scheduler",
+    )
+    g.add_argument(
+        "--scheduler-timeout",
+        type=float,
+        default=None,
+        metavar="S",
+        help="with --each: seconds to wait for a tcp:// scheduler to answer (default 30)",
+    )
+    g.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="with --each (required): the fleet's folder; written whole at the end, replacing "
+        "only the fleet's own files",
+    )
+    g.add_argument(
+        "--against",
+        default=None,
+        metavar="REFERENCE.json",
+        help="with --each: a reference fit (identify --save) of the same model; flags each "
+        "parameter that moved beyond |Δβ| > 1.96·sqrt(se² + se_ref²) (wear, payload change)",
+    )
 
 
 def _register_idim_options(p) -> None:
@@ -236,12 +284,17 @@ def run(args) -> int:
     """Load, fit, print; returns the exit status (0 on a successful fit, 1 otherwise)."""
     import physid
 
+    from ._fleet import check_fleet_flags, run_each
+
+    check_fleet_flags(args)  # before any file is read
     options = {}
     if args.kinetic is not None:
         options["kinetic"] = args.kinetic
     model = physid.load_model(args.model, **options)
     method = args.method or _default_method(model)
     _check_method_options(args, method)
+    if args.each:
+        return run_each(args, model, method, _idim_options(args, method))
     recordings = read_recordings(args, args.recordings, model=model)
     if getattr(args, "joints", None):  # a connected sub-tree, the other joints held still
         model, recordings = _subtree(args, model, recordings)
@@ -436,9 +489,9 @@ def _run_input_error(args, model, recordings) -> int:
     return 0 if result.success else 1
 
 
-def _run_idim(args, model, recordings, method: str) -> int:
+def _idim_options(args, method: str) -> dict:
+    """The `IDIMEstimator` keywords (after the method) given by the command line."""
     from ..errors import InputError
-    from ..estimators.idim import IDIMEstimator
 
     decimate = "auto"
     if args.decimate is not None:
@@ -448,9 +501,7 @@ def _run_idim(args, model, recordings, method: str) -> int:
             raise InputError(
                 f"--decimate expects a positive integer; got {args.decimate!r}."
             ) from None
-    estimator = IDIMEstimator(
-        model,
-        method.removeprefix("idim-"),
+    return dict(
         differentiation=args.differentiation,
         cutoff="auto" if args.cutoff in (None, "auto") else args.cutoff,
         half_width=args.half_width,
@@ -463,6 +514,13 @@ def _run_idim(args, model, recordings, method: str) -> int:
         consistent=args.consistent,
         stick_threshold=args.stick_threshold,
     )
+
+
+def _run_idim(args, model, recordings, method: str) -> int:
+    from ..estimators.idim import IDIMEstimator
+
+    options = _idim_options(args, method)
+    estimator = IDIMEstimator(model, method.removeprefix("idim-"), **options)
     progress(f"identify ({method}): " + ", ".join(repr(r) for r in recordings))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

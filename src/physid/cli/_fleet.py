@@ -1,0 +1,159 @@
+"""``physid identify FILES --each``: a fleet, one fit per file (`physid.analysis.fleet`).
+
+The verb's options are checked here (flags that do not apply to a fleet are refused before any
+file is read), the fleet runs in `physid.analysis.fleet.run_fleet`, and the outputs go into
+``--out`` (`physid.analysis.fleet_result.write_fleet`).
+"""
+
+from __future__ import annotations
+
+from ._common import check_output_folder, cli_words, print_json, progress
+
+# Options of a single fit that a fleet cannot honour: flag -> (attribute, value meaning "not
+# given", why). A silently ignored flag is a wrong answer.
+_NOT_WITH_EACH = {
+    "--join": ("join", False, "joins the files into one run; --each fits each file on its own"),
+    "--joint": ("joint", False, "fits all the files together; --each fits each on its own"),
+    "--save": (
+        "save",
+        None,
+        "writes one result file; --each writes one per file into --out DIR/results/",
+    ),
+    "--joints": ("joints", None, "(a sub-tree) is not available for fleets yet"),
+    "--detrend": ("detrend", None, "is not available for fleets"),
+    "--topic": ("topic", None, "(ROS bags) is not available for fleets yet; convert the bags"),
+}
+_ONLY_WITH_EACH = ("scheduler", "scheduler_timeout", "out", "against")
+
+
+def check_fleet_flags(args) -> None:
+    """Refuse flags that do not apply: fleet flags without ``--each``, single-fit flags with it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+
+    Raises
+    ------
+    InputError
+        The message names the flags and what to do.
+    """
+    from ..errors import InputError
+
+    if not args.each:
+        given = ["--" + k.replace("_", "-") for k in _ONLY_WITH_EACH if getattr(args, k, None)]
+        if given:
+            raise InputError(
+                f"{', '.join(given)} appl{'y' if len(given) > 1 else 'ies'} to a fleet, one fit "
+                "per file: add --each (e.g. physid identify logs/*.h5 --model robot.urdf --each "
+                "--out fleet/), or leave "
+                f"{'them' if len(given) > 1 else 'it'} out."
+            )
+        return
+    for flag, (attr, default, why) in _NOT_WITH_EACH.items():
+        if getattr(args, attr, default) != default:
+            raise InputError(f"{flag} with --each: {flag} {why}. Leave one of them out.")
+    if args.method == "input-error":
+        raise InputError(
+            "--each fits the files with an idim-* method (one linear fit per log); "
+            "--method input-error is not available for fleets. Use --method idim-ols|idim-wls|"
+            "idim-iv, or fit the files one by one."
+        )
+    if not args.out:
+        raise InputError(
+            "--each needs --out DIR, the fleet's folder (fleet.csv, results/<file>.json per "
+            "log, fleet.html): e.g. --out fleet/."
+        )
+    if args.scheduler_timeout is not None and not args.scheduler_timeout > 0:
+        raise InputError(
+            f"--scheduler-timeout must be a positive number of seconds; got "
+            f"{args.scheduler_timeout!r}."
+        )
+    check_output_folder(args.out, "--out")
+
+
+def _load_options(args, model) -> dict:
+    """`physid.load_recording` keywords from the reading options and the model's table."""
+    from ..signals.io import parse_channel_map
+    from ._recordings import _model_channel_map, _table_name
+
+    table = _model_channel_map(args, model)
+    return {
+        "channels": parse_channel_map(getattr(args, "channel_map", None)) or None,
+        "resample": bool(getattr(args, "resample", False)),
+        "uniform_rtol": 1e-3,
+        "decimal": getattr(args, "decimal", ".") or ".",
+        "delimiter": getattr(args, "delimiter", None),
+        "channel_defaults": table or None,
+        "channel_defaults_source": _table_name(args),
+        "rate": getattr(args, "rate", None),
+    }
+
+
+def run_each(args, model, method: str, fit_options: dict) -> int:
+    """Run the fleet and print its table; 0 when every file fitted with success, else 1.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    model : model
+        The loaded model (for the method's default and the channel table; the workers load
+        their own from ``--model``).
+    method : str
+    fit_options : dict
+        `IDIMEstimator` keywords from the command line.
+
+    Returns
+    -------
+    int
+    """
+    from .._progress import is_enabled
+    from ..analysis.fleet import run_fleet
+    from ..analysis.sweep_backends import SCHEDULER_TIMEOUT
+    from ..errors import InputError
+
+    if method not in ("idim-ols", "idim-wls", "idim-iv"):
+        raise InputError(
+            f"--each fits with an idim-* method; the model {args.model!r} is not linear in its "
+            "parameters (its default is --method input-error). Give --method idim-ols for a "
+            "linear model."
+        )
+    options = {"kinetic": args.kinetic} if args.kinetic is not None else {}
+    flags = dict(getattr(args, "argument_flags", {}) or {})
+    flags.update(against="--against", scheduler="--scheduler", paths="recording")
+    n = len(args.recordings)
+    progress(f"identify --each ({method}): {n} file{'s' if n > 1 else ''}")
+    result = run_fleet(
+        args.model,
+        args.recordings,
+        method=method,
+        fit_options=fit_options,
+        load_options=_load_options(args, model),
+        scheduler=args.scheduler or "local",
+        against=args.against,
+        progress=is_enabled(),
+        model_options=options,
+        flags=flags,
+        scheduler_timeout=args.scheduler_timeout or SCHEDULER_TIMEOUT,
+    )
+    for row in result.rows:  # the reasons in the command line's words
+        row["reason"] = cli_words(row["reason"])
+    paths = result.write(args.out)
+    progress(f"identify --each: wrote {paths['csv']}, {paths['html']} and {paths['results']}/")
+    if "parquet_note" in paths:
+        progress(f"physid: note: {paths['parquet_note']}")
+    if args.json:
+        print_json(
+            {
+                "format": "physid-fleet",
+                "success": result.success,
+                "columns": list(result.columns),
+                "rows": [dict(r) for r in result.rows],
+                "moved": result.moved() if result.reference is not None else None,
+                "notes": list(result.notes),
+                "outputs": {k: str(v) for k, v in paths.items()},
+            }
+        )
+    else:
+        print(result.summary())
+    return 0 if result.success else 1
