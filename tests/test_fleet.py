@@ -27,6 +27,7 @@ from physid.analysis.fleet_result import Z_MOVED, Reference
 from physid.errors import DataFileError, InputError, OutputError, SchedulerError
 from physid.estimators.idim import base_regressor_info
 from physid.estimators.results import save_result
+from physid.report.fleet import write_fleet_report
 
 distributed = pytest.importorskip("distributed", reason="the Dask tests need physid[dask]")
 
@@ -252,7 +253,7 @@ def test_outputs_are_written_and_read_back(logs, reference, tmp_path, capsys):
     out = tmp_path / "fleet"
     out.mkdir()
     (out / "notes.txt").write_text("mine")  # a user's file in the folder is left alone
-    written = res.write(out)
+    written = write_fleet_report(res, out)
     assert (out / "notes.txt").read_text() == "mine"
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".fleet.partial")]
     with open(written["csv"], newline="", encoding="utf-8") as fh:
@@ -275,6 +276,10 @@ def test_outputs_are_written_and_read_back(logs, reference, tmp_path, capsys):
     assert check["failures"] == [] and check["relative_error"]["overall"] < 0.01
     df = res.to_pandas()
     assert list(df.columns) == list(res.columns) and df.shape[0] == 3
+    # the analysis stage alone writes the tables and result files, the page only when given
+    bare = res.write(tmp_path / "bare")
+    assert "html" not in bare and not (tmp_path / "bare" / "fleet.html").exists()
+    assert (tmp_path / "bare" / "fleet.csv").read_text() == written["csv"].read_text()
 
 
 def test_write_refuses_a_link_in_the_folder_and_leaves_it_whole(logs, tmp_path):

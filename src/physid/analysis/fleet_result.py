@@ -332,14 +332,21 @@ class FleetResult:
 
         return pd.DataFrame([{c: r.get(c) for c in self.columns} for r in self.rows])
 
-    def write(self, out_dir) -> dict:
-        """Write the fleet's folder (see `write_fleet`).
+    def write(self, out_dir, *, page: str | None = None) -> dict:
+        """Write the fleet's folder (see `write_fleet`; the page:
+        `physid.report.fleet.write_fleet_report`).
+
+        Parameters
+        ----------
+        out_dir : str or Path
+        page : str, optional
+            The fleet page's HTML.
 
         Returns
         -------
         dict of str to Path
         """
-        return write_fleet(self, out_dir)
+        return write_fleet(self, out_dir, page=page)
 
 
 def _verdict(row) -> str:
@@ -409,9 +416,12 @@ class _Saved:
         return dict(self._data)
 
 
-def write_fleet(result: FleetResult, out_dir) -> dict:
+def write_fleet(result: FleetResult, out_dir, *, page: str | None = None) -> dict:
     """Write ``fleet.csv``, ``fleet.parquet`` (with pyarrow), ``results/<log>.json`` per ok log
-    and ``fleet.html`` into ``out_dir``, atomically.
+    and the page ``fleet.html`` (when ``page`` is given) into ``out_dir``, atomically.
+
+    The page is rendered by the report stage (`physid.report.fleet.write_fleet_report` renders
+    and writes it all): analysis comes before report and does not import it.
 
     The files are written into a staging folder beside ``out_dir`` and moved in at the end (the
     page last), so an interrupted write leaves ``out_dir`` as it was. The fleet's own file names
@@ -422,11 +432,13 @@ def write_fleet(result: FleetResult, out_dir) -> dict:
     ----------
     result : FleetResult
     out_dir : str or Path
+    page : str, optional
+        The fleet page's HTML (`physid.report.fleet.fleet_html`).
 
     Returns
     -------
     dict of str to Path
-        ``csv``, ``html``, ``parquet`` (when written), ``results`` (the folder); ``parquet_note``
+        ``csv``, ``html`` (when written), ``parquet`` (when written), ``results`` (the folder); ``parquet_note``
         says why Parquet was not written.
     """
     from ..estimators.results import save_result
@@ -453,15 +465,14 @@ def write_fleet(result: FleetResult, out_dir) -> dict:
                     _Saved(data), staging / r["result_file"], model=result.model,
                     recording=r["log"], model_options=dict(result.model_options),
                 )  # fmt: skip
-        from ..report.fleet import fleet_html  # lazy: report comes after analysis
-
-        page = fleet_html(result)
-        atomic_write(staging / "fleet.html", lambda fh: fh.write(page))
+        if page is not None:
+            atomic_write(staging / "fleet.html", lambda fh: fh.write(page))
+            written["html"] = out / "fleet.html"
         _move_in(staging, out)
     finally:
         if staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
-    written.update(csv=out / "fleet.csv", html=out / "fleet.html", results=out / "results")
+    written.update(csv=out / "fleet.csv", results=out / "results")
     return written
 
 

@@ -138,7 +138,9 @@ def run_each(args, model, method: str, fit_options: dict) -> int:
     )
     for row in result.rows:  # the reasons in the command line's words
         row["reason"] = cli_words(row["reason"])
-    paths = result.write(args.out)
+    from ..report.fleet import write_fleet_report
+
+    paths = write_fleet_report(result, args.out)
     progress(f"identify --each: wrote {paths['csv']}, {paths['html']} and {paths['results']}/")
     if "parquet_note" in paths:
         progress(f"physid: note: {paths['parquet_note']}")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .html import _CSS, _esc, format_cell
 
-__all__ = ["fleet_html"]
+__all__ = ["fleet_html", "write_fleet_report"]
 
 _EXTRA_CSS = """
 tr.moved td { background: #fde8e8; font-weight: 600; }
@@ -121,3 +121,20 @@ def fleet_html(result) -> str:
         parts.append(_table("Logs that could not be fitted", ("log", "reason"), rows))
     parts.append("</main></body></html>")
     return "\n".join(parts) + "\n"
+
+
+def write_fleet_report(result, out_dir) -> dict:
+    """Write the fleet's folder with its page: tables, result files and ``fleet.html``.
+
+    Parameters
+    ----------
+    result : physid.analysis.fleet_result.FleetResult
+    out_dir : str or Path
+        The folder (created; the fleet's own file names replaced, other files left alone).
+
+    Returns
+    -------
+    dict of str to Path
+        As `physid.analysis.fleet_result.write_fleet`, with ``html``.
+    """
+    return result.write(out_dir, page=fleet_html(result))
