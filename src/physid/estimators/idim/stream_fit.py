@@ -19,10 +19,9 @@ from ...errors import IdentifiabilityError, SamplingError, arg
 from .._stiction import STICK_AUTO, dropped_summary_counts
 from .base_parameters import base_regressor_info, unit_of
 from .choose import pick
-from .decimation import decimated_noise_correlation
 from .result import IDIMResult
 from .solve import COND_WARN, ConditionWarning, check_excitation, condition_number
-from .stream_moments import RowMoments
+from .stream_moments import RowMoments, noise_correlation
 from .stream_plan import StreamPlan, motionless
 from .verdict import iv_verdict, noise_floor, torque_verdict_sums
 
@@ -42,7 +41,12 @@ def _solve(Rj, weights):
     norms = np.linalg.norm(a[:, :p], axis=0)
     d = 1.0 / np.where(norms > 0, norms, 1.0)
     r = np.linalg.qr(a * np.append(d, 1.0), mode="r")
-    x = linalg.lstsq(r[:p, :p], r[:p, p])[0]
+    try:  # R β = Qᵀ τ: a triangular solve (QR of the scaled stack, as lstsq does on the rows)
+        x = linalg.solve_triangular(r[:p, :p], r[:p, p])
+    except (linalg.LinAlgError, ValueError):
+        x = linalg.lstsq(r[:p, :p], r[:p, p])[0]
+    if not np.all(np.isfinite(x)):
+        x = linalg.lstsq(r[:p, :p], r[:p, p])[0]
     return x * d
 
 
@@ -277,7 +281,7 @@ def _covariance(plan, c, full, dropped, est, nd):
     lag = 0
     if plan.settings["stderr"] == "filtered":
         L = np.where(dropped[:, None, None], c.lagged[1], c.lagged[0])
-        rho = decimated_noise_correlation(int(nd))
+        rho = noise_correlation(int(nd))
         meat = meat + np.einsum("j,jil->il", var * w**2, L)
         lag = rho.size - 1
         if nd <= 1:

@@ -29,7 +29,10 @@ from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
 from .stream_plan import StreamPlan, decay_length, still_windows
 
-__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows"]
+__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS"]
+
+#: Columns of the full-rate rows run through the parallel filter at a time.
+COLUMNS = 32
 
 
 class Margins:
@@ -173,13 +176,16 @@ def window_rows(model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins,
     tic = time.perf_counter()
     qf, qdf, qddf = _states(plan, q, r0, c0, c1)
     tic = _tick(timings, "state filter", tic)
-    W = base_regressor(model, columns, qf, qdf, qddf)
-    stacked = np.concatenate([W.reshape(W.shape[0], -1), tau[c0 + off - r0 : c1 + off - r0]], 1)
-    del W
+    p = plan.n_base
+    stacked = np.empty((c1 - c0, nj * p + nj))
+    for i in range(0, c1 - c0, 8192):  # blocks of samples: one full regressor block at a time
+        sl = slice(i, i + 8192)
+        W = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl], block=8192)
+        stacked[sl, : nj * p] = W.reshape(W.shape[0], -1)
+    stacked[:, nj * p :] = tau[c0 + off - r0 : c1 + off - r0]
     tic = _tick(timings, "regressor", tic)
     live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
-    block = np.ascontiguousarray(stacked[:, live].T)  # time last: sosfiltfilt's fast layout
-    n_full, p = plan.n_stacked(k), plan.n_base
+    n_full = plan.n_stacked(k)
     stick_raw = _sticking(plan, k, q, r0, mg)
     out = {}
     for nd in plan.candidates:
@@ -189,10 +195,13 @@ def window_rows(model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins,
             s = s[(s >= edge) & (s < n_full - edge) & ((s - edge) % nd == 0)]
         dec = np.zeros((s.size, stacked.shape[1]))
         if nd > 1 and s.size:
-            y = signal.sosfiltfilt(
-                _decimation_sos(nd), block, axis=-1, padlen=min(c1 - c0 - 1, edge)
-            )
-            dec[:, live] = y[:, s - c0].T
+            sos, padlen = _decimation_sos(nd), min(c1 - c0 - 1, edge)
+            for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
+                cols = live[i : i + COLUMNS]
+                # time on the last, contiguous axis: sosfiltfilt's fast layout
+                block = np.ascontiguousarray(stacked[:, cols].T)
+                y = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)
+                dec[:, cols] = y[:, s - c0].T
         elif s.size:
             dec = stacked[s - c0].copy()
         Wk = dec[:, : nj * p].reshape(-1, nj, p)
