@@ -74,11 +74,21 @@ def _child(kind: str, urdf: str, n: int) -> None:
         res = IDIMEstimator(model, "ols").fit(rec).result_
     wall = time.perf_counter() - tic
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    print(json.dumps({
-        "wall": wall, "peak_mb": peak / 1024, "before_mb": base / 1024, "times": times,
-        "beta": res.beta_vector().tolist(), "nd": res.decimate, "cutoff": res.cutoff,
-        "success": res.success, "rows": res.n_rows,
-    }))
+    print(
+        json.dumps(
+            {
+                "wall": wall,
+                "peak_mb": peak / 1024,
+                "before_mb": base / 1024,
+                "times": times,
+                "beta": res.beta_vector().tolist(),
+                "nd": res.decimate,
+                "cutoff": res.cutoff,
+                "success": res.success,
+                "rows": res.n_rows,
+            }
+        )
+    )
 
 
 def main(argv=None) -> None:
@@ -101,14 +111,18 @@ def main(argv=None) -> None:
     print(f"7-DOF {Path(args.urdf).name}, {n} samples at 1 kHz, IDIM-OLS defaults")
     print(f"{'fit':10s} {'s':>8s} {'samples/s':>11s} {'peak RSS MB':>12s} {'(data+model MB)':>16s}")
     for kind, r in out.items():
-        print(f"{kind:10s} {r['wall']:8.2f} {n / r['wall']:11.0f} {r['peak_mb']:12.0f} "
-              f"{r['before_mb']:16.0f}")
+        print(
+            f"{kind:10s} {r['wall']:8.2f} {n / r['wall']:11.0f} {r['peak_mb']:12.0f} "
+            f"{r['before_mb']:16.0f}"
+        )
     s = out["stream"]
     if "memory" in out:
         m = out["memory"]
         b1, b2 = np.array(m["beta"]), np.array(s["beta"])
-        print(f"speed ratio streamed/in-memory: {m['wall'] / s['wall']:.2f}; nd {s['nd']} vs "
-              f"{m['nd']}; max |Δβ|/|β| = {np.max(np.abs(b1 - b2) / np.abs(b1)):.2e}")
+        print(
+            f"speed ratio streamed/in-memory: {m['wall'] / s['wall']:.2f}; nd {s['nd']} vs "
+            f"{m['nd']}; max |Δβ|/|β| = {np.max(np.abs(b1 - b2) / np.abs(b1)):.2e}"
+        )
     print("time split (streamed): " + ", ".join(f"{k} {v:.2f} s" for k, v in s["times"].items()))
 
 

@@ -19,8 +19,7 @@ import pytest
 
 import physid
 from physid.errors import InputError, SamplingError, ShapeError
-from physid.estimators.idim import IDIMEstimator, fit_streamed
-from physid.estimators.idim import stream_moments, stream_plan
+from physid.estimators.idim import IDIMEstimator, fit_streamed, stream_moments, stream_plan
 from physid.estimators.idim.stream import fit_moments, idim_moments, plan_streamed
 from physid.signals.blocks import block_starts
 from physid.signals.recording import Recording
@@ -36,9 +35,7 @@ def _run(model, duration, phase=0.0, seed=1):
     t = np.arange(0.0, duration, 1e-3)
     ramp = np.clip(t, 0.0, 1.0)[:, None] ** 3
     ref = ramp * (0.8 * np.sin(np.outer(t, W0) + phase) + 0.3 * np.sin(np.outer(t, 2.3 * W0) + 1))
-    return simulate_closed_loop(
-        model, kp=KP, kd=KD, reference=ref, t=t, noise_std=1e-4, rng=seed
-    )
+    return simulate_closed_loop(model, kp=KP, kd=KD, reference=ref, t=t, noise_std=1e-4, rng=seed)
 
 
 class ArrayBlocks:
@@ -128,8 +125,13 @@ def test_coulomb_joint_stiction_rules_equal_in_memory(threshold):
     t = np.arange(0.0, 10.0, 1e-3)
     r = 0.8 * np.sin(2 * np.pi * 0.5 * t) + 0.3 * np.sin(2 * np.pi * 1.3 * t + 0.4)
     rec = simulate_closed_loop(
-        model, kp=[200.0], kd=[2 * np.sqrt(40.0)], reference=(r - r[0])[:, None], t=t,
-        noise_std=1e-5, rng=3,
+        model,
+        kp=[200.0],
+        kd=[2 * np.sqrt(40.0)],
+        reference=(r - r[0])[:, None],
+        t=t,
+        noise_std=1e-5,
+        rng=3,
     )
     ref = _fit(model, rec, stick_threshold=threshold)
     got = fit_streamed(model, rec, stick_threshold=threshold, block_samples=900, progress=False)

@@ -303,7 +303,9 @@ def dropped_summary_counts(counts, n_rows: int, rule, fix: str | None = None):
         else f"near rest (at |q̇| < {float(rule):g}·rms)"
     )
     per = ", ".join(f"joint {j + 1} {100 * s:.0f} %" for j, s in enumerate(share) if s > 0)
-    sentence = f" {int(counts.sum())} of {n_rows * counts.size} joint equations dropped {how}: {per}."
+    sentence = (
+        f" {int(counts.sum())} of {n_rows * counts.size} joint equations dropped {how}: {per}."
+    )
     fix = fix or "keep them with stick_threshold=0"
     rule_name = "sustained sticking" if rule == STICK_AUTO else f"speed below {float(rule):g}·rms"
     heavy = [

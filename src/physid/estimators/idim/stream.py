@@ -37,8 +37,14 @@ from .stream_moments import RowMoments, idim_moments
 from .stream_plan import StreamPlan, _as_sources, plan_streamed
 from .stream_window import Margins, RawReader, windows
 
-__all__ = ["fit_streamed", "plan_streamed", "idim_moments", "RowMoments", "fit_moments",
-           "StreamPlan"]
+__all__ = [
+    "fit_streamed",
+    "plan_streamed",
+    "idim_moments",
+    "RowMoments",
+    "fit_moments",
+    "StreamPlan",
+]
 
 
 def fit_streamed(
@@ -164,8 +170,7 @@ def _speed_rms(model, plan: StreamPlan, sources) -> np.ndarray:
         total = np.zeros(nj)
         for a, b, _c0, _c1, r0, r1 in windows(plan, k, mg):
             _, q = reader.get(r0, r1)
-            _, qd, _ = _states(plan, q, r0, a, b) if plan.settings[
-                "differentiation"] == "physid" else _states(plan, q, r0, a, b)
+            _, qd, _ = _states(plan, q, r0, a, b)
             total += np.sum(qd**2, axis=0)
         out.append(np.sqrt(total / plan.n_stacked(k)))
     return np.array(out)

@@ -153,8 +153,9 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
     e2 = _e2(full, est["beta"])
     t2 = np.sum(full[:, :, p] ** 2, axis=-1)
     rel = {"overall": float(math.sqrt(e2.sum()) / max(math.sqrt(t2.sum()), 1e-300))}
-    rel.update({f"tau{j + 1}": float(math.sqrt(e2[j]) / max(math.sqrt(t2[j]), 1e-300))
-                for j in range(nj)})
+    rel.update(
+        {f"tau{j + 1}": float(math.sqrt(e2[j]) / max(math.sqrt(t2[j]), 1e-300)) for j in range(nj)}
+    )
     sample = _sample(c, est["beta"], dropped, notes, plan.thinning(nd))
     success, message = _verdict(plan, c, est, (e2, t2, kept), cond, nd, why, n_stuck)
     from ..plausibility import gate
@@ -163,8 +164,9 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if np.all(np.isfinite(cov)) else None
     names = info.names
     return IDIMResult(
-        stick_threshold=plan.settings["stick_threshold"] if plan.settings["stick_threshold"]
-        == STICK_AUTO else float(plan.settings["stick_threshold"]),
+        stick_threshold=plan.settings["stick_threshold"]
+        if plan.settings["stick_threshold"] == STICK_AUTO
+        else float(plan.settings["stick_threshold"]),
         reversal_joints=tuple(int(j) + 1 for j in np.flatnonzero(dropped)),
         names=names,
         parameters=dict(zip(names, est["beta"].tolist(), strict=True)),
@@ -213,8 +215,9 @@ def _check_rows(plan, c, full, info, notes, nd) -> None:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConditionWarning)
         try:
-            check_excitation(full[:, :, :p], info, "the recording(s)",
-                             warn=plan.settings["check_condition"])
+            check_excitation(
+                full[:, :, :p], info, "the recording(s)", warn=plan.settings["check_condition"]
+            )
         except IdentifiabilityError as exc:
             if c.n_stuck.any():
                 raise IdentifiabilityError(

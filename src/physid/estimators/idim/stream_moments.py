@@ -151,7 +151,6 @@ class RowMoments:
 def _accumulate(acc: CandidateMoments, rows, fold, tails, rho, keep):
     """Add one window's rows of one candidate to its accumulators (vectorised over rows)."""
     W, tau, _, t, stuck, rev = rows
-    nj, p = W.shape[1], W.shape[2]
     if W.shape[0] == 0:
         return
     kept = np.any(W != 0.0, axis=2)
@@ -263,10 +262,10 @@ def idim_moments(model, plan: StreamPlan, source, index: int, *, timings=None, p
     tails = {nd: [np.zeros((LAGS, nj, p)), np.zeros((LAGS, nj, p))] for nd in plan.candidates}
     base = {nd: sum(plan.n_rows(i, nd) for i in range(k)) for nd in plan.candidates}
     n = plan.sources[k].n
-    done = 0
+    done, cache = 0, {}
     for win in windows(plan, k, mg):
         raw = reader.get(win[4], win[5])
-        rows = window_rows(model, columns, plan, k, raw, win, mg, timings)
+        rows = window_rows(model, columns, plan, k, raw, win, mg, timings, cache)
         tic = time.perf_counter()
         for nd, r in rows.items():
             edge = decimation_edge(nd)

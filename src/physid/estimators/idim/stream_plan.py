@@ -403,15 +403,14 @@ def plan_streamed(
     """
     from ...signals.blocks import as_block_source
 
-    stick = _check_settings(method, differentiation, stderr, half_width, stick_threshold,
-                            block_samples)
+    stick = _check_settings(
+        method, differentiation, stderr, half_width, stick_threshold, block_samples
+    )
     srcs = _as_sources(sources, as_block_source)
     nj = int(model.n_joints)
     info = base_regressor_info(model)
     block = max(int(block_samples), SURVEY_BLOCK)
-    surveyed = [
-        _survey(s, k, nj, k == 0 and cutoff == "auto", block) for k, s in enumerate(srcs)
-    ]
+    surveyed = [_survey(s, k, nj, k == 0 and cutoff == "auto", block) for k, s in enumerate(srcs)]
     stats = [s for s, _ in surveyed]
     _check_stackable(srcs, stats)
     cut = _resolve_cutoff(surveyed[0][1].cutoff() if cutoff == "auto" else cutoff, None)
@@ -436,8 +435,18 @@ def plan_streamed(
         "stick_threshold": stick,
         "check_condition": bool(check_condition),
     }
-    plan = StreamPlan(settings, nj, info.n_base, cut, m, tuple(nds), tuple(stats), coulomb,
-                      rule, int(block_samples))
+    plan = StreamPlan(
+        settings,
+        nj,
+        info.n_base,
+        cut,
+        m,
+        tuple(nds),
+        tuple(stats),
+        coulomb,
+        rule,
+        int(block_samples),
+    )
     _check_lengths(plan)
     return plan
 

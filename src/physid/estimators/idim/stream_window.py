@@ -144,7 +144,9 @@ def _tick(timings, key, tic):
     return time.perf_counter()
 
 
-def window_rows(model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins, timings=None):
+def window_rows(
+    model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins, timings=None, cache=None
+):
     """The decimated rows of one window for every candidate nd.
 
     Parameters
@@ -161,6 +163,9 @@ def window_rows(model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins,
         `windows`' ``(a, b, c0, c1, r0, r1)``.
     mg : Margins
     timings : dict, optional
+    cache : dict, optional
+        Carried from one window to the next of the same source: the full-rate rows of the
+        previous window, whose overlap with this one is copied instead of computed again.
 
     Returns
     -------
@@ -174,15 +179,29 @@ def window_rows(model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins,
     nj, off = plan.n_joints, plan.offset()
     q, tau = x[:, :nj], x[:, nj:]
     tic = time.perf_counter()
-    qf, qdf, qddf = _states(plan, q, r0, c0, c1)
-    tic = _tick(timings, "state filter", tic)
     p = plan.n_base
     stacked = np.empty((c1 - c0, nj * p + nj))
-    for i in range(0, c1 - c0, 8192):  # blocks of samples: one full regressor block at a time
+    qdf = np.empty((c1 - c0, nj))
+    # the rows the previous window already computed (its right margin) are reused, not redone
+    prev = cache.get("rows") if cache is not None else None
+    start = c0
+    if prev is not None and prev[0] <= c0 < prev[1]:
+        start = min(prev[1], c1)
+        stacked[: start - c0] = prev[2][c0 - prev[0] : start - prev[0]]
+        qdf[: start - c0] = prev[3][c0 - prev[0] : start - prev[0]]
+    if c1 > start:
+        qf, qdf_new, qddf = _states(plan, q, r0, start, c1)
+        qdf[start - c0 :] = qdf_new
+    else:
+        qf = qdf_new = qddf = np.empty((0, nj))
+    tic = _tick(timings, "state filter", tic)
+    for i in range(0, c1 - start, 8192):  # blocks of samples: one full regressor block at a time
         sl = slice(i, i + 8192)
-        W = base_regressor(model, columns, qf[sl], qdf[sl], qddf[sl], block=8192)
-        stacked[sl, : nj * p] = W.reshape(W.shape[0], -1)
+        W = base_regressor(model, columns, qf[sl], qdf_new[sl], qddf[sl], block=8192)
+        stacked[start - c0 + i : start - c0 + i + W.shape[0], : nj * p] = W.reshape(W.shape[0], -1)
     stacked[:, nj * p :] = tau[c0 + off - r0 : c1 + off - r0]
+    if cache is not None:
+        cache["rows"] = (c0, c1, stacked, qdf)
     tic = _tick(timings, "regressor", tic)
     live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
     n_full = plan.n_stacked(k)
@@ -243,4 +262,3 @@ def _masks(plan: StreamPlan, k: int, nd: int, s, stick_raw, qdf, c0: int, r0: in
     rms = np.asarray(plan.qd_rms)[k]
     near = (np.abs(qdf) < float(plan.stick) * np.where(rms > 0, rms, 1.0)) & plan.coulomb[None, :]
     return dilate(near, decimation_edge(nd))[s - c0], None
-
