@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import physid
-from physid.errors import InputError, SamplingError, ShapeError
-from physid.estimators.idim import IDIMEstimator, fit_streamed, stream_moments, stream_plan
+from physid.errors import InputError, SamplingError
+from physid.estimators.idim import IDIMEstimator, fit_streamed, stream_plan
 from physid.estimators.idim.stream import fit_moments, idim_moments, plan_streamed
 from physid.signals.blocks import block_starts
 from physid.signals.recording import Recording
@@ -222,4 +222,15 @@ def test_mismatched_sources_are_refused_by_name(arm, rec):
         fit_streamed(arm, [rec, fewer], progress=False)
 
 
-_KEEP = (ShapeError, stream_moments)
+@pytest.mark.parametrize("n", [3001, 70001])
+def test_welch_accumulated_in_blocks_gives_auto_cutoff(n):
+    from physid.estimators.idim.filtering import auto_cutoff
+
+    rng = np.random.default_rng(0)
+    t = np.arange(n) * 1e-3
+    q = np.c_[np.sin(2 * np.pi * 0.7 * t), 0.3 * np.cos(2 * np.pi * 1.9 * t)]
+    q = q + 1e-4 * rng.normal(size=(n, 2))
+    welch = stream_plan._Welch(n, q[:1000].mean(axis=0))
+    for a in range(0, n, 7001):  # blocks that cut the Welch segments anywhere
+        welch.add(q[a : a + 7001])
+    assert welch.cutoff() == auto_cutoff(q)

@@ -5,7 +5,9 @@ a `StreamPlan`: the sources' lengths and period, the state-filter cut-off (``"au
 spectrum of the first source accumulated segment by segment exactly as
 `physid.estimators.idim.filtering.auto_cutoff` computes it), the FIR half-width, the candidate
 decimations, the robust noise statistics and the window margins of the main pass
-(`physid.estimators.idim.stream_window`).
+(`physid.estimators.idim.stream_window`). The spectrum is taken of q minus the first block's
+mean where `auto_cutoff` removes the record's (a linear detrend follows in every segment: the
+difference is rounding).
 
 Where the in-memory fit takes a whole-record median (the position and torque noise of
 `physid.estimators._stiction.position_noise` and `torque_noise_floor`), the survey takes the
@@ -234,7 +236,7 @@ class _Welch:
 
     def __init__(self, n: int, offset):
         self.nperseg = int(min(n, 4096))
-        self.step = self.nperseg // 2
+        self.step = self.nperseg - self.nperseg // 2  # scipy's default overlap: nperseg // 2
         self.offset = offset  # the first block's mean (the in-memory code removes the record's)
         self.buf = None
         self.total = None

@@ -180,15 +180,7 @@ def window_rows(
     q, tau = x[:, :nj], x[:, nj:]
     tic = time.perf_counter()
     p = plan.n_base
-    stacked = np.empty((c1 - c0, nj * p + nj))
-    qdf = np.empty((c1 - c0, nj))
-    # the rows the previous window already computed (its right margin) are reused, not redone
-    prev = cache.get("rows") if cache is not None else None
-    start = c0
-    if prev is not None and prev[0] <= c0 < prev[1]:
-        start = min(prev[1], c1)
-        stacked[: start - c0] = prev[2][c0 - prev[0] : start - prev[0]]
-        qdf[: start - c0] = prev[3][c0 - prev[0] : start - prev[0]]
+    stacked, qdf, start = _reuse(cache, c0, c1, nj * p + nj, nj)
     if c1 > start:
         qf, qdf_new, qddf = _states(plan, q, r0, start, c1)
         qdf[start - c0 :] = qdf_new
@@ -201,7 +193,7 @@ def window_rows(
         stacked[start - c0 + i : start - c0 + i + W.shape[0], : nj * p] = W.reshape(W.shape[0], -1)
     stacked[:, nj * p :] = tau[c0 + off - r0 : c1 + off - r0]
     if cache is not None:
-        cache["rows"] = (c0, c1, stacked, qdf)
+        cache["rows"] = (c0, c1)
     tic = _tick(timings, "regressor", tic)
     live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
     n_full = plan.n_stacked(k)
@@ -232,6 +224,34 @@ def window_rows(
         out[nd] = (Wk, tk, s + off, t_raw[s + off - r0], stuck, rev)
     _tick(timings, "parallel filter", tic)
     return out
+
+
+def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
+    """``(stacked, qdf, start)``: the window's full-rate buffers, with the rows the previous
+    window already computed (its right margin) moved to their front; rows from ``start`` on
+    remain to be computed. The buffers live in ``cache`` from one window to the next (one
+    window's memory, not two)."""
+    if cache is None:
+        return np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj)), c0
+    prev = cache.get("rows")
+    buf, qbuf = cache.get("buf"), cache.get("qdf")
+    start = c0
+    if prev is not None and prev[0] <= c0 < prev[1]:
+        start = min(prev[1], c1)
+        shift, count = c0 - prev[0], start - c0
+        if buf.shape[0] < c1 - c0:  # a longer window (the last): a larger buffer
+            buf2, qbuf2 = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
+            buf2[:count], qbuf2[:count] = buf[shift : shift + count], qbuf[shift : shift + count]
+            buf, qbuf = buf2, qbuf2
+        else:
+            for i in range(0, count, max(shift, 1)):  # forward, in chunks that never overlap
+                j = min(i + shift, count)
+                buf[i:j] = buf[shift + i : shift + j]
+                qbuf[i:j] = qbuf[shift + i : shift + j]
+    elif buf is None or buf.shape[0] < c1 - c0:
+        buf, qbuf = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
+    cache["buf"], cache["qdf"] = buf, qbuf
+    return buf[: c1 - c0], qbuf[: c1 - c0], start
 
 
 def _sticking(plan: StreamPlan, k: int, q, r0: int, mg: Margins):
