@@ -39,7 +39,7 @@ from .._validate import check_int
 from ..errors import InputError
 from .recording import Recording
 
-__all__ = ["BlockSource", "RecordingBlocks", "as_block_source", "block_starts"]
+__all__ = ["BlockSource", "RecordingBlocks", "TransformedBlocks", "as_block_source", "block_starts"]
 
 
 @runtime_checkable
@@ -170,3 +170,73 @@ def as_block_source(obj) -> BlockSource:
         f"expected a Recording or a block source (physid.signals.io.open_blocks); got "
         f"{type(obj).__name__}."
     )
+
+
+class TransformedBlocks:
+    """A block source whose every block passes through ``transform`` (a per-sample map).
+
+    For conversions that act sample by sample, such as motor-side channels through a
+    transmission (``q = K⁻¹ θm``): applied block by block they give the blocks of the converted
+    record. ``transform`` must keep the time vector and the number of samples.
+
+    Parameters
+    ----------
+    source : BlockSource
+    transform : callable
+        ``transform(block: Recording) -> Recording``.
+
+    Examples
+    --------
+    >>> rec = Recording(np.arange(4) * 0.5, np.arange(4.0), ["x"], ["m"])
+    >>> double = TransformedBlocks(
+    ...     RecordingBlocks(rec), lambda r: r.with_channels({"y": 2 * r["x"]}, {"y": "m"})
+    ... )
+    >>> double.names, [b["y"].tolist() for b in double.blocks(2)]
+    (('x', 'y'), [[0.0, 2.0], [4.0, 6.0]])
+    """
+
+    def __init__(self, source: BlockSource, transform):
+        self.source = source
+        self.transform = transform
+        self.n_samples = source.n_samples
+        self.dt = source.dt
+        self.t0 = source.t0
+        self.metadata = source.metadata
+        first = next(iter(source.blocks(2)))
+        probe = transform(first)
+        self.names = tuple(probe.names)
+        self.units = tuple(probe.units)
+
+    def blocks(self, size: int, channels: Sequence[str] | None = None) -> Iterator[Recording]:
+        """The source's blocks, transformed (then restricted to ``channels``).
+
+        Parameters
+        ----------
+        size : int
+            Block length [samples].
+        channels : sequence of str, optional
+            Channels of the transformed blocks to hand out (default all).
+
+        Yields
+        ------
+        Recording
+        """
+        for block in self.source.blocks(size):
+            out = self.transform(block)
+            if out.n_samples != block.n_samples:
+                raise InputError(
+                    "a block transform must keep the number of samples; it turned "
+                    f"{block.n_samples} into {out.n_samples}."
+                )
+            if channels is not None:
+                names = list(channels)
+                out = Recording(
+                    out.t, out.select(names), names, [out.unit(n) for n in names], out.metadata
+                )
+            yield out
+
+    def close(self) -> None:
+        """Close the source (when it can be closed)."""
+        close = getattr(self.source, "close", None)
+        if callable(close):
+            close()

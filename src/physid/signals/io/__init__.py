@@ -1,4 +1,4 @@
-"""Read and write recordings: CSV, NPZ, MATLAB ``.mat`` (v5 and v7.3) and HDF5.
+"""Read and write recordings: CSV, NPZ, MATLAB ``.mat`` (v5 and v7.3), HDF5 and Parquet.
 
 File layouts
 ------------
@@ -14,6 +14,13 @@ NPZ, MAT, HDF5
     ``name1..namek``. MATLAB structs and HDF5 groups are reached with dots (``data.pos``). A
     dataset attribute ``unit`` (or ``units``) gives the channel's unit (HDF5, MATLAB v7.3).
     Scalars (a drive gain, a sampling rate) are not channels but may be used in channel maps.
+Parquet
+    One column per channel (needs pyarrow: ``pip install "physid[parquet]"``); a unit in the
+    column's field metadata ``unit`` or at the end of its name (``q1 [rad]``); the schema
+    metadata ``physid`` (JSON) is the recording's metadata.
+Long records
+    `open_blocks` reads a file block by block instead of whole (`BLOCK_FORMATS` says how each
+    format is read); concatenated, the blocks are what `load_recording` returns.
 
 Time
     The column or variable named ``t``, else one named ``time`` in any case (``Time``,
@@ -42,7 +49,6 @@ command line shows its own flags instead (``--resample``).
 
 from __future__ import annotations
 
-import stat
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -54,13 +60,15 @@ from ..writers import _header_cell as _header_cell
 from ..writers import _split_header_cell as _split_header_cell
 from ..writers import write_recording
 from .assemble import _assemble
+from .block_readers import BLOCK_FORMATS, FileBlocks, in_memory_bytes, open_blocks
 from .csv_reader import _read_csv
+from .files import _check_readable, _format_of, _rate_of
 from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
 from .options import _check_csv_options, _check_load_options, parse_channel_map
+from .parquet_reader import _read_parquet
 from .rosbag_reader import is_rosbag, read_rosbag
-from .timebase import check_rate
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
 from .variables import _RESERVED as _RESERVED
 from .variables import (
@@ -74,6 +82,10 @@ from .variables import (
 
 __all__ = [
     "load_recording",
+    "open_blocks",
+    "FileBlocks",
+    "BLOCK_FORMATS",
+    "in_memory_bytes",
     "map_recording",
     "save_recording",
     "parse_channel_map",
@@ -100,15 +112,16 @@ def load_recording(
     topic: str | None = None,
     joint_names=None,
 ) -> Recording:
-    """Read a recording from CSV, NPZ, MATLAB ``.mat``, HDF5 or a ROS bag (chosen by the suffix).
+    """Read a recording from CSV, NPZ, MATLAB ``.mat``, HDF5, Parquet or a ROS bag (by suffix).
 
     Long by its docstring: every keyword of every format is documented here.
 
     Parameters
     ----------
     path : str or os.PathLike
-        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``; ROS bags
-        ``.bag`` (ROS 1), ``.mcap``/``.db3`` or a ROS 2 bag folder (needs ``physid[ros]``).
+        The file. Suffixes: ``.csv``/``.txt``, ``.npz``, ``.mat``, ``.h5``/``.hdf5``,
+        ``.parquet`` (needs ``physid[parquet]``); ROS bags ``.bag`` (ROS 1), ``.mcap``/``.db3``
+        or a ROS 2 bag folder (needs ``physid[ros]``).
     channels : mapping of str to str, optional
         Channel map: recording channel name → a variable of the file (``"qm"``, a struct field
         ``"data.pos"``) or arithmetic over variables and scalars (``"gtau*vir"``), optionally
@@ -170,7 +183,8 @@ def load_recording(
     ExpressionError
         A channel-map expression that uses an unknown name or a forbidden construct.
     MissingDependencyError
-        An HDF5 or MATLAB v7.3 file and h5py is not installed (``pip install "physid[io]"``).
+        An HDF5 or MATLAB v7.3 file and h5py is not installed (``pip install "physid[io]"``),
+        a Parquet file and pyarrow is not (``pip install "physid[parquet]"``).
 
     Examples
     --------
@@ -195,7 +209,7 @@ def load_recording(
         fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
         if topic is not None:
             raise InputError(f"topic= applies to ROS bags only; {path} is not one. Drop it.")
-        _check_readable(path)
+        _check_readable(path, _open)
     if fmt == "rosbag":
         pass  # read above
     elif fmt == "csv":
@@ -206,32 +220,14 @@ def load_recording(
                 f"decimal= and delimiter= apply to CSV files only; {path} is {fmt.upper()}. "
                 "Drop them."
             )
-        source = {"npz": _read_npz, "mat": _read_mat, "hdf5": _read_hdf5}[fmt](path)
+        readers = {"npz": _read_npz, "mat": _read_mat, "hdf5": _read_hdf5, "parquet": _read_parquet}
+        source = readers[fmt](path)
     source.metadata = {**source.metadata, "source": str(path), "format": fmt}
     return _assemble(
         path, source, channels, resample=resample, uniform_rtol=uniform_rtol,
         defaults=defaults, defaults_source=channel_defaults_source or "channel_defaults=",
         rate=rate, rate_source=rate_source,
     )  # fmt: skip
-
-
-def _rate_of(rate, defaults: dict, source) -> tuple[float | None, str]:
-    """The sample rate [Hz] (``rate=``, else a ``"rate"`` entry of the defaults) and its origin."""
-    table_rate = defaults.pop("rate", None)
-    if rate is not None:
-        return check_rate(rate), "rate="
-    if table_rate is None:
-        return None, "rate="
-    try:
-        value = float(table_rate)
-    except ValueError:
-        value = float("nan")
-    if not (np.isfinite(value) and value > 0):
-        raise InputError(
-            f"{source or 'channel_defaults='}: rate must be the sample rate in Hz, a number > 0 "
-            f"(e.g. rate = 5000); got {table_rate!r}."
-        )
-    return value, f"{source or 'channel_defaults='} (rate = {value:g})"
 
 
 def map_recording(
@@ -317,54 +313,3 @@ def save_recording(rec: Recording, path, *, overwrite: bool = True) -> Path:
     if not isinstance(rec, Recording):
         raise DataFileError(f"save_recording expects a Recording; got {type(rec).__name__}.")
     return write_recording(rec, path, overwrite=overwrite)
-
-
-_SPECIAL_KINDS = (
-    (stat.S_ISFIFO, "a FIFO (named pipe)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-
-
-def _check_readable(path: Path) -> None:
-    """Refuse a path that is missing, a folder, a special file or unreadable, before reading.
-
-    A special file (FIFO, device, socket) is refused from its ``stat`` alone: opening a FIFO
-    would block until a writer comes, and a device may never end.
-    """
-    try:
-        mode = path.stat().st_mode
-    except OSError:
-        mode = None
-    for test, kind in _SPECIAL_KINDS:
-        if mode is not None and test(mode):
-            raise DataFileError(
-                f"{path}: is {kind}, not a recording file; physid reads recordings from "
-                "regular files (save the stream to a file first)."
-            )
-    if not path.is_file():
-        raise DataFileError(
-            f"{path}: no such file{' (it is a directory)' if path.is_dir() else ''}; "
-            "check the path."
-        )
-    try:
-        with _open(path, "rb") as fh:
-            fh.read(1)
-    except PermissionError:
-        raise DataFileError(
-            f"{path}: permission denied: the file cannot be read by this user; make it "
-            f"readable (chmod u+r {path}) or copy it somewhere you can read."
-        ) from None
-    except OSError as exc:
-        raise DataFileError(f"{path}: cannot be read ({exc.strerror or exc}).") from None
-
-
-def _format_of(path: Path, table: Mapping[str, str], action: str) -> str:
-    suffix = path.suffix.lower()
-    if suffix not in table:
-        raise DataFileError(
-            f"{path}: cannot {action} files with suffix {suffix or '(none)'!r}; supported: "
-            f"{sorted(table)}. Rename the file or convert it."
-        )
-    return table[suffix]

@@ -172,11 +172,11 @@ def _time(path, variables, t_text, rate=None, rate_source="rate="):
             t_raw = _time_values(path, t_var)
             t_unit = t_unit_given if t_unit_given is not None else t_var.unit
         else:
-            t_name = None
+            t_name, t_var = None, None
             values = _expression_values(path, variables, 0, "t", t_text)
             t_raw = np.asarray(values, dtype=float).reshape(-1)
             t_unit = t_unit_given or ""
-    t, origin = time_to_seconds(path, t_raw, t_unit)
+    t, origin = time_to_seconds(path, t_raw, t_unit, t_var.origin if t_name else None)
     unit_hint(path, t_name if t_name is not None else t_text, t, t_unit)
     return t, t_name, origin
 
@@ -299,7 +299,9 @@ class _Output:
         path = self.path
         values = np.asarray(values, dtype=float)
         _check_magnitude(path, target, values, self.row_label)
-        si_values, si_unit = _convert(path, target, values, unit_text, strict=strict, column=column)
+        si_values, si_unit = _convert(
+            path, target, values, unit_text, strict=strict, column=column, row_label=self.row_label
+        )
         if si_unit is None:
             self.unconverted[target] = unit_text
             si_unit = unit_text
@@ -364,7 +366,9 @@ def _add_mapped(path, target, body, unit, variables, t_name, table, out, n) -> N
     for name in _expression_names(body, variables):
         if name in refused:
             raise DataFileError(f"{path}: channels[{target!r}] = {body!r} uses {refused[name]}.")
-    values = _expression_values(path, variables, n, target, body, columns, scalars)
+    values = _expression_values(
+        path, variables, n, target, body, columns, scalars, row_label=out.row_label
+    )
     out.add(target, values, unit or "", strict=True)
 
 

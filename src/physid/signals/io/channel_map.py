@@ -50,7 +50,9 @@ def _expression_names(body: str, variables) -> tuple[str, ...]:
     )
 
 
-def _expression_values(path, variables, n, target, body, columns=None, scalars=None):
+def _expression_values(
+    path, variables, n, target, body, columns=None, scalars=None, row_label=None
+):
     """Evaluate a channel-map expression over the file's channels (in SI) and scalars."""
     from ...expressions import evaluate_expression
 
@@ -107,7 +109,8 @@ def _expression_values(path, variables, n, target, body, columns=None, scalars=N
     if bad.any():
         i = int(np.argmax(bad))
         raise DataFileError(
-            f"{path}: channels[{target!r}] = {body!r} is {value[i]} at sample {i} "
+            f"{path}: channels[{target!r}] = {body!r} is {value[i]} at "
+            f"{row_label(i) if row_label else f'sample {i}'} "
             f"({int(bad.sum())} non-finite value(s)); check for a division by zero or a "
             "logarithm of a negative value."
         )

@@ -117,7 +117,7 @@ def _unknown_unit_fix(name: str, unit_text: str, column: str | None) -> str:
     )
 
 
-def _convert(path, name, values, unit_text, *, strict, column=None):
+def _convert(path, name, values, unit_text, *, strict, column=None, row_label=None):
     """Values in SI and the SI unit; (values, None) for an unknown unit when not ``strict``."""
     try:
         u = parse_unit(unit_text)
@@ -136,7 +136,8 @@ def _convert(path, name, values, unit_text, *, strict, column=None):
     if not np.all(np.isfinite(converted)):
         i = int(np.argmax(~np.isfinite(converted)))
         raise DataFileError(
-            f"{path}: channel {name!r}: the value {float(values[i])!r} {unit_text} at sample {i} "
+            f"{path}: channel {name!r}: the value {float(values[i])!r} {unit_text} at "
+            f"{row_label(i) if row_label else f'sample {i}'} "
             "overflows when converted to SI; check the value or the unit."
         )
     return converted, u.si

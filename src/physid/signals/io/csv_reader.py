@@ -95,24 +95,10 @@ def _header_row(text: str) -> tuple[dict[str, Any], str | None, int, int]:
 
 def _read_csv(path: Path, *, decimal: str = ".", delimiter: str | None = None) -> _Source:
     text = _read_text(path)
-    metadata, header, header_number, pos = _header_row(text)
-    if header is None:
-        raise DataFileError(
-            f"{path}: the file is empty (no header row); expected a header such as "
-            "'t [s],q1 [rad]' followed by rows of numbers."
-        )
+    metadata, names, units, delimiter, header_number, pos = _csv_header(
+        path, text, decimal, delimiter
+    )
     body = text[pos:]
-    first_row = next((c for _, c in _data_lines(body, 0)), None)
-    if delimiter is None:
-        delimiter = _guess_delimiter(header, first_row, decimal)
-    try:
-        raw_cells = next(csv.reader(io.StringIO(header), delimiter=delimiter))
-    except (csv.Error, StopIteration) as exc:
-        raise DataFileError(f"{path}: cannot read the header row ({exc}).") from None
-    cells = [_split_header_cell(c) for c in raw_cells]
-    names = [c[0] for c in cells]
-    units = [c[1] for c in cells]
-    _check_header_names(path, names)
     if decimal == ",":
         body = body.replace(",", ".")
     table, line_numbers = _parse_numbers(path, body, header_number, len(names), delimiter, names)
@@ -125,6 +111,36 @@ def _read_csv(path: Path, *, decimal: str = ".", delimiter: str | None = None) -
         numbers = line_numbers() if callable(line_numbers) else line_numbers
         return f"data row {i + 1} (line {numbers[i]})"
 
+    return _csv_source(body, table, names, units, delimiter, metadata, row_label)
+
+
+def _csv_header(path, text: str, decimal: str, delimiter: str | None):
+    """The metadata comment, the channel names and units, the separator, the line number of the
+    header's last line and the position after it, from the file's text (or its beginning, up
+    to its first data row)."""
+    metadata, header, header_number, pos = _header_row(text)
+    if header is None:
+        raise DataFileError(
+            f"{path}: the file is empty (no header row); expected a header such as "
+            "'t [s],q1 [rad]' followed by rows of numbers."
+        )
+    first_row = next((c for _, c in _data_lines(text[pos:], 0)), None)
+    if delimiter is None:
+        delimiter = _guess_delimiter(header, first_row, decimal)
+    try:
+        raw_cells = next(csv.reader(io.StringIO(header), delimiter=delimiter))
+    except (csv.Error, StopIteration) as exc:
+        raise DataFileError(f"{path}: cannot read the header row ({exc}).") from None
+    cells = [_split_header_cell(c) for c in raw_cells]
+    names = [c[0] for c in cells]
+    units = [c[1] for c in cells]
+    _check_header_names(path, names)
+    return metadata, names, units, delimiter, header_number, pos
+
+
+def _csv_source(body, table, names, units, delimiter, metadata, row_label) -> _Source:
+    """The variables of parsed rows (the whole file, or a block of its rows): one per column,
+    and the metadata's numbers as scalars for channel maps."""
     variables = {
         name: _Var(name, _exact_integers(body, table, j, delimiter), units[j])
         for j, name in enumerate(names)
@@ -147,7 +163,7 @@ def _exact_integers(body: str, table: np.ndarray, j: int, delimiter: str) -> np.
     read as floats lose ~256 ns each, which at 500 Hz is a jitter of 1e-4 of the period.
     """
     column = table[:, j]
-    if not column.size or not np.nanmax(np.abs(column)) >= 2.0**53:
+    if not np.any(np.abs(column) >= 2.0**53):  # NaN compares False: no all-NaN warning
         return column
     try:
         exact = np.loadtxt(

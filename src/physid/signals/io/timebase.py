@@ -35,7 +35,9 @@ def _integer_stamps(t: np.ndarray) -> np.ndarray | None:
     return None
 
 
-def time_to_seconds(path, t: np.ndarray, unit: str) -> tuple[np.ndarray, dict | None]:
+def time_to_seconds(
+    path, t: np.ndarray, unit: str, origin: int | None = None
+) -> tuple[np.ndarray, dict | None]:
     """Stamps in ``unit`` → seconds; integer stamps beyond `INTEGER_ORIGIN_MIN` start at 0.
 
     Parameters
@@ -46,6 +48,9 @@ def time_to_seconds(path, t: np.ndarray, unit: str) -> tuple[np.ndarray, dict | 
         The raw stamps (integers are kept as such by the readers).
     unit : str
         Their unit (``""``: seconds).
+    origin : int, optional
+        Integer stamps: the stamp to subtract (a block of a record: the record's first stamp,
+        0 for none), instead of deciding from ``t[0]``.
 
     Returns
     -------
@@ -69,11 +74,13 @@ def time_to_seconds(path, t: np.ndarray, unit: str) -> tuple[np.ndarray, dict | 
             "time in s (ms, us, ns, min and h are converted). Convert the column to seconds."
         )
     stamps = _integer_stamps(t) if t.size else None
-    if stamps is not None and abs(int(stamps[0])) >= INTEGER_ORIGIN_MIN:
+    if stamps is not None and origin is None and abs(int(stamps[0])) >= INTEGER_ORIGIN_MIN:
+        origin = int(stamps[0])
+    if stamps is not None and origin is not None:
         # subtract in int64 (exact), then convert: the differences are small enough for a float
-        relative = (stamps - stamps[0]).astype(float)
+        relative = (stamps - np.int64(origin)).astype(float)
         seconds = relative * u.scale if u.scale != 1.0 else relative
-        return seconds, {"first_stamp": int(stamps[0]), "unit": unit or "s"}
+        return seconds, {"first_stamp": int(origin), "unit": unit or "s"} if origin else None
     t = t.astype(float)
     return (t * u.scale if u.scale != 1.0 else t), None
 

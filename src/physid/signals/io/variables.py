@@ -29,6 +29,7 @@ SUPPORTED_SUFFIXES = {
     ".h5": "hdf5",
     ".hdf5": "hdf5",
     ".hdf": "hdf5",
+    ".parquet": "parquet",
 }
 _RESERVED = {"t", "data", "names", "units", "metadata"}
 #: channels physid itself reads: their units must be known (and of the right kind)
@@ -54,6 +55,7 @@ class _Var:
     kind: str = "numeric"  # numeric | complex | text | cell | other | skipped (not a channel)
     detail: str = ""  # the type in words, for messages
     size: int = 0  # number of elements (-1: unknown)
+    origin: int | None = None  # integer stamps: the record's first stamp (a block of a file)
 
 
 @dataclass
