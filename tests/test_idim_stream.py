@@ -234,3 +234,13 @@ def test_welch_accumulated_in_blocks_gives_auto_cutoff(n):
     for a in range(0, n, 7001):  # blocks that cut the Welch segments anywhere
         welch.add(q[a : a + 7001])
     assert welch.cutoff() == auto_cutoff(q)
+
+
+def test_a_file_read_in_blocks_equals_the_in_memory_fit(arm, rec, tmp_path):
+    from physid.signals.io import open_blocks, save_recording
+
+    path = save_recording(rec, tmp_path / "run.npz")
+    ref = _fit(arm, rec, method="wls")
+    with open_blocks(path) as source:
+        got = fit_streamed(arm, source, method="wls", block_samples=1234, progress=False)
+    _same(ref, got)
