@@ -132,31 +132,55 @@ def sticking_samples(q, dt: float, coulomb) -> np.ndarray:
     -------
     ndarray of bool, shape (n_samples, n_joints)
     """
-    from scipy import ndimage
-
     q = np.asarray(q, dtype=float)
     n, nj = q.shape
     coulomb = np.asarray(coulomb, dtype=bool)
-    out = np.zeros((n, nj), dtype=bool)
     if n < 4 * STILL_MIN_SAMPLES or not np.any(coulomb):
-        return out
+        return np.zeros((n, nj), dtype=bool)
     sigma, quantum = position_noise(q)
     scale = np.max(np.abs(q), axis=0) + 1.0
-    band = NOISE_BAND * sigma + 2.0 * quantum + 1e-12 * scale
     h = max(1, min(int(round(0.05 / dt)), n // 4))  # a coarse step: the noise barely counts
     acc = (q[2 * h :] - 2.0 * q[h:-h] + q[: -2 * h]) / (h * dt) ** 2
-    a_ref = 0.1 * np.sqrt(np.mean(acc**2, axis=0)) + 1e-300
+    band, widths = sticking_windows(sigma, quantum, scale, np.mean(acc**2, axis=0), dt)
+    return sticking_mask(q, coulomb, band, widths)
+
+
+def sticking_windows(sigma, quantum, scale, mean_acc2, dt: float):
+    """The noise band b [rad] and still-window length T [samples] of each joint.
+
+    ``b = NOISE_BAND·σ + 2·quantum + 1e-12·scale``; ``T = √(8 b / a)`` with a a tenth of the rms
+    coarse acceleration (``mean_acc2``: its mean square [rad²/s⁴]), clipped to
+    [``STILL_MIN_SAMPLES``, `STILL_SECONDS`]. Shared by `sticking_samples` and the streamed fit
+    (which passes whole-record statistics).
+    """
+    band = NOISE_BAND * np.asarray(sigma) + 2.0 * np.asarray(quantum) + 1e-12 * np.asarray(scale)
+    a_ref = 0.1 * np.sqrt(np.asarray(mean_acc2)) + 1e-300
     widths = np.sqrt(8.0 * band / a_ref) / dt
     widths = np.clip(widths, STILL_MIN_SAMPLES, max(STILL_SECONDS / dt, STILL_MIN_SAMPLES))
+    return band, widths
+
+
+def sticking_mask(q, coulomb, band, widths, start: int = 0, n_total: int | None = None):
+    """`sticking_samples`' mask of the samples ``start .. start + len(q)`` of a record of
+    ``n_total`` samples, given each joint's band and window (`sticking_windows`).
+
+    On a part of a record the mask is exact except within a window length of a cut that is not
+    the record's own first or last sample (callers keep that much margin).
+    """
+    from scipy import ndimage
+
+    n_part, nj = q.shape
+    n = n_part if n_total is None else int(n_total)
+    out = np.zeros((n_part, nj), dtype=bool)
     for j in np.flatnonzero(coulomb):  # per joint (its own window), vectorised over samples
         w = int(round(widths[j]))
-        if n < w:
+        if n < w or n_part < 1:
             continue
         # window starting at i: [i, i + w); origin shifts the centred filters to that window
         lo = ndimage.minimum_filter1d(q[:, j], w, mode="nearest", origin=-(w // 2))
         hi = ndimage.maximum_filter1d(q[:, j], w, mode="nearest", origin=-(w // 2))
         still = (hi - lo) <= band[j]
-        still[n - w + 1 :] = False  # windows running past the end
+        still[max(n - w + 1 - start, 0) :] = False  # windows running past the end
         # every sample of a still window sticks: spread each start over the window it opens
         out[:, j] = ndimage.maximum_filter1d(
             still.astype(np.uint8), w, mode="constant", origin=(w - 1) // 2
@@ -262,7 +286,15 @@ def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]
     """
     if stuck is None or not np.any(stuck):
         return "", []
-    share = stuck.mean(axis=0)
+    return dropped_summary_counts(stuck.sum(axis=0), stuck.shape[0], rule, fix)
+
+
+def dropped_summary_counts(counts, n_rows: int, rule, fix: str | None = None):
+    """`dropped_summary` from the equations dropped per joint (``counts``) of ``n_rows`` rows."""
+    counts = np.asarray(counts, dtype=int)
+    if not np.any(counts):
+        return "", []
+    share = counts / float(n_rows)
     how = (
         "where the joint sticks (its measured position within its noise for a sustained "
         "interval: the holding friction is unknown) or next to a speed reversal whose friction "
@@ -271,7 +303,9 @@ def dropped_summary(stuck, rule, fix: str | None = None) -> tuple[str, list[str]
         else f"near rest (at |q̇| < {float(rule):g}·rms)"
     )
     per = ", ".join(f"joint {j + 1} {100 * s:.0f} %" for j, s in enumerate(share) if s > 0)
-    sentence = f" {int(stuck.sum())} of {stuck.size} joint equations dropped {how}: {per}."
+    sentence = (
+        f" {int(counts.sum())} of {n_rows * counts.size} joint equations dropped {how}: {per}."
+    )
     fix = fix or "keep them with stick_threshold=0"
     rule_name = "sustained sticking" if rule == STICK_AUTO else f"speed below {float(rule):g}·rms"
     heavy = [

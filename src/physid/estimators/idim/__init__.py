@@ -35,7 +35,10 @@ importable from here:
 * `.iv` — the closed-loop simulation that gives IV its instruments;
 * `.predict` — `predict_torque`, `torque_recording`;
 * `.result` — `IDIMResult`;
-* `.estimator` — `IDIMEstimator`.
+* `.estimator` — `IDIMEstimator`;
+* `.stream` — `fit_streamed`: the same fit over records of any length in bounded memory, read
+  block by block (`.stream_plan` survey, `.stream_window` windows, `.stream_moments`
+  accumulators, `.stream_fit` solve).
 
 The methods ``"idim-ols"``, ``"idim-wls"`` and ``"idim-iv"`` of `physid.estimators.make` build
 `IDIMEstimator` (`physid.estimators.registry` names them; nothing here imports the registry).
@@ -68,11 +71,13 @@ from .solve import (
     joint_sigma,
     lstsq,
 )
+from .stream import fit_streamed
 from .uncertainty import _correlation_length, _newey_west_lag, hac_covariance
 
 __all__ = [
     "IDIMEstimator",
     "IDIMResult",
+    "fit_streamed",
     "IDIMRows",
     "ConditionWarning",
     "idim_rows",

@@ -19,6 +19,9 @@ import numpy as np
 __all__ = [
     "torque_noise_floor",
     "torque_verdict",
+    "torque_verdict_sums",
+    "torque_noise_sigma",
+    "noise_floor",
     "iv_verdict",
     "NOISE_MARGIN",
     "IV_STABLE",
@@ -53,17 +56,27 @@ def torque_noise_floor(recordings, n_joints: int, decimate: int) -> np.ndarray:
         ``σ̂_j · √g`` with σ̂_j the robust noise std of the raw τ_j and g the parallel filter's
         white-noise power gain (1 for nd = 1); NaN where a recording lacks the channel.
     """
-    from .decimation import _decimation_sos
-
     names = [f"tau{j + 1}" for j in range(n_joints)]
     sig = []
     for rec in recordings:
         if not all(n in rec.names for n in names):
             return np.full(n_joints, np.nan)
-        tau = np.asarray(rec.select(names), dtype=float)
-        d3 = np.diff(tau, n=3, axis=0)
-        sig.append(1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20))
-    sigma = np.max(np.array(sig), axis=0)
+        sig.append(torque_noise_sigma(np.asarray(rec.select(names), dtype=float)))
+    return noise_floor(np.max(np.array(sig), axis=0), decimate)
+
+
+def torque_noise_sigma(tau) -> np.ndarray:
+    """Robust white-noise std of raw torques (n_samples, n_joints) [N·m]: the MAD of the third
+    difference over √20."""
+    d3 = np.diff(tau, n=3, axis=0)
+    return 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20)
+
+
+def noise_floor(sigma, decimate: int) -> np.ndarray:
+    """``σ · √g``: white noise of std ``sigma`` after the parallel filter of ``decimate`` (g its
+    white-noise power gain, 1 for nd = 1)."""
+    from .decimation import _decimation_sos
+
     gain = 1.0
     if decimate > 1:
         from scipy import signal
@@ -73,7 +86,7 @@ def torque_noise_floor(recordings, n_joints: int, decimate: int) -> np.ndarray:
         delta[half] = 1.0
         g = signal.sosfiltfilt(_decimation_sos(int(decimate)), delta)
         gain = float(g @ g)
-    return sigma * math.sqrt(gain)
+    return np.asarray(sigma) * math.sqrt(gain)
 
 
 def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
@@ -94,13 +107,38 @@ def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
     sentence : str
         What was compared (empty when nothing is said).
     """
-    kept = np.any(tau != 0.0, axis=0) | np.any(e != 0.0, axis=0)
     nz = np.abs(tau) + np.abs(e) > 0
-    n_j = np.maximum(nz.sum(axis=0), 1)
-    rms_e = np.sqrt(np.sum(e**2, axis=0) / n_j)
-    rms_t = np.sqrt(np.sum(tau**2, axis=0) / n_j)
+    return torque_verdict_sums(
+        np.sum(e**2, axis=0),
+        np.sum(tau**2, axis=0),
+        nz.sum(axis=0),
+        floor,
+        fail_overall,
+        fail_joint,
+        overall=float(np.linalg.norm(e) / max(np.linalg.norm(tau), 1e-300)),
+    )
+
+
+def torque_verdict_sums(
+    sum_e2, sum_t2, n_nonzero, floor, fail_overall: float, fail_joint: float, overall=None
+):
+    """`torque_verdict` from per-joint sums: ``Σ e²``, ``Σ τ²`` and the count of rows where
+    ``|τ| + |e| > 0`` (the streamed fit accumulates these, never the rows); ``overall``
+    (``‖e‖/‖τ‖``) is computed from the sums when not given.
+
+    Returns
+    -------
+    ok : bool
+    sentence : str
+    """
+    sum_e2, sum_t2 = np.asarray(sum_e2, dtype=float), np.asarray(sum_t2, dtype=float)
+    kept = np.asarray(n_nonzero) > 0
+    n_j = np.maximum(np.asarray(n_nonzero), 1)
+    rms_e = np.sqrt(sum_e2 / n_j)
+    rms_t = np.sqrt(sum_t2 / n_j)
     rel = rms_e / np.where(rms_t > 0, rms_t, np.inf)
-    overall = float(np.linalg.norm(e) / max(np.linalg.norm(tau), 1e-300))
+    if overall is None:
+        overall = float(np.sqrt(np.sum(sum_e2)) / max(np.sqrt(np.sum(sum_t2)), 1e-300))
     known = np.isfinite(floor)
     noisy = np.where(known, rms_e <= NOISE_MARGIN * np.where(known, floor, 0.0), False)
     # a small joint is excused only where the record shows no noise floor to judge it by (none,
@@ -111,7 +149,7 @@ def torque_verdict(tau, e, floor, fail_overall: float, fail_joint: float):
     noisy |= ~judged & (rms_e <= SMALL_JOINT * float(np.max(rms_t)))
     bad_joint = kept & (rel > fail_joint) & ~noisy
     total_floor = float(np.sqrt(np.sum(np.where(known, floor, 0.0) ** 2 * n_j) / n_j.sum()))
-    total_e = float(np.sqrt(np.sum(e**2) / n_j.sum()))
+    total_e = float(np.sqrt(np.sum(sum_e2) / n_j.sum()))
     bad_overall = overall > fail_overall and not (
         known.all() and total_e <= NOISE_MARGIN * total_floor
     )

@@ -1,0 +1,284 @@
+"""Streamed IDIM, the windows of the main pass: the rows of the in-memory fit, window by window.
+
+The full-rate rows ``[W | τ]`` of a record are computed for one *owned* range of full-rate
+samples ``[a, b)`` at a time, from the raw samples around it with margins:
+
+* the physid FIR state filter needs its half-width M of raw samples on each side (exact);
+* the zero-phase IIR filters (the parallel Chebyshev filter of every candidate nd, the
+  Butterworth state filter) need the length after which their impulse response stays below
+  1e-17 of its peak (`stream_plan.decay_length`): a cut inside the record then changes nothing
+  within the owned range beyond rounding. A window that holds the record's first or last sample
+  uses there exactly the padding the in-memory code uses (``padlen = min(n − 1, edge)``), so the
+  end effects are the same;
+* the stiction masks are moving windows (at most `STILL_SECONDS` plus the filters' main lobes).
+
+Columns of ``[W | τ]`` that are exactly zero in a window are not filtered (a zero-phase filter of
+zero is zero): a 7-DOF base regressor has about 40 % of them.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy import signal
+
+from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dilate, sticking_mask
+from .base_parameters import base_regressor
+from .decimation import _decimation_sos, decimation_edge
+from .filtering import consistent_bank
+from .stream_plan import StreamPlan, decay_length, still_windows
+
+__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS"]
+
+#: Columns of the full-rate rows run through the parallel filter at a time.
+COLUMNS = 32
+
+
+class Margins:
+    """Margins of the main pass's windows (all in samples)."""
+
+    def __init__(self, plan: StreamPlan):
+        nds = [nd for nd in plan.candidates if nd > 1]
+        par = max([decay_length(_decimation_sos(nd)) for nd in nds], default=0)
+        reach = max(contamination_reach(plan.cutoff, nd) for nd in plan.candidates)
+        edge = max(decimation_edge(nd) for nd in plan.candidates)
+        #: full-rate samples on each side of the owned range fed to the parallel filter
+        self.parallel = max(par, edge + 1, reach + 2)
+        self.butter = 0
+        if plan.settings["differentiation"] == "butterworth":
+            self.butter = decay_length(_butter(plan.cutoff))
+        widths = [int(round(float(np.max(still_windows(s)[1])))) for s in plan.sources]
+        #: raw samples on each side of the owned rows for the sticking mask
+        self.stick = max(widths) + reach + 2 if plan.stick == STICK_AUTO else 0
+        self.reach = reach
+
+
+def margins(plan: StreamPlan) -> Margins:
+    """The `Margins` of a plan."""
+    return Margins(plan)
+
+
+def _butter(cutoff: float):
+    return signal.butter(4, cutoff / np.pi, output="sos")
+
+
+class RawReader:
+    """Raw samples ``[r0, r1)`` of a block source on request (r0 never decreases)."""
+
+    def __init__(self, source, channels, size: int, timings: dict | None = None):
+        self._it = source.blocks(size, channels)
+        self._channels = list(channels)
+        self.start = 0
+        self.x = np.empty((0, len(channels)))
+        self.t = np.empty(0)
+        self.timings = timings
+
+    def get(self, r0: int, r1: int):
+        """``(t, x)`` of samples ``r0 .. r1 − 1``."""
+        tic = time.perf_counter()
+        if r0 > self.start:
+            drop = min(r0 - self.start, self.x.shape[0])
+            self.x, self.t = self.x[drop:], self.t[drop:]
+            self.start += drop
+        parts, tparts = [self.x], [self.t]
+        end = self.start + self.x.shape[0]
+        while end < r1:
+            blk = next(self._it)
+            x = np.asarray(blk.select(self._channels), dtype=float)
+            if not np.all(np.isfinite(x)):
+                bad = end + int(np.flatnonzero(~np.all(np.isfinite(x), axis=1))[0])
+                from ...errors import InputError
+
+                raise InputError(
+                    f"the record has a NaN or infinite value at sample {bad}; split it there "
+                    "or repair it."
+                )
+            parts.append(x)
+            tparts.append(np.asarray(blk.t, dtype=float))
+            end += x.shape[0]
+        if len(parts) > 1:
+            self.x, self.t = np.concatenate(parts), np.concatenate(tparts)
+        if self.timings is not None:
+            self.timings["read"] = self.timings.get("read", 0.0) + time.perf_counter() - tic
+        i0, i1 = r0 - self.start, r1 - self.start
+        return self.t[i0:i1], self.x[i0:i1]
+
+
+def windows(plan: StreamPlan, k: int, mg: Margins):
+    """``(a, b, c0, c1, r0, r1)`` per window of source ``k``: owned full-rate range, the
+    full-rate range filtered, the raw range read."""
+    n, n_full, off = plan.sources[k].n, plan.n_stacked(k), plan.offset()
+    step = plan.block_samples
+    for a in range(0, n_full, step):
+        b = n_full if n_full - a < step + step // 2 else a + step
+        c0, c1 = max(0, a - mg.parallel), min(n_full, b + mg.parallel)
+        if plan.settings["differentiation"] == "physid":
+            r0, r1 = c0, c1 + 2 * plan.half_width
+        else:
+            r0, r1 = c0 + plan.half_width - mg.butter, c1 + plan.half_width + 2 + mg.butter
+        if mg.stick:
+            r0, r1 = min(r0, a + off - mg.stick), max(r1, b + off + mg.stick)
+        yield a, b, c0, c1, max(r0, 0), min(r1, n)
+        if b == n_full:
+            return
+
+
+def _states(plan: StreamPlan, q, r0: int, c0: int, c1: int):
+    """q^f, q̇^f, q̈^f at full-rate samples ``[c0, c1)`` from raw samples starting at ``r0``."""
+    m, dt = plan.half_width, plan.dt
+    if plan.settings["differentiation"] == "physid":
+        bank = consistent_bank(m, float(plan.cutoff), dt)
+        qs = q[c0 - r0 : c1 + 2 * m - r0]
+        return tuple(f.apply(qs) for f in bank)
+    qf = signal.sosfiltfilt(_butter(plan.cutoff), q, axis=0, padlen=min(q.shape[0] - 1, m))
+    i = np.arange(c0, c1) + 1 + m - r0
+    qd = (qf[i + 1] - qf[i - 1]) / (2.0 * dt)
+    qdd = (qf[i + 1] - 2.0 * qf[i] + qf[i - 1]) / dt**2
+    return qf[i], qd, qdd
+
+
+def _tick(timings, key, tic):
+    if timings is not None:
+        timings[key] = timings.get(key, 0.0) + time.perf_counter() - tic
+    return time.perf_counter()
+
+
+def window_rows(
+    model, columns, plan: StreamPlan, k: int, raw, win, mg: Margins, timings=None, cache=None
+):
+    """The decimated rows of one window for every candidate nd.
+
+    Parameters
+    ----------
+    model : ChainModel
+    columns : ndarray of int
+        The base regressor's kept columns.
+    plan : StreamPlan
+    k : int
+        The source.
+    raw : tuple
+        ``(t, x)`` of raw samples ``r0 .. r1 − 1`` (x: q1..qn then tau1..taun).
+    win : tuple
+        `windows`' ``(a, b, c0, c1, r0, r1)``.
+    mg : Margins
+    timings : dict, optional
+    cache : dict, optional
+        Carried from one window to the next of the same source: the full-rate rows of the
+        previous window, whose overlap with this one is copied instead of computed again.
+
+    Returns
+    -------
+    dict
+        nd -> ``(W, tau, samples, t, stuck, reversal)`` of the rows in the owned range:
+        (r, n_joints, p), (r, n_joints), raw sample index (r,), time [s] (r,), masks
+        (r, n_joints) of bool or None.
+    """
+    a, b, c0, c1, r0, r1 = win
+    t_raw, x = raw
+    nj, off = plan.n_joints, plan.offset()
+    q, tau = x[:, :nj], x[:, nj:]
+    tic = time.perf_counter()
+    p = plan.n_base
+    stacked, qdf, start = _reuse(cache, c0, c1, nj * p + nj, nj)
+    if c1 > start:
+        qf, qdf_new, qddf = _states(plan, q, r0, start, c1)
+        qdf[start - c0 :] = qdf_new
+    else:
+        qf = qdf_new = qddf = np.empty((0, nj))
+    tic = _tick(timings, "state filter", tic)
+    for i in range(0, c1 - start, 8192):  # blocks of samples: one full regressor block at a time
+        sl = slice(i, i + 8192)
+        W = base_regressor(model, columns, qf[sl], qdf_new[sl], qddf[sl], block=8192)
+        stacked[start - c0 + i : start - c0 + i + W.shape[0], : nj * p] = W.reshape(W.shape[0], -1)
+    stacked[:, nj * p :] = tau[c0 + off - r0 : c1 + off - r0]
+    if cache is not None:
+        cache["rows"] = (c0, c1)
+    tic = _tick(timings, "regressor", tic)
+    live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
+    n_full = plan.n_stacked(k)
+    stick_raw = _sticking(plan, k, q, r0, mg)
+    out = {}
+    for nd in plan.candidates:
+        edge = decimation_edge(nd)
+        s = np.arange(a, b)
+        if nd > 1:
+            s = s[(s >= edge) & (s < n_full - edge) & ((s - edge) % nd == 0)]
+        dec = np.zeros((s.size, stacked.shape[1]))
+        if nd > 1 and s.size:
+            sos, padlen = _decimation_sos(nd), min(c1 - c0 - 1, edge)
+            for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
+                cols = live[i : i + COLUMNS]
+                # time on the last, contiguous axis: sosfiltfilt's fast layout
+                block = np.ascontiguousarray(stacked[:, cols].T)
+                y = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)
+                dec[:, cols] = y[:, s - c0].T
+        elif s.size:
+            dec = stacked[s - c0].copy()
+        Wk = dec[:, : nj * p].reshape(-1, nj, p)
+        tk = dec[:, nj * p :]
+        stuck, rev = _masks(plan, k, nd, s, stick_raw, qdf, c0, r0)
+        if stuck is not None:
+            Wk[stuck] = 0.0
+            tk[stuck] = 0.0
+        out[nd] = (Wk, tk, s + off, t_raw[s + off - r0], stuck, rev)
+    _tick(timings, "parallel filter", tic)
+    return out
+
+
+def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
+    """``(stacked, qdf, start)``: the window's full-rate buffers, with the rows the previous
+    window already computed (its right margin) moved to their front; rows from ``start`` on
+    remain to be computed. The buffers live in ``cache`` from one window to the next (one
+    window's memory, not two)."""
+    if cache is None:
+        return np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj)), c0
+    prev = cache.get("rows")
+    buf, qbuf = cache.get("buf"), cache.get("qdf")
+    start = c0
+    if prev is not None and prev[0] <= c0 < prev[1]:
+        start = min(prev[1], c1)
+        shift, count = c0 - prev[0], start - c0
+        if buf.shape[0] < c1 - c0:  # a longer window (the last): a larger buffer
+            buf2, qbuf2 = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
+            buf2[:count], qbuf2[:count] = buf[shift : shift + count], qbuf[shift : shift + count]
+            buf, qbuf = buf2, qbuf2
+        else:
+            for i in range(0, count, max(shift, 1)):  # forward, in chunks that never overlap
+                j = min(i + shift, count)
+                buf[i:j] = buf[shift + i : shift + j]
+                qbuf[i:j] = qbuf[shift + i : shift + j]
+    elif buf is None or buf.shape[0] < c1 - c0:
+        buf, qbuf = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
+    cache["buf"], cache["qdf"] = buf, qbuf
+    return buf[: c1 - c0], qbuf[: c1 - c0], start
+
+
+def _sticking(plan: StreamPlan, k: int, q, r0: int, mg: Margins):
+    """The sticking mask of the raw samples read (auto rule), or None."""
+    if plan.stick != STICK_AUTO:
+        return None
+    st = plan.sources[k]
+    if st.n < 4 * STILL_MIN_SAMPLES:
+        return np.zeros(q.shape, dtype=bool)
+    band, widths = still_windows(st)
+    return sticking_mask(q, plan.coulomb, band, widths, start=r0, n_total=st.n)
+
+
+def _masks(plan: StreamPlan, k: int, nd: int, s, stick_raw, qdf, c0: int, r0: int):
+    """Stuck and reversal masks of the rows at full-rate samples ``s`` (None, None when the
+    rule keeps every equation)."""
+    if plan.stick is None:
+        return None, None
+    off = plan.offset()
+    if plan.stick == STICK_AUTO:
+        reach = contamination_reach(plan.cutoff, nd)
+        stuck = dilate(stick_raw, reach)[s + off - r0]
+        flip = np.zeros(qdf.shape, dtype=bool)
+        flip[1:] = np.signbit(qdf[1:]) != np.signbit(qdf[:-1])
+        flip &= plan.coulomb[None, :]
+        rev = dilate(flip, reach)[s - c0] & ~stuck
+        return stuck, rev
+    rms = np.asarray(plan.qd_rms)[k]
+    near = (np.abs(qdf) < float(plan.stick) * np.where(rms > 0, rms, 1.0)) & plan.coulomb[None, :]
+    return dilate(near, decimation_edge(nd))[s - c0], None

@@ -1,0 +1,246 @@
+"""Streamed IDIM (`physid.estimators.idim.stream`) equals the in-memory fit.
+
+Kinds of test (docs STYLE.md): equivalence of forms (the streamed fit, read in blocks that do
+not divide the record and smaller than the filters' margins, gives the in-memory
+`IDIMEstimator` result: the same cut-off, half-width, decimation and rows, the estimate to 1e-10
+and the standard errors to 1e-8 relative, the same message), exact merging of moments (a
+map-reduce over sources equals one pass over both), invariants (the accumulators' size does not
+grow with the record; pickling round trips), and error paths.
+"""
+
+from __future__ import annotations
+
+import pickle
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import physid
+from physid.errors import InputError, SamplingError
+from physid.estimators.idim import IDIMEstimator, fit_streamed, stream_plan
+from physid.estimators.idim.stream import fit_moments, idim_moments, plan_streamed
+from physid.signals.blocks import block_starts
+from physid.signals.recording import Recording
+from physid.simulate.closed_loop import simulate_closed_loop
+
+KP = (3800.0, 40000.0, 10000.0, 500.0)
+KD = (159.5, 120.0, 50.0, 2.0)
+W0 = 2 * np.pi * np.array([0.2, 0.3, 0.5, 0.7])
+DATA = Path(__file__).parent / "data"
+
+
+def _run(model, duration, phase=0.0, seed=1):
+    t = np.arange(0.0, duration, 1e-3)
+    ramp = np.clip(t, 0.0, 1.0)[:, None] ** 3
+    ref = ramp * (0.8 * np.sin(np.outer(t, W0) + phase) + 0.3 * np.sin(np.outer(t, 2.3 * W0) + 1))
+    return simulate_closed_loop(model, kp=KP, kd=KD, reference=ref, t=t, noise_std=1e-4, rng=seed)
+
+
+class ArrayBlocks:
+    """A minimal block source over arrays (the protocol of `physid.signals.blocks`)."""
+
+    def __init__(self, rec):
+        self._rec = rec
+        self.n_samples = rec.n_samples
+        self.dt = float((rec.t[-1] - rec.t[0]) / (rec.n_samples - 1))
+        self.t0 = float(rec.t[0])
+        self.names, self.units, self.metadata = tuple(rec.names), tuple(rec.units), {}
+        self.reads = 0
+
+    def blocks(self, size, channels=None):
+        names = list(channels or self.names)
+        data = self._rec.select(names)
+        starts = block_starts(self.n_samples, size)
+        self.reads += 1
+        for a, b in zip(starts[:-1], starts[1:], strict=True):
+            yield Recording(self._rec.t[a:b], data[a:b].copy(), names, ["rad"] * len(names))
+
+
+@pytest.fixture(scope="module")
+def arm():
+    return physid.load_model("manipulator")
+
+
+@pytest.fixture(scope="module")
+def rec(arm):
+    return _run(arm, 8.0)
+
+
+@pytest.fixture(scope="module")
+def rec2(arm):
+    return _run(arm, 6.0, phase=0.7, seed=2)
+
+
+def _fit(model, recs, **settings):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return IDIMEstimator(model, **settings).fit(recs).result_
+
+
+def _same(ref, got, beta_rtol=1e-10, sd_rtol=1e-8):
+    assert (got.cutoff, got.half_width, got.decimate, got.n_rows) == (
+        ref.cutoff,
+        ref.half_width,
+        ref.decimate,
+        ref.n_rows,
+    )
+    b1, b2 = ref.beta_vector(), got.beta_vector()
+    np.testing.assert_allclose(b2, b1, rtol=beta_rtol, atol=0)
+    s1 = np.array(list(ref.stderr.values()))
+    s2 = np.array(list(got.stderr.values()))
+    np.testing.assert_allclose(s2, s1, rtol=sd_rtol, atol=0)
+    assert got.condition_number == pytest.approx(ref.condition_number, rel=1e-10)
+    for key, value in ref.relative_error.items():
+        assert got.relative_error[key] == pytest.approx(value, rel=1e-8)
+    assert got.success == ref.success
+    assert got.message == ref.message
+    assert got.reversal_joints == ref.reversal_joints
+
+
+@pytest.mark.parametrize(
+    ("settings", "block"),
+    [
+        ({}, 65536),
+        ({}, 1000),  # smaller than the parallel filter's margin (~123·nd samples)
+        ({"method": "wls"}, 777),
+        ({"differentiation": "butterworth"}, 3001),
+        ({"cutoff": 0.3, "decimate": 5}, 2000),
+        ({"decimate": 1, "stderr": "iid"}, 2500),
+        ({"method": "wls", "stderr": "iid", "per_joint_variance": False}, 1999),
+    ],
+)
+def test_streamed_equals_in_memory(arm, rec, settings, block):
+    ref = _fit(arm, rec, **settings)
+    got = fit_streamed(arm, ArrayBlocks(rec), block_samples=block, progress=False, **settings)
+    _same(ref, got)
+    assert got.hac_lag == ref.hac_lag
+    assert got.joint_sigma == pytest.approx(ref.joint_sigma, rel=1e-8)
+
+
+@pytest.mark.parametrize("threshold", ["auto", 0.05, 0])
+def test_coulomb_joint_stiction_rules_equal_in_memory(threshold):
+    model = physid.load_model(DATA / "pendulum1.toml")
+    t = np.arange(0.0, 10.0, 1e-3)
+    r = 0.8 * np.sin(2 * np.pi * 0.5 * t) + 0.3 * np.sin(2 * np.pi * 1.3 * t + 0.4)
+    rec = simulate_closed_loop(
+        model,
+        kp=[200.0],
+        kd=[2 * np.sqrt(40.0)],
+        reference=(r - r[0])[:, None],
+        t=t,
+        noise_std=1e-5,
+        rng=3,
+    )
+    ref = _fit(model, rec, stick_threshold=threshold)
+    got = fit_streamed(model, rec, stick_threshold=threshold, block_samples=900, progress=False)
+    _same(ref, got)
+    if threshold != 0:  # the record rests: equations were dropped, and the same ones
+        assert "joint equations dropped" in got.message
+    if threshold == "auto":
+        assert got.reversal_joints == (1,)  # the reversal rows dropped after the first solve
+
+
+def test_two_recordings_equal_in_memory(arm, rec, rec2):
+    ref = _fit(arm, [rec, rec2])
+    got = fit_streamed(arm, [rec, ArrayBlocks(rec2)], block_samples=1500, progress=False)
+    _same(ref, got)
+    assert got.n_recordings == 2
+
+
+def test_moments_of_two_sources_sum_to_the_fit_over_both(arm, rec, rec2):
+    plan = plan_streamed(arm, [rec, rec2], block_samples=2048)
+    m0 = idim_moments(arm, plan, rec, 0)
+    m1 = idim_moments(arm, plan, rec2, 1)
+    merged = fit_moments(arm, plan, sum([m1, m0]))
+    whole = fit_streamed(arm, [rec, rec2], block_samples=2048, progress=False)
+    np.testing.assert_allclose(merged.beta_vector(), whole.beta_vector(), rtol=1e-12)
+    assert merged.message == whole.message
+    with pytest.raises(InputError, match="counted twice"):
+        _ = m0 + m0
+    with pytest.raises(SamplingError, match="lack source"):
+        fit_moments(arm, plan, m0)
+
+
+def test_plan_and_moments_pickle(arm, rec):
+    plan = plan_streamed(arm, rec, block_samples=3000)
+    moments = idim_moments(arm, plan, rec, 0)
+    plan2 = pickle.loads(pickle.dumps(plan))
+    moments2 = pickle.loads(pickle.dumps(moments))
+    a, b = fit_moments(arm, plan, moments), fit_moments(arm, plan2, moments2)
+    np.testing.assert_array_equal(a.beta_vector(), b.beta_vector())
+    assert plan2.candidates == plan.candidates and plan2.cutoff == plan.cutoff
+
+
+def _largest_arrays(moments):
+    out = {}
+    for nd, c in moments.candidates.items():
+        arrays = [c.R, c.kept, c.lagged, c.tau_min]
+        out[nd] = max(a.size for a in arrays if a is not None)
+    return out
+
+
+def test_memory_does_not_grow_with_the_record(arm, monkeypatch):
+    monkeypatch.setattr(stream_plan, "MAX_KEPT_ROWS", 60)
+    short, long = _run(arm, 6.0), _run(arm, 12.0)
+    sizes, rows = [], []
+    for r in (short, long):
+        plan = plan_streamed(arm, r, cutoff=0.2, decimate=10, block_samples=1024)
+        m = idim_moments(arm, plan, r, 0)
+        sizes.append(_largest_arrays(m))
+        rows.append(sum(w.shape[0] for w in m.candidates[10].sample["W"]))
+    assert sizes[0] == sizes[1]
+    assert max(rows) <= 60 and rows[1] >= 30
+    res = fit_streamed(arm, long, cutoff=0.2, decimate=10, block_samples=1024, progress=False)
+    assert res.n_rows > 1000 and res.t.size <= 60
+    assert any("every" in w and "of the" in w for w in res.warnings)
+
+
+def test_timings_are_filled(arm, rec):
+    times = {}
+    fit_streamed(arm, rec, progress=False, timings=times, block_samples=4000)
+    for key in ("read", "state filter", "regressor", "parallel filter", "accumulate", "solve"):
+        assert times[key] >= 0.0
+    assert times["regressor"] > 0.0
+
+
+def test_refusals_name_the_alternatives(arm, rec):
+    with pytest.raises(InputError, match="idim-ols or idim-wls.*--stream off"):
+        fit_streamed(arm, rec, method="iv", progress=False)
+    with pytest.raises(InputError, match="stderr='filtered'.*'iid'"):
+        fit_streamed(arm, rec, stderr="hac", progress=False)
+
+
+def test_mismatched_sources_are_refused_by_name(arm, rec):
+    slow = Recording(rec.t * 2.0, rec.data, rec.names, rec.units)
+    with pytest.raises(SamplingError, match="source 2 .* sample period"):
+        fit_streamed(arm, [rec, slow], progress=False)
+    keep = [n for n in rec.names if n != "tau4"]
+    fewer = Recording(rec.t, rec.select(keep), keep, [rec.unit(n) for n in keep])
+    with pytest.raises(InputError, match=r"source 2 .*lacks channel\(s\) \['tau4'\]"):
+        fit_streamed(arm, [rec, fewer], progress=False)
+
+
+@pytest.mark.parametrize("n", [3001, 70001])
+def test_welch_accumulated_in_blocks_gives_auto_cutoff(n):
+    from physid.estimators.idim.filtering import auto_cutoff
+
+    rng = np.random.default_rng(0)
+    t = np.arange(n) * 1e-3
+    q = np.c_[np.sin(2 * np.pi * 0.7 * t), 0.3 * np.cos(2 * np.pi * 1.9 * t)]
+    q = q + 1e-4 * rng.normal(size=(n, 2))
+    welch = stream_plan._Welch(n, q[:1000].mean(axis=0))
+    for a in range(0, n, 7001):  # blocks that cut the Welch segments anywhere
+        welch.add(q[a : a + 7001])
+    assert welch.cutoff() == auto_cutoff(q)
+
+
+def test_a_file_read_in_blocks_equals_the_in_memory_fit(arm, rec, tmp_path):
+    from physid.signals.io import open_blocks, save_recording
+
+    path = save_recording(rec, tmp_path / "run.npz")
+    ref = _fit(arm, rec, method="wls")
+    with open_blocks(path) as source:
+        got = fit_streamed(arm, source, method="wls", block_samples=1234, progress=False)
+    _same(ref, got)
