@@ -152,10 +152,11 @@ def _fit_inline(kind: str, path: Path) -> dict:
 
 
 def _inline_in_child(kind: str, path: Path) -> dict:
+    here = str(Path(__file__).parent)
     code = (
-        "import json,sys; sys.path.insert(0, {!r}); import bench_stream as b; "
-        "from pathlib import Path; print(json.dumps(b._fit_inline({!r}, Path({!r}))))"
-    ).format(str(Path(__file__).parent), kind, str(path))
+        f"import json,sys; sys.path.insert(0, {here!r}); import bench_stream as b; "
+        f"from pathlib import Path; print(json.dumps(b._fit_inline({kind!r}, Path({str(path)!r}))))"
+    )
     m = measure([sys.executable, "-c", code])
     out = json.loads(m["stdout"].strip().splitlines()[-1])
     out["peak"] = m["peak"]

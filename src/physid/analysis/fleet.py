@@ -140,15 +140,18 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options) -> d
 
     model = _cached_model(model_ref, model_options)
     _check_log_path(path)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        rec = load_recording(path, **dict(load_options or {}))
-        est = IDIMEstimator(model, method.removeprefix("idim-"), **dict(fit_options or {}))
-        est.fit(rec)
-    result = est.result_
+    if _streamable(path, model, method, fit_options, load_options):
+        result, n, duration, caught = _fit_streamed(model, path, method, fit_options, load_options)
+    else:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            rec = load_recording(path, **dict(load_options or {}))
+            est = IDIMEstimator(model, method.removeprefix("idim-"), **dict(fit_options or {}))
+            est.fit(rec)
+        result, n, duration = est.result_, int(rec.n_samples), float(rec.t[-1] - rec.t[0])
     out: dict[str, Any] = {
-        "n_samples": int(rec.n_samples),
-        "duration": float(rec.t[-1] - rec.t[0]),
+        "n_samples": n,
+        "duration": duration,
         "dt": float(result.dt),
         "success": bool(result.success),
         "relative_error": _float(result.relative_error.get("overall")),
@@ -163,6 +166,48 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options) -> d
         out[name + "_se"] = None if result.stderr is None else _float(result.stderr[name])
     out["result"] = result.to_dict()
     return out
+
+
+#: `IDIMEstimator` settings a streamed fit takes; others (IV, --consistent, HAC) keep a log in
+#: memory.
+_STREAMED = ("differentiation", "cutoff", "half_width", "decimate", "stderr", "stick_threshold")
+
+
+def _streamable(path, model, method, fit_options, load_options) -> bool:
+    """A log too large for an in-memory fit, whose fit and file can stream."""
+    from ..estimators.idim.stream import streams_better
+    from ..signals.io import BLOCK_FORMATS
+    from ..signals.io.variables import SUPPORTED_SUFFIXES
+
+    fit_options, load_options = dict(fit_options or {}), dict(load_options or {})
+    if method not in ("idim-ols", "idim-wls") or load_options.get("resample"):
+        return False
+    if fit_options.get("stderr") == "hac" or fit_options.get("consistent"):
+        return False
+    if SUPPORTED_SUFFIXES.get(Path(path).suffix.lower()) not in BLOCK_FORMATS:
+        return False
+    try:
+        return streams_better([path], model)[0]
+    except PhysidError:
+        return False  # the in-memory load says what is wrong with the file
+
+
+def _fit_streamed(model, path, method, fit_options, load_options):
+    """A long log fitted block by block: ``(result, n_samples, duration, caught warnings)``."""
+    from ..estimators.idim.stream import fit_streamed
+    from ..signals.io import open_blocks
+
+    options = {k: v for k, v in dict(fit_options or {}).items() if k in _STREAMED}
+    load = {k: v for k, v in dict(load_options or {}).items() if k != "resample"}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with open_blocks(path, **load) as src:
+            result = fit_streamed(
+                model, src, method=method.removeprefix("idim-"), progress=False, **options
+            )
+            duration = float(src.dt * (src.n_samples - 1))
+            n = int(src.n_samples)
+    return result, n, duration, caught
 
 
 def _float(x) -> float | None:

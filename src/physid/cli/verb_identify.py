@@ -22,6 +22,7 @@ from ._common import (
     torque_fit_line,
 )
 from ._recordings import add_recording_options, read_recordings, warn_implausible_estimates
+from ._streaming import add_stream_options, wants_stream
 
 ORDER = 30
 
@@ -278,6 +279,7 @@ def _register_idim_options(p) -> None:
         "for 0.1 s or more; a number F in (0, 1) = where the filtered speed is below F times its "
         "rms; 0 keeps every equation (default: auto)",
     )
+    add_stream_options(g)
 
 
 def run(args) -> int:
@@ -295,6 +297,8 @@ def run(args) -> int:
     _check_method_options(args, method)
     if args.each:
         return run_each(args, model, method, _idim_options(args, method))
+    if wants_stream(args, args.recordings, model, method):
+        return _run_streamed(args, model, method)
     recordings = read_recordings(args, args.recordings, model=model)
     if getattr(args, "joints", None):  # a connected sub-tree, the other joints held still
         model, recordings = _subtree(args, model, recordings)
@@ -340,6 +344,8 @@ _IDIM_ONLY = {
     "stderr": ("--stderr", "filtered"),
     "consistent": ("--consistent", False),
     "stick_threshold": ("--stick-threshold", "auto"),
+    "stream": ("--stream", "auto"),
+    "block_samples": ("--block-samples", 65536),
 }
 
 
@@ -528,6 +534,48 @@ def _run_idim(args, model, recordings, method: str) -> int:
     report_warnings(caught, args)  # now, before the result: "physid: warning:" with flags
     result = estimator.result_
     warn_implausible_estimates(model, result, recordings)
+    return _print_idim(args, result, method)
+
+
+#: The `IDIMEstimator` settings a streamed fit takes (the others concern IV or --consistent).
+_STREAMED_SETTINGS = ("differentiation", "cutoff", "half_width", "decimate", "stderr",
+                      "stick_threshold")  # fmt: skip
+
+
+def _run_streamed(args, model, method: str) -> int:
+    """``--stream``: the files read block by block, the fit in bounded memory."""
+    from .._progress import is_enabled
+    from ..estimators.idim.stream import fit_streamed
+    from ._streaming import open_sources
+
+    options = _idim_options(args, method)
+    sources = open_sources(args, args.recordings, model)
+    progress(
+        f"identify ({method}, streamed in blocks of {args.block_samples} samples): "
+        + ", ".join(
+            f"{s.n_samples} samples of {p}" for s, p in zip(sources, args.recordings, strict=True)
+        )
+    )
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result = fit_streamed(
+                model,
+                sources,
+                method=method.removeprefix("idim-"),
+                block_samples=args.block_samples,
+                progress=is_enabled(),
+                **{k: options[k] for k in _STREAMED_SETTINGS},
+            )
+    finally:
+        for src in sources:
+            getattr(src, "close", lambda: None)()
+    report_warnings(caught, args)
+    return _print_idim(args, result, method)
+
+
+def _print_idim(args, result, method: str) -> int:
+    """Save (``--save``) and print an IDIM result; the exit status."""
     _save(args, result)
     if args.json:
         out = result.to_dict()

@@ -44,7 +44,17 @@ __all__ = [
     "RowMoments",
     "fit_moments",
     "StreamPlan",
+    "scale_gate",
+    "in_memory_peak",
+    "streams_better",
+    "STREAM_ABOVE",
 ]
+
+#: The in-memory fit's estimated peak [bytes] above which a fit streams by default
+#: (``identify --stream auto``, fleets' long logs), unless a quarter of the free memory is less.
+STREAM_ABOVE = 2 * 2**30
+#: The in-memory fit holds about this many copies of the full-rate regressor at its peak.
+COPIES_IN_MEMORY = 3
 
 
 def fit_streamed(
@@ -145,9 +155,38 @@ def fit_streamed(
             m = idim_moments(model, plan, src, k, timings=times, progress=bar)
             moments = m if moments is None else moments + m
     tic = time.perf_counter()
-    result = fit_moments(model, plan, moments)
+    result = scale_gate(model, fit_moments(model, plan, moments), srcs)
     times["solve"] = times.get("solve", 0.0) + time.perf_counter() - tic
     return result
+
+
+def scale_gate(model, result, sources):
+    """The result with the plausibility gate's scale check applied, as `IDIMEstimator` does.
+
+    Estimates 100× away from the model's nominal masses fail the fit
+    (`physid.estimators.plausibility.implausible_scale`); the sources' first samples carry the
+    units and metadata the check names as suspects.
+
+    Parameters
+    ----------
+    model : ChainModel
+    result : IDIMResult
+        From `fit_moments`.
+    sources : sequence of BlockSource
+
+    Returns
+    -------
+    IDIMResult
+        ``result`` itself, or a copy with ``success`` False and the reason in ``message``.
+    """
+    from ..plausibility import gate, implausible_scale
+
+    firsts = [next(iter(s.blocks(2))) for s in sources]
+    scale = implausible_scale(dict(result.parameters), model, firsts)
+    if not scale:
+        return result
+    success, message = gate(result.success, result.message, scale)
+    return dataclasses.replace(result, success=success, message=message)
 
 
 def _as_block(obj):
@@ -174,3 +213,57 @@ def _speed_rms(model, plan: StreamPlan, sources) -> np.ndarray:
             total += np.sum(qd**2, axis=0)
         out.append(np.sqrt(total / plan.n_stacked(k)))
     return np.array(out)
+
+
+def in_memory_peak(paths, model) -> int:
+    """Estimated peak memory [bytes] of the in-memory IDIM fit of the files ``paths``.
+
+    The raw record (`physid.signals.io.in_memory_bytes`) plus `COPIES_IN_MEMORY` copies of the
+    full-rate regressor, ``n_samples × n_joints × n_parameters × 8`` bytes (the standard
+    parameters bound the base ones), for the largest file.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+    model : ChainModel
+
+    Returns
+    -------
+    int
+    """
+    from ...signals.io import in_memory_bytes
+
+    nj = int(model.n_joints)
+    n_par = len(getattr(model, "parameter_names", ())) or 10 * nj
+    peak = 0
+    for p in paths:
+        raw = in_memory_bytes(p)
+        n_samples = raw // (8 * (2 * nj + 1))  # t, q1..qn, tau1..taun at least
+        peak = max(peak, raw + COPIES_IN_MEMORY * n_samples * nj * n_par * 8)
+    return int(peak)
+
+
+def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
+    """Whether the files are better fitted block by block: ``(stream, peak, limit)`` [bytes].
+
+    True when `in_memory_peak` exceeds `STREAM_ABOVE` or a quarter of the available memory
+    shared by ``workers`` processes.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+    model : ChainModel
+    workers : int
+        Processes fitting at the same time (a fleet's workers share the memory).
+
+    Returns
+    -------
+    stream : bool
+    peak, limit : int
+        The estimate and the limit it was compared with.
+    """
+    from ..._resources import available_memory
+
+    peak = in_memory_peak(paths, model)
+    limit = min(STREAM_ABOVE, available_memory() // (4 * max(int(workers), 1)))
+    return peak > limit, peak, limit

@@ -1,0 +1,167 @@
+"""``identify --stream``: whether a record is fitted in blocks, and the block sources it reads.
+
+An IDIM fit in memory holds the full-rate regressor of the whole record (about
+``n_samples × n_joints × n_base × 8`` bytes, three times over while the parallel filter runs);
+a streamed fit (`physid.estimators.idim.stream.fit_streamed`) holds a few blocks and the
+accumulated normal equations, whatever the length, and gives the same estimate. ``--stream
+auto`` (the default) streams when the in-memory fit would need more than 2 GiB or a quarter
+of the available memory (`physid.estimators.idim.stream.streams_better`), and the fit is one that streams (IDIM-OLS or -WLS, files that
+can be read in blocks); ``on`` streams whenever it can (and says why when it cannot); ``off``
+never streams.
+"""
+
+from __future__ import annotations
+
+from ._common import progress
+
+__all__ = ["add_stream_options", "wants_stream", "open_sources"]
+
+
+def add_stream_options(group) -> None:
+    """``--stream`` and ``--block-samples`` in the verb's IDIM option group."""
+    group.add_argument(
+        "--stream",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="fit a long record block by block in bounded memory, with the same estimate as "
+        "in memory (idim-ols and idim-wls): auto = when the in-memory fit would need more than "
+        "2 GiB or a quarter of the free memory (default: auto)",
+    )
+    group.add_argument(
+        "--block-samples",
+        type=int,
+        default=65536,
+        metavar="N",
+        help="samples read at a time by a streamed fit (default: 65536)",
+    )
+
+
+def _why_not(args, paths, method: str) -> str | None:
+    """Why these settings cannot stream (in the command line's words), or None."""
+    from ..signals.io import BLOCK_FORMATS
+    from ..signals.io.rosbag_reader import is_rosbag
+    from ..signals.io.variables import SUPPORTED_SUFFIXES
+
+    if method not in ("idim-ols", "idim-wls"):
+        return f"--method {method} reads the whole record (streamed: idim-ols, idim-wls)"
+    if getattr(args, "join", False):
+        return "--join joins whole files on their stamps"
+    if getattr(args, "detrend", None):
+        return "--detrend subtracts the mean of the whole record"
+    if getattr(args, "joints", None):
+        return "--joints holds the other joints at the logged positions of the whole record"
+    if getattr(args, "stderr", "filtered") == "hac":
+        return "--stderr hac estimates the residual's correlation from the whole residual"
+    if getattr(args, "consistent", False):
+        return "--consistent fits the consistent estimate on every row"
+    if getattr(args, "resample", False):
+        return "--resample interpolates the whole record"
+    if getattr(args, "torque", "measured") != "measured":
+        return "--torque pd rebuilds the torques of the whole record"
+    for p in paths:
+        if is_rosbag(p):
+            return f"{p} is a ROS bag, read whole"
+        from pathlib import Path
+
+        fmt = SUPPORTED_SUFFIXES.get(Path(p).suffix.lower())
+        if fmt not in BLOCK_FORMATS:
+            return (
+                f"{p} cannot be read in blocks (formats read in blocks: "
+                f"{', '.join(sorted(BLOCK_FORMATS))})"
+            )
+    return None
+
+
+def wants_stream(args, paths, model, method: str) -> bool:
+    """Whether ``identify`` fits these files block by block (``--stream``); says so on stderr.
+
+    Raises
+    ------
+    InputError
+        ``--stream on`` with settings that cannot stream (the reason and the fix).
+    """
+    from .._resources import format_bytes
+    from ..errors import InputError
+    from ..estimators.idim.stream import streams_better
+
+    choice = getattr(args, "stream", "auto")
+    if choice == "off":
+        return False
+    why = _why_not(args, paths, method)
+    if choice == "on":
+        if why is not None:
+            raise InputError(
+                f"--stream on cannot stream this fit: {why}. Leave --stream out (or --stream "
+                "off) to fit in memory."
+            )
+        return True
+    if why is not None:
+        return False
+    stream, peak, limit = streams_better(paths, model)
+    if not stream:
+        return False
+    progress(
+        f"physid: note: fitting block by block (--stream auto): in memory the fit would need "
+        f"about {format_bytes(peak)}, above {format_bytes(limit)}; the estimate is the same "
+        "(--stream off to fit in memory)"
+    )
+    return True
+
+
+def open_sources(args, paths, model) -> list:
+    """The block sources of ``paths`` with the verb's reading options and the model's checks.
+
+    The channel map (``--map`` over the model file's ``[recording]`` table), ``--rate``,
+    ``--decimal``, ``--delimiter`` apply as when the file is read whole; motor-side channels are
+    converted through the model's transmission block by block; the units are checked against
+    the model on the first block.
+    """
+    from ..errors import PhysidError
+    from ..signals.blocks import TransformedBlocks
+    from ..signals.io import open_blocks, parse_channel_map
+    from ._recordings import (
+        _model_channel_map,
+        _reworded,
+        _table_name,
+        _warn_implausible_data,
+        check_recording_units,
+    )
+
+    sources = []
+    try:
+        table = _model_channel_map(args, model)
+        channels = parse_channel_map(getattr(args, "channel_map", None)) or None
+        for p in paths:
+            src = open_blocks(
+                p,
+                channels,
+                rate=getattr(args, "rate", None),
+                channel_defaults=table or None,
+                channel_defaults_source=_table_name(args),
+                decimal=getattr(args, "decimal", ".") or ".",
+                delimiter=getattr(args, "delimiter", None),
+                uniform_rtol=1e-3,  # as a whole file is read by the command line
+            )
+            convert = getattr(model, "joint_side_channels", None)
+            if convert is not None:
+                src = TransformedBlocks(src, _joint_side(convert))
+            first = next(iter(src.blocks(min(src.n_samples, 4096))))
+            check_recording_units(model, first)
+            _warn_implausible_data(model, first)
+            sources.append(src)
+    except PhysidError as exc:
+        for s in sources:
+            getattr(s, "close", lambda: None)()
+        raise _reworded(exc) from None
+    return sources
+
+
+def _joint_side(convert):
+    """A block transform: motor-side channels (qm, taum, im) to joint-side q and tau."""
+
+    def transform(rec):
+        source = str(rec.metadata.get("source") or "the recording")
+        cols, units = convert(rec.names, rec.__getitem__, source)
+        return rec.with_channels(cols, units) if cols else rec
+
+    return transform
