@@ -42,11 +42,13 @@ def check_fleet_flags(args) -> None:
 
     if not args.each:
         given = ["--" + k.replace("_", "-") for k in _ONLY_WITH_EACH if getattr(args, k, None)]
+        if getattr(args, "joint", False):  # one fit spread over a cluster: --scheduler applies
+            given = [g for g in given if g not in ("--scheduler", "--scheduler-timeout")]
         if given:
             raise InputError(
                 f"{', '.join(given)} appl{'y' if len(given) > 1 else 'ies'} to a fleet, one fit "
                 "per file: add --each (e.g. physid identify logs/*.h5 --model robot.urdf --each "
-                "--out fleet/), or leave "
+                "--out fleet/; --scheduler also spreads one --joint fit), or leave "
                 f"{'them' if len(given) > 1 else 'it'} out."
             )
         return
@@ -159,3 +161,64 @@ def run_each(args, model, method: str, fit_options: dict) -> int:
     else:
         print(result.summary())
     return 0 if result.success else 1
+
+
+def run_joint_on_cluster(args, model, method: str, fit_options: dict):
+    """``--joint --scheduler``: one fit over all the files as a map-reduce on Dask.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    model : model
+        The loaded model (the workers load their own from ``args.model``).
+    method : str
+    fit_options : dict
+        `IDIMEstimator` keywords from the command line.
+
+    Returns
+    -------
+    IDIMResult
+
+    Raises
+    ------
+    InputError
+        Settings a joint fit over a cluster does not take, named by their flags.
+    """
+    from ..analysis.fleet_joint import JOINT_SETTINGS, run_joint
+    from ..analysis.sweep_backends import SCHEDULER_TIMEOUT
+    from ..errors import InputError
+
+    if method not in ("idim-ols", "idim-wls"):
+        raise InputError(
+            f"--joint --scheduler spreads one fit's normal equations over a cluster: --method "
+            f"idim-ols or idim-wls (got --method {method}); leave --scheduler out to fit in "
+            "this process."
+        )
+    flags = {"stderr": ("--stderr hac", "hac"), "consistent": ("--consistent", True)}
+    for key, (flag, bad) in flags.items():
+        if fit_options.get(key) == bad:
+            raise InputError(
+                f"--joint --scheduler cannot take {flag} (it needs every row in one place); "
+                "leave one of them out."
+            )
+    for flag, attr in (("--join", "join"), ("--joints", "joints"), ("--detrend", "detrend"),
+                       ("--topic", "topic"), ("--resample", "resample")):  # fmt: skip
+        if getattr(args, attr, None):
+            raise InputError(
+                f"{flag} with --joint --scheduler: each worker reads its log as it is; leave "
+                f"{flag} out, or leave --scheduler out to fit in this process."
+            )
+    options = {k: v for k, v in fit_options.items() if k in JOINT_SETTINGS}
+    model_options = {"kinetic": args.kinetic} if args.kinetic is not None else {}
+    progress(f"identify --joint ({method}) over {len(args.recordings)} logs on {args.scheduler}")
+    return run_joint(
+        args.model,
+        args.recordings,
+        method=method,
+        fit_options=options,
+        load_options=_load_options(args, model),
+        scheduler=args.scheduler,
+        model_options=model_options,
+        scheduler_timeout=args.scheduler_timeout or SCHEDULER_TIMEOUT,
+        block_samples=getattr(args, "block_samples", 65536),
+    )

@@ -209,16 +209,18 @@ def _register_fleet_options(p) -> None:
         "--scheduler",
         default=None,
         metavar="local|local:N|tcp://HOST:PORT",
-        help="with --each: where the fits run: local (default: in-process for 1-2 files, else "
-        "a Dask cluster with a worker per CPU), local:N (N worker processes) or the address of a "
-        "running Dask scheduler",
+        help="with --each: where the fits run; with --joint: where one fit over all the files "
+        "runs as a map-reduce of their normal equations (idim-ols, idim-wls): local (default: "
+        "in-process for 1-2 files, else a Dask cluster with a worker per CPU), local:N (N worker "
+        "processes) or the address of a running Dask scheduler",
     )
     g.add_argument(
         "--scheduler-timeout",
         type=float,
         default=None,
         metavar="S",
-        help="with --each: seconds to wait for a tcp:// scheduler to answer (default 30)",
+        help="with --each or --joint: seconds to wait for a tcp:// scheduler to answer "
+        "(default 30)",
     )
     g.add_argument(
         "--out",
@@ -297,6 +299,11 @@ def run(args) -> int:
     _check_method_options(args, method)
     if args.each:
         return run_each(args, model, method, _idim_options(args, method))
+    if args.joint and args.scheduler:
+        from ._fleet import run_joint_on_cluster
+
+        result = run_joint_on_cluster(args, model, method, _idim_options(args, method))
+        return _print_idim(args, result, method)
     if wants_stream(args, args.recordings, model, method):
         return _run_streamed(args, model, method)
     recordings = read_recordings(args, args.recordings, model=model)

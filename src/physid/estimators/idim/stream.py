@@ -34,7 +34,7 @@ import numpy as np
 
 from .stream_fit import fit_moments
 from .stream_moments import RowMoments, idim_moments
-from .stream_plan import StreamPlan, _as_sources, plan_streamed
+from .stream_plan import StreamPlan, _as_sources, plan_from_surveys, plan_streamed, survey_source
 from .stream_window import Margins, RawReader, windows
 
 __all__ = [
@@ -44,6 +44,9 @@ __all__ = [
     "RowMoments",
     "fit_moments",
     "StreamPlan",
+    "survey_source",
+    "plan_from_surveys",
+    "speed_rms",
     "scale_gate",
     "in_memory_peak",
     "streams_better",
@@ -144,7 +147,7 @@ def fit_streamed(
     )
     plan = plan_streamed(model, srcs, **settings)
     if isinstance(plan.stick, float):
-        plan = dataclasses.replace(plan, qd_rms=_speed_rms(model, plan, srcs))
+        plan = dataclasses.replace(plan, qd_rms=speed_rms(model, plan, srcs))
     times["survey"] = times.get("survey", 0.0) + time.perf_counter() - tic
     total = sum(plan.lengths)
     bar = Progress(total, "streamed IDIM", unit="samples", stream=None)
@@ -195,9 +198,21 @@ def _as_block(obj):
     return as_block_source(obj)
 
 
-def _speed_rms(model, plan: StreamPlan, sources) -> np.ndarray:
-    """rms of the filtered speed per source (the speed-fraction stiction rule): a pass of the
-    state filter alone."""
+def speed_rms(model, plan: StreamPlan, sources) -> np.ndarray:
+    """rms of the filtered speed per source [rad/s] (the speed-fraction stiction rule): a pass
+    of the state filter alone.
+
+    Parameters
+    ----------
+    model : ChainModel
+    plan : StreamPlan
+    sources : sequence of BlockSource
+        In the plan's order.
+
+    Returns
+    -------
+    ndarray, shape (n_sources, n_joints)
+    """
     from .stream_window import _states
 
     mg = Margins(plan)

@@ -43,7 +43,7 @@ from .rows import _resolve_cutoff, _resolve_decimate
 from .uncertainty import STDERR_METHODS
 from .verdict import torque_noise_sigma
 
-__all__ = ["StreamPlan", "plan_streamed", "SURVEY_BLOCK"]
+__all__ = ["StreamPlan", "plan_streamed", "survey_source", "plan_from_surveys", "SURVEY_BLOCK"]
 
 #: Samples per block of the survey's robust statistics (medians): at least this many.
 SURVEY_BLOCK = 1 << 16
@@ -405,17 +405,101 @@ def plan_streamed(
     """
     from ...signals.blocks import as_block_source
 
+    _check_settings(method, differentiation, stderr, half_width, stick_threshold, block_samples)
+    srcs = _as_sources(sources, as_block_source)
+    surveys = [
+        survey_source(
+            model, s, k, spectrum=k == 0 and cutoff == "auto", block_samples=block_samples
+        )
+        for k, s in enumerate(srcs)
+    ]
+    return plan_from_surveys(
+        model,
+        [tuple(s.names) for s in srcs],
+        surveys,
+        method=method,
+        differentiation=differentiation,
+        cutoff=cutoff,
+        half_width=half_width,
+        decimate=decimate,
+        stderr=stderr,
+        per_joint_variance=per_joint_variance,
+        stick_threshold=stick_threshold,
+        check_condition=check_condition,
+        block_samples=block_samples,
+    )
+
+
+def survey_source(model, source, k: int, *, spectrum: bool, block_samples: int = 65536):
+    """The survey of one source (a map step of a fit spread over many logs).
+
+    Parameters
+    ----------
+    model : ChainModel
+    source : BlockSource
+    k : int
+        The source's position among the fit's sources (0-based; for messages).
+    spectrum : bool
+        Also accumulate its Welch spectrum (the first source, for ``cutoff="auto"``).
+    block_samples : int
+        Samples read at a time (at least `SURVEY_BLOCK`).
+
+    Returns
+    -------
+    tuple
+        ``(SourceStats, welch or None)``, picklable: what `plan_from_surveys` combines.
+    """
+    block = max(int(block_samples), SURVEY_BLOCK)
+    return _survey(source, k, int(model.n_joints), bool(spectrum), block)
+
+
+def plan_from_surveys(
+    model,
+    names,
+    surveys,
+    *,
+    method: str = "ols",
+    differentiation: str = "physid",
+    cutoff: float | str = "auto",
+    half_width: int | None = None,
+    decimate: int | str = "auto",
+    stderr: str = "filtered",
+    per_joint_variance: bool = True,
+    stick_threshold: float | str = "auto",
+    check_condition: bool = True,
+    block_samples: int = 65536,
+) -> StreamPlan:
+    """The `StreamPlan` of sources already surveyed (the reduce step after `survey_source`).
+
+    Parameters
+    ----------
+    model : ChainModel
+    names : sequence of tuple of str
+        Each source's channel names, in the sources' order.
+    surveys : sequence
+        `survey_source` of each source, in the same order (the first with its spectrum when
+        ``cutoff="auto"``).
+    method, differentiation, cutoff, half_width, decimate, stderr, per_joint_variance,
+    stick_threshold, check_condition, block_samples
+        As `plan_streamed`.
+
+    Returns
+    -------
+    StreamPlan
+    """
     stick = _check_settings(
         method, differentiation, stderr, half_width, stick_threshold, block_samples
     )
-    srcs = _as_sources(sources, as_block_source)
     nj = int(model.n_joints)
     info = base_regressor_info(model)
-    block = max(int(block_samples), SURVEY_BLOCK)
-    surveyed = [_survey(s, k, nj, k == 0 and cutoff == "auto", block) for k, s in enumerate(srcs)]
-    stats = [s for s, _ in surveyed]
-    _check_stackable(srcs, stats)
-    cut = _resolve_cutoff(surveyed[0][1].cutoff() if cutoff == "auto" else cutoff, None)
+    stats = [s for s, _ in surveys]
+    _check_stackable([_Named(n) for n in names], stats)
+    if cutoff == "auto" and surveys[0][1] is None:
+        raise InputError(
+            "the first source's survey holds no spectrum, which cutoff='auto' needs: survey it "
+            "with spectrum=True."
+        )
+    cut = _resolve_cutoff(surveys[0][1].cutoff() if cutoff == "auto" else cutoff, None)
     n_short = min(s.n for s in stats)
     if half_width is None and differentiation == "physid":
         half_width = default_half_width(cut, n_short)
@@ -451,6 +535,13 @@ def plan_streamed(
     )
     _check_lengths(plan)
     return plan
+
+
+class _Named:
+    """Only the channel names of a source (what `_check_stackable` reads)."""
+
+    def __init__(self, names):
+        self.names = tuple(names)
 
 
 def _as_sources(sources, as_block_source) -> list:

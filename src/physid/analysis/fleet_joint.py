@@ -1,0 +1,212 @@
+"""One IDIM fit over many logs, computed as a map-reduce on a Dask cluster.
+
+The logs of one robot (or of robots meant to be one) are one fit: their rows stack as
+experiments, as `physid.estimators.idim.IDIMEstimator.fit` stacks a list of recordings. Spread
+over a cluster it is two map steps and two reductions, each log read where it is:
+
+1. map: each worker surveys its log (`physid.estimators.idim.stream.survey_source`: length,
+   period, noise statistics, the first log's spectrum); reduce: the plan (cut-off, half-width,
+   candidate decimations: `plan_from_surveys`);
+2. map: each worker reads its log block by block into the moments of its rows
+   (`idim_moments`: per-joint QR factors, lagged products, never the rows); reduce: their sum
+   (exact), solved once (`fit_moments`).
+
+The result equals the in-memory fit of the same logs (to rounding; see
+`physid.estimators.idim.stream` for what is a per-block median there). What travels is small:
+the surveys and the moments, a few p × p matrices per log and joint. A worker that dies has its
+task rerun (``retries``); a log that cannot be read fails the fit, naming the log.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import functools
+import logging
+import time
+from collections.abc import Mapping, Sequence
+
+from ..errors import InputError, arg
+from .fleet import _cached_model, _client_at, _local_kind
+from .sweep_backends import SCHEDULER_TIMEOUT, _import_distributed, parse_scheduler
+
+__all__ = ["run_joint", "JOINT_SETTINGS"]
+
+#: `IDIMEstimator` settings a joint fit over a cluster takes (it streams each log).
+JOINT_SETTINGS = (
+    "differentiation",
+    "cutoff",
+    "half_width",
+    "decimate",
+    "stderr",
+    "per_joint_variance",
+    "stick_threshold",
+    "check_condition",
+)
+
+
+def _survey_task(model_ref, model_options, load_options, cutoff, block_samples, item):
+    """Map step 1 on a worker: ``(names, survey)`` of log ``k`` at ``path``."""
+    from ..estimators.idim.stream import survey_source
+    from ..signals.io import open_blocks
+
+    k, path = item
+    model = _cached_model(model_ref, model_options)
+    with open_blocks(path, **load_options) as src:
+        survey = survey_source(
+            model, src, k, spectrum=k == 0 and cutoff == "auto", block_samples=block_samples
+        )
+        return tuple(src.names), survey
+
+
+def _moments_task(model_ref, model_options, load_options, plan, item):
+    """Map step 2 on a worker: the moments of log ``k`` at ``path``."""
+    from ..estimators.idim.stream import idim_moments
+    from ..signals.io import open_blocks
+
+    k, path = item
+    model = _cached_model(model_ref, model_options)
+    with open_blocks(path, **load_options) as src:
+        return idim_moments(model, plan, src, k)
+
+
+@contextlib.contextmanager
+def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
+    """``(map, backend)``: ``map(task, items) -> list`` in order, on the chosen backend."""
+    kind, address = parse_scheduler(scheduler)
+    if kind == "local":
+        kind, address = _local_kind(n_logs)
+    if kind == "serial":
+        yield (lambda task, items: [task(x) for x in items]), "serial (in-process)"
+        return
+    distributed = _import_distributed()
+    cluster = client = None
+    try:
+        if kind == "dask-client":
+            client, backend = address, "dask client"
+        elif kind == "dask-local":
+            cluster = distributed.LocalCluster(
+                n_workers=address, threads_per_worker=1, processes=True,
+                dashboard_address=None, silence_logs=logging.ERROR,
+            )  # fmt: skip
+            client = distributed.Client(cluster)
+            backend = f"dask LocalCluster ({address} worker processes)"
+        else:
+            client, backend = _client_at(distributed, address, timeout), f"dask {address}"
+
+        def run(task, items):
+            futures = client.map(task, list(items), retries=int(retries), pure=False)
+            try:
+                return client.gather(futures)  # in order; the first error is raised
+            except BaseException:
+                client.cancel(futures)
+                raise
+
+        yield run, backend
+    finally:
+        if client is not None and kind != "dask-client":
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def run_joint(
+    model_ref,
+    paths: Sequence,
+    *,
+    method: str = "idim-ols",
+    fit_options: Mapping | None = None,
+    load_options: Mapping | None = None,
+    scheduler="local",
+    retries: int = 2,
+    model_options: Mapping | None = None,
+    scheduler_timeout: float = SCHEDULER_TIMEOUT,
+    block_samples: int = 65536,
+):
+    """One IDIM fit over all ``paths``, as a map-reduce of their moments on a Dask cluster.
+
+    Parameters
+    ----------
+    model_ref : str or Path
+        A built-in model name or a model file (loaded once per worker).
+    paths : sequence of str or Path
+        The logs (files `physid.signals.io.open_blocks` reads), stacked as experiments.
+    method : {"idim-ols", "idim-wls"}
+    fit_options : mapping, optional
+        `IDIMEstimator` keywords among `JOINT_SETTINGS`.
+    load_options : mapping, optional
+        `physid.signals.io.open_blocks` keywords (channel map, rate, ...).
+    scheduler : str or distributed.Client
+        ``"serial"``, ``"local"``, ``"local:N"``, ``"tcp://HOST:PORT"`` or a Client (as
+        `physid.analysis.fleet.run_fleet`).
+    retries : int
+        Times a task is retried when it raised (a dead worker's task is rerun by Dask).
+    model_options : mapping, optional
+        `physid.load_model` keywords.
+    scheduler_timeout : float [s]
+        How long a ``tcp://`` scheduler may take to answer.
+    block_samples : int
+        Samples each worker reads at a time.
+
+    Returns
+    -------
+    IDIMResult
+        With ``n_recordings`` = the number of logs; its ``message`` names the backend.
+
+    Raises
+    ------
+    InputError
+        An empty ``paths``, a method other than OLS/WLS, a setting a joint fit does not take.
+    PhysidError
+        A log that cannot be read or does not fit with the others (named).
+    SchedulerError
+        A scheduler address that does not answer.
+    """
+    from ..estimators.idim.stream import fit_moments, plan_from_surveys, scale_gate, speed_rms
+    from ..signals.io import open_blocks
+
+    paths = [str(p) for p in paths]
+    if not paths:
+        raise InputError(f"{arg('paths')} must name at least one log; got none.")
+    if method not in ("idim-ols", "idim-wls"):
+        raise InputError(
+            f"{arg('method')} of a joint fit over a cluster must be idim-ols or idim-wls (the "
+            f"fit is a sum of each log's normal equations); got {method!r}."
+        )
+    fit_options = dict(fit_options or {})
+    other = sorted(set(fit_options) - set(JOINT_SETTINGS))
+    if other:
+        raise InputError(
+            f"a joint fit over a cluster takes {', '.join(JOINT_SETTINGS)}; not {other}."
+        )
+    load = dict(load_options or {})
+    load.pop("resample", None)
+    opts = dict(model_options or {})
+    settings = {**fit_options, "method": method.removeprefix("idim-")}
+    settings["block_samples"] = int(block_samples)
+    cutoff = fit_options.get("cutoff", "auto")
+    model = _cached_model(model_ref, opts)
+    items = list(enumerate(paths))
+    start = time.perf_counter()
+    with _mapper(scheduler, len(paths), retries, scheduler_timeout) as (mapped, backend):
+        survey = functools.partial(_survey_task, model_ref, opts, load, cutoff, block_samples)
+        surveyed = mapped(survey, items)
+        names = [n for n, _ in surveyed]
+        plan = plan_from_surveys(model, names, [s for _, s in surveyed], **settings)
+        if isinstance(plan.stick, float):  # the speed-fraction rule needs the speed's rms
+            sources = [open_blocks(p, **load) for p in paths]
+            try:
+                plan = dataclasses.replace(plan, qd_rms=speed_rms(model, plan, sources))
+            finally:
+                for s in sources:
+                    s.close()
+        moments = mapped(functools.partial(_moments_task, model_ref, opts, load, plan), items)
+    total = moments[0]
+    for m in moments[1:]:
+        total = total + m
+    result = fit_moments(model, plan, total)
+    with open_blocks(paths[0], **load) as first:
+        result = scale_gate(model, result, [first])
+    elapsed = time.perf_counter() - start
+    note = f" Fitted as a map-reduce over {len(paths)} logs on {backend} in {elapsed:.1f} s."
+    return dataclasses.replace(result, message=result.message + note)
