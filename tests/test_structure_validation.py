@@ -104,3 +104,11 @@ def test_command_line_validate_prints_the_residual_tests(chain, tmp_path, capsys
     assert main(["validate", str(result), str(held)]) == 1
     text = capsys.readouterr().out
     assert "x1: " in text and "verdict: the model misses dynamics" in text
+
+
+@pytest.mark.parametrize("method", ["rls", "algebraic"])
+def test_single_output_estimators_refuse_a_structure_naming_the_ones_that_apply(chain, method):
+    from physid.errors import InputError
+
+    with pytest.raises(InputError, match=r"Structure models .* make\('equation-error'"):
+        make(method, chain).fit(_held_out(chain, 6))
