@@ -98,3 +98,22 @@ def test_frequency_response_is_the_transfer_function():
     for i, wi in enumerate(w):
         H = np.linalg.solve(-(wi**2) * M + 1j * wi * C + K, [1.0, 0.0, 0.0])[2]
         assert abs(fr.response[i, 0, 0] - H) < 1e-12 * abs(H)
+
+
+def test_delta_method_jacobian_matches_the_analytic_derivatives():
+    """ω_j = 2 √(k/m) sin((2j − 1)π/14) and ζ_j = b ω_j / 2 give ∂ω/∂(m, k, b) and ∂ζ/∂(m, k, b)
+    in closed form; the delta method's errors with a correlated covariance equal √(g Σ gᵀ)."""
+    model = _model()
+    m, k, b = 1.5, 2000.0, 0.002
+    j = np.arange(1, 4)
+    omega = 2 * np.sqrt(k / m) * np.sin((2 * j - 1) * np.pi / 14)
+    g_w = np.column_stack([-omega / (2 * m), omega / (2 * k), np.zeros(3)])
+    g_z = np.column_stack([b * g_w[:, 0] / 2, b * g_w[:, 1] / 2, omega / 2])
+    sd = np.array([0.01, 20.0, 1e-5])
+    corr = np.array([[1.0, 0.8, -0.3], [0.8, 1.0, 0.2], [-0.3, 0.2, 1.0]])
+    cov = corr * np.outer(sd, sd)
+    modes = model.modal(covariance=cov, names=("m", "k", "b"))
+    expected_w = np.sqrt(np.einsum("ip,pq,iq->i", g_w, cov, g_w))
+    expected_z = np.sqrt(np.einsum("ip,pq,iq->i", g_z, cov, g_z))
+    assert np.allclose(modes.frequency_stderr, expected_w, rtol=1e-6)
+    assert np.allclose(modes.damping_stderr, expected_z, rtol=1e-6)

@@ -151,13 +151,26 @@ def _structure_result(args, controller):
         message="",
         known=known,
         model=model,
+        covariance=_covariance(data.get("covariance"), len(data["names"])),
     )
-    fits = result.fit_to(rec)
+    from ..analysis.validation.structure import summary_lines, validate_structure
+
     progress(f"validate: {data['method']} result on {args.file} ({rec.n_samples} samples)")
+    report = validate_structure(result, rec)
     if args.json:
-        print_json({"fit_percent": fits, "notes": ["simulated from rest on the held-out forces"]})
+        print_json(report)
     else:
-        print("fit [%] per output (simulated from rest on the held-out forces):")
-        for k, v in fits.items():
-            print(f"  {k}: {v:.2f}")
-    return 0
+        print("\n".join(summary_lines(report)))
+    return 0 if report["consistent"] else 1
+
+
+def _covariance(value, p: int):
+    """The result file's covariance as a (p, p) finite array, or None (absent or malformed: the
+    parameter-uncertainty explanation of the residual tests is then not tried)."""
+    import numpy as np
+
+    try:
+        cov = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+    return cov if cov.shape == (p, p) and np.all(np.isfinite(cov)) else None

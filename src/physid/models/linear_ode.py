@@ -679,9 +679,16 @@ def as_linear_ode_model(model) -> LinearODEModel:
             if isinstance(spec, LinearODESpec):
                 model = LinearODEModel.from_spec(spec)
     if not isinstance(model, LinearODEModel):
+        structure = type(model).__name__ == "StructureModel"  # several outputs: not here
         raise InputError(
             "model must be a linear ODE model: 'msd', a path to a TOML model file of kind "
-            f"'linear_ode', or a LinearODEModel; got {type(model).__name__}. Chain models (the "
-            "manipulator) are identified with physid.estimators.input_error."
+            f"'linear_ode', or a LinearODEModel; got {type(model).__name__}. "
+            + (
+                "Structure models (several masses and outputs) are identified with "
+                "make('equation-error', model) or make('output-error', model)."
+                if structure
+                else "Chain models (the manipulator) are identified with "
+                "physid.estimators.input_error."
+            )
         )
     return model
