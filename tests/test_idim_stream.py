@@ -206,9 +206,10 @@ def test_timings_are_filled(arm, rec):
 
 
 def test_refusals_name_the_alternatives(arm, rec):
-    with pytest.raises(InputError, match="idim-ols or idim-wls.*--stream off"):
+    with pytest.raises(InputError, match="method='ols' or method='wls'.*in memory") as err:
         fit_streamed(arm, rec, method="iv", progress=False)
-    with pytest.raises(InputError, match="stderr='filtered'.*'iid'"):
+    assert "--method idim-ols or --method idim-wls" in err.value.render({"method": "--method"})
+    with pytest.raises(InputError, match="stderr='filtered'.*stderr='iid'"):
         fit_streamed(arm, rec, stderr="hac", progress=False)
 
 

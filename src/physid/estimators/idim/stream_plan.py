@@ -163,18 +163,19 @@ def _check_settings(method, differentiation, stderr, half_width, stick_threshold
     if method == "iv":
         raise InputError(
             f"{arg('method', repr('iv'), cli='idim-iv')} cannot be streamed: each iteration "
-            "re-simulates the closed loop over the whole record. Use --method idim-ols or "
-            "idim-wls on the streamed record, or load it whole with --stream off (Python: "
-            "IDIMEstimator(model, 'iv').fit(recording))."
+            "re-simulates the closed loop over the whole record. Use "
+            f"{arg('method', repr('ols'), cli='idim-ols')} or "
+            f"{arg('method', repr('wls'), cli='idim-wls')} on the streamed record, or fit the "
+            "record in memory."
         )
     if method not in ("ols", "wls"):
         raise InputError(f"{arg('method')} must be 'ols' or 'wls' when streamed; got {method!r}.")
     if stderr == "hac":
         raise InputError(
             f"{arg('stderr', repr('hac'), cli='hac')} needs the whole residual's correlation "
-            "length and cannot be streamed; use stderr='filtered' (the parallel filter's known "
-            "correlation, the default) or 'iid' (--stderr filtered / iid), or load the record "
-            "whole (--stream off)."
+            f"length and cannot be streamed; use {arg('stderr', repr('filtered'), cli='filtered')}"
+            " (the parallel filter's known correlation, the default) or "
+            f"{arg('stderr', repr('iid'), cli='iid')}, or fit the record in memory."
         )
     if stderr not in STDERR_METHODS:
         raise InputError(f"{arg('stderr')} must be 'filtered' or 'iid'; got {stderr!r}.")

@@ -438,8 +438,8 @@ class FileBlocks:
             f"(t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s against a period of "
             f"{period:.6g} s (relative deviation {abs(step - period) / period:.3g}, tolerance "
             f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
-            "the parts as separate experiments (physid.signals.join_recordings, or physid "
-            "identify --join, splits files at gaps), or pass uniform_rtol=None to keep the "
+            "the parts as separate experiments (physid.signals.join_recordings splits files at "
+            "gaps), or pass uniform_rtol=None to keep the "
             "times as they are."
         )
 

@@ -340,9 +340,9 @@ def _join_topics(path, parts):
     run = join_recordings(recs, labels)
     if len(run.segments) > 1:
         raise DataFileError(
-            f"{path}: the topics of the run have gaps: {' '.join(run.notes[1:])}. Read the "
-            "topics exported to files with --join (each segment a separate experiment), or "
-            "read one topic."
+            f"{path}: the topics of the run have gaps: {' '.join(run.notes[1:])}. Export the "
+            "topics to files and join them (physid.signals.join_recordings: each segment a "
+            "separate experiment), or read one topic."
         )
     seg = run.segments[0]
     notes = [n.replace("files", "topics").replace("a file's", "a topic's") for n in run.notes]
