@@ -21,7 +21,7 @@ from dataclasses import replace
 import numpy as np
 
 from .._validate import as_2d, check_finite, parameter_vector
-from ..errors import IdentifiabilityError, InputError, ShapeError
+from ..errors import IdentifiabilityError, InputError, ModelFileError, ShapeError
 from . import _cache
 from .chain_base import BaseParameters, _format_combination  # noqa: F401 - re-exported
 from .chain_derive import (  # noqa: F401 - re-exported
@@ -38,7 +38,30 @@ from .chain_regressor import _LinearInParameters
 from .codegen import source_to_function
 from .spec_types import ChainSpec
 
-__all__ = ["ChainModel", "BaseParameters", "build_chain_model"]
+__all__ = ["ChainModel", "BaseParameters", "build_chain_model", "MAX_SYMBOLIC_JOINTS"]
+
+#: The most joints of a symbolic (point-mass, Denavit-Hartenberg) chain: its Lagrange
+#: derivation's expressions grow like a high power of the joint count (measured on one core:
+#: 4 joints 4 s, 5 joints 15 s, 6 joints 110 s), so a longer chain is refused at once
+#: instead of running for hours. Rigid-body models (URDF, or a TOML file with full link
+#: inertias) are built numerically and have no such limit.
+MAX_SYMBOLIC_JOINTS = 6
+
+
+def _check_symbolic_size(spec: ChainSpec) -> None:
+    """Refuse a symbolic chain longer than `MAX_SYMBOLIC_JOINTS`, naming the limit and why."""
+    n = len(spec.joints)
+    if n <= MAX_SYMBOLIC_JOINTS:
+        return
+    where = f"{spec.source}: " if getattr(spec, "source", None) else ""
+    raise ModelFileError(
+        f"{where}the chain {spec.name!r} has {n} joints; symbolic chain models (kind = "
+        f'"chain", point masses on Denavit-Hartenberg links) are limited to '
+        f"{MAX_SYMBOLIC_JOINTS} joints, because their symbolic Lagrange derivation grows like "
+        "a high power of the joint count (5 joints take about 15 s, 6 about 2 min, "
+        f"{n} would not finish). Describe a longer arm as a URDF file or as a rigid-body "
+        "TOML model with link inertias (docs/model-files.md), which are built numerically."
+    )
 
 
 def build_chain_model(
@@ -66,6 +89,7 @@ def build_chain_model(
         spec = replace(spec, kinetic=kinetic)
     if not isinstance(cache, bool):
         raise InputError(f"cache must be True or False; got {cache!r}.")
+    _check_symbolic_size(spec)
     key = _cache.content_key(spec.derivation_content())
     start = time.perf_counter()
     data, from_cache = _cache.cached(

@@ -45,7 +45,14 @@ from ...errors import arg as arg
 from ...estimators.results import RESULT_FORMAT as RESULT_FORMAT
 from ...estimators.results import jsonable
 from .inverse import _chain_inverse as _chain_inverse
-from .inverse import _idim_inverse, _linear_inverse, _rowless_joints, _stick_note
+from .inverse import (
+    _idim_inverse,
+    _linear_inverse,
+    _position_noise_draws,
+    _rowless_joints,
+    _stick_note,
+)
+from .inverse_residual import explain_inverse_residual
 from .loaded import LoadedResult, _as_loaded, load_result
 from .output_error import _chain_output_error, _relative, check_controller, fit_percent
 from .parameters import _base_theta as _base_theta
@@ -254,9 +261,9 @@ def _impulse_response(loaded, t):
 def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     """Tests (a), (b), (c) of a chain; (c) on the inverse-model error of (a)."""
     residual: dict[str, Any] = {}
-    stuck = None
+    stuck = rows = None
     if _is_idim(loaded):
-        t_f, tau_f, tau_hat, stuck = _idim_inverse(loaded, recording)
+        t_f, tau_f, tau_hat, stuck, rows = _idim_inverse(loaded, recording)
     else:
         t_f, tau_f, tau_hat = _chain_inverse(loaded, recording)
     names = [f"tau{j + 1}" for j in range(tau_f.shape[1])]
@@ -277,12 +284,15 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     if stuck is not None and np.any(stuck):
         shown_f[stuck], shown_hat[stuck] = np.nan, np.nan
     series["inverse"] = (t_f, {nm: (shown_f[:, j], shown_hat[:, j]) for j, nm in enumerate(names)})
+    index = np.arange(tau_f.shape[0])  # (c)'s rows in the decimated sequence
+    kept = np.ones(tau_f.shape, dtype=bool) if stuck is None else ~stuck
     if stuck is not None:  # (c): the rows where every joint's equation is kept
         free = ~np.any(stuck, axis=1)
         if free.all():
             pass
         elif free.sum() > 2 * max_lag + 1:
             t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
+            index, kept = index[free], kept[free]
             notes.append(
                 "(c) runs on the kept rows joined end to end: its lags span the gaps "
                 "where rows near rest were dropped"
@@ -298,6 +308,16 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     if _enough_for_residual(tau_f.shape[0], max_lag, what, notes):
         residual = residual_analysis(tau_hat - tau_f, max_lag=max_lag)
         residual["of"] = "inverse-model torque error (filtered)"
+        if rows is not None:  # IDIM: against the filters' colouring, position noise, the model
+            explain_inverse_residual(
+                residual,
+                tau_hat - tau_f,
+                tau_f,
+                nd=rows.decimate,
+                index=index,
+                kept=kept,
+                position_noise=_position_noise_draws(loaded, recording, rows, index, kept),
+            )
     return rel, fits, out_rel, residual
 
 

@@ -65,13 +65,23 @@ def _linear_inverse(loaded, recording):
 
 
 def _idim_inverse(loaded, recording):
-    """(t, τ_f, τ̂, stuck) of an IDIM result: the fit's rows, its near-rest equations dropped.
+    """(t, τ_f, τ̂, stuck, rows) of an IDIM result: the fit's rows, its near-rest equations
+    dropped.
 
     The rows are built with the fit's filter settings and ``stick_threshold`` (`idim_rows`), so
     a Coulomb joint's equations near rest are zero on both sides, as in the fit, and the
     relative error is the fit's on the fit's own record. ``stuck`` (rows × joints, bool) is
-    None when nothing is dropped.
+    None when nothing is dropped; ``rows`` is the `IDIMRows` (its ``decimate`` for the residual
+    test's filter colouring).
     """
+    rows, beta = _idim_rows(loaded, recording)
+    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck, rows
+
+
+def _idim_rows(loaded, recording, **settings):
+    """The `IDIMRows` of an IDIM result on ``recording`` (the fit's settings, overridden by
+    ``settings``: ``cutoff``, ``half_width``, ``decimate``, ``stick_threshold``) and its base
+    parameter vector β."""
     from ...estimators.idim import base_regressor_info, idim_rows
 
     d = loaded.data
@@ -92,24 +102,30 @@ def _idim_inverse(loaded, recording):
             f"({arg('model', '...', cli='MODEL')})."
         )
     threshold, _ = _idim_threshold(loaded)
+    chosen = {
+        "cutoff": d.get("cutoff", "auto"),
+        "half_width": d.get("half_width"),
+        "decimate": d.get("decimate", "auto"),
+        "stick_threshold": threshold,
+    }
+    chosen.update(settings)
     rows = idim_rows(
         model,
         recording,
         info=info,
         differentiation=d.get("differentiation", "physid"),
-        cutoff=d.get("cutoff", "auto"),
-        half_width=d.get("half_width"),
-        decimate=d.get("decimate", "auto"),
-        stick_threshold=threshold,
+        **chosen,
     )
     joints = d.get("reversal_joints") or ()
+    if "stick_threshold" in settings:  # the caller applies the fit's masks itself
+        joints = ()
     if joints and rows.reversal is not None:  # the reversal equations the fit dropped
         from ...estimators.idim.estimator import _drop_reversals
 
         mask = np.zeros(rows.W.shape[1], dtype=bool)
         mask[[int(j) - 1 for j in joints]] = True
         rows = _drop_reversals(rows, mask)
-    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
+    return rows, beta
 
 
 def _chain_inverse(loaded, recording):
@@ -196,3 +212,42 @@ def _stick_note(loaded, stuck) -> str:
         "makes the friction torque unknown; (c) uses the "
         f"{free} rows where no equation is dropped"
     )
+
+
+def _position_noise_draws(loaded, recording, rows, index, kept, draws: int = 8, seed: int = 0):
+    """A callable for `explain_inverse_residual`: the torque residuals white noise on the
+    measured positions, at the bound ``σ_b = std(Δ²q_m) / √6`` per joint, gives through the
+    fit's rows (``(W(q_m + n) − W(q_m)) β`` on ``index``, zero where not ``kept``), and ``σ_b``.
+
+    The rows are rebuilt with the fit's filters (the cut-off, half-width and ``nd`` of ``rows``)
+    and no stiction rule, so that both sides have the same equations; seeded.
+    """
+
+    def run():
+        import dataclasses
+
+        nj = int(loaded.model.n_joints)
+        names = list(recording.names)
+        cols = [names.index(f"q{j + 1}") for j in range(nj)]
+        data = np.array(recording.data, dtype=float)
+        sigma = np.std(np.diff(data[:, cols], 2, axis=0), axis=0) / np.sqrt(6.0)
+        same = {
+            "cutoff": rows.cutoff,
+            "half_width": rows.half_width,
+            "decimate": rows.decimate,
+            "stick_threshold": 0.0,
+        }
+        base, beta = _idim_rows(loaded, recording, **same)
+        rng = np.random.default_rng(seed)
+        out = []
+        for _ in range(draws):
+            noisy = data.copy()
+            noisy[:, cols] += rng.normal(size=(data.shape[0], nj)) * sigma
+            moved, _ = _idim_rows(loaded, dataclasses.replace(recording, data=noisy), **same)
+            if moved.W.shape != base.W.shape:
+                return [], sigma
+            d = ((moved.W - base.W) @ beta)[index]
+            out.append(np.where(kept, d, 0.0))
+        return out, sigma
+
+    return run

@@ -40,7 +40,7 @@ from .solve import (
     lstsq,
 )
 from .uncertainty import STDERR_METHODS, covariance
-from .verdict import iv_verdict, torque_noise_floor, torque_verdict
+from .verdict import identification_verdict, iv_verdict, torque_noise_floor, torque_verdict
 
 __all__ = ["IDIMEstimator", "METHODS", "REL_ERROR_FAIL", "REL_ERROR_FAIL_JOINT"]
 
@@ -243,6 +243,9 @@ class IDIMEstimator(EstimatorMixin):
         cond = float(condition_number(rows.W * est.weights[None, :, None]))
         rel = _relative_errors(rows.tau, e)
         success, message = self._verdict(est, rows, rel, cond, recs)
+        overall = float(np.linalg.norm(e) / max(np.linalg.norm(rows.tau), 1e-300))
+        ok, sentence = identification_verdict(est.beta, cov, reason, cond, COND_WARN, overall)
+        success, message = success and ok, message + sentence
         message += describe_controller(loops) if loops else ""
         scale = implausible_scale(dict(zip(info.names, est.beta, strict=True)), model, recs)
         success, message = gate(success, message, [*_implausible(rows.tau, e), *scale])

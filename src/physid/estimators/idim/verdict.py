@@ -23,11 +23,15 @@ __all__ = [
     "torque_noise_sigma",
     "noise_floor",
     "iv_verdict",
+    "identification_verdict",
     "NOISE_MARGIN",
     "IV_STABLE",
     "SMALL_JOINT",
 ]
 
+#: A fit is "weakly identified" (not a success) when more than this fraction of its base
+#: parameters have a standard error larger than the estimate itself.
+WEAK_FRACTION = 0.5
 #: A residual is "more than noise" above this multiple of the noise floor.
 NOISE_MARGIN = 3.0
 #: IV whose last three relative changes are below this is stable: not converging to ``tol`` is
@@ -211,4 +215,63 @@ def iv_verdict(changes, tol: float):
         f" IV did not converge in {len(changes)} iterations (last relative change "
         f"{last:.2g} > tol {tol:g}); raise max_iter, check the gains, or improve the "
         "excitation."
+    )
+
+
+def identification_verdict(beta, cov, reason, cond: float, cond_limit: float, rel_error: float):
+    """``(ok, sentence)``: can the data support the estimate ("weakly identified" if not)?
+
+    A small torque residual does not make an estimate: with a poorly exciting motion most base
+    parameters are free to move along the regressor's near-null directions. The fit is refused
+    as weakly identified when the column-scaled condition number κ exceeds ``cond_limit`` (the
+    conditioning warning's level, `physid.estimators.idim.solve.COND_WARN`) *and* the
+    first-order bound on the parameters' relative error, ``κ × rel_error`` (the residual taken
+    as the perturbation of the torques), exceeds 1; or when more than `WEAK_FRACTION` of the
+    estimates are smaller than their standard errors. (A noise-free record leaves a residual at
+    rounding level: a large κ then still pins the estimate, and the fit stands, with the
+    conditioning warning.)
+
+    Parameters
+    ----------
+    beta : ndarray, shape (p,)
+        The base-parameter estimate.
+    cov : ndarray, shape (p, p) or None
+        Its covariance (``reason`` None) [units²].
+    reason : str or None
+        Why there is no covariance (then only the condition number counts).
+    cond : float
+        Condition number of the (column-scaled, weighted) regressor solved.
+    cond_limit : float
+    rel_error : float
+        Overall relative torque error ``‖e‖ / ‖τ‖`` of the fit.
+
+    Returns
+    -------
+    ok : bool
+    sentence : str
+        Empty when ``ok``.
+    """
+    beta = np.asarray(beta, dtype=float)
+    weak, p = 0, beta.size
+    if reason is None and cov is not None:
+        sd = np.sqrt(np.clip(np.diag(np.asarray(cov, dtype=float)), 0.0, None))
+        weak = int(np.count_nonzero(sd > np.abs(beta)))
+    counted = f"{weak} of {p} estimates are smaller than their standard errors"
+    bound = cond * rel_error if np.isfinite(cond) else float("inf")
+    ill = not np.isfinite(cond) or (cond > cond_limit and bound > 1.0)
+    if not ill and weak <= WEAK_FRACTION * p:
+        return True, ""
+    cause = (
+        f"the condition number {cond:.3g} is above {cond_limit:.0e} and, with a relative torque "
+        f"error of {rel_error:.2g}, bounds the parameters' relative error only by "
+        f"{bound:.2g} (more than 100 %)"
+        if ill
+        else f"more than {100 * WEAK_FRACTION:g} % of the estimates are smaller than their "
+        "standard errors"
+    )
+    return False, (
+        f" Weakly identified: {cause} ({counted}); the motion does not excite the base "
+        "parameters enough for the data to support the estimate, however small the torque "
+        "error. Design an exciting trajectory (physid design-excitation MODEL), record longer, "
+        "or fit fewer parameters."
     )
