@@ -245,3 +245,18 @@ def test_a_file_read_in_blocks_equals_the_in_memory_fit(arm, rec, tmp_path):
     with open_blocks(path) as source:
         got = fit_streamed(arm, source, method="wls", block_samples=1234, progress=False)
     _same(ref, got)
+
+
+def test_a_weakly_identified_record_fails_streamed_as_in_memory(tmp_path):
+    from physid.cli import main
+
+    data = tmp_path / "run.csv"  # arm6, 2 s, 1e-4 rad: condition number 1.7e4, torques fit 0.4 %
+    assert main(["simulate", "arm6", "--out", str(data), "--quiet", "--noise-std", "1e-4",
+                 "--seed", "1", "--duration", "2"]) == 0  # fmt: skip
+    model, rec = physid.load_model("arm6"), physid.load_recording(data)
+    memory = _fit(model, rec)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        streamed = fit_streamed(model, rec, progress=False, block_samples=900)
+    assert memory.success is False and "Weakly identified" in memory.message
+    assert streamed.success is False and "Weakly identified" in streamed.message

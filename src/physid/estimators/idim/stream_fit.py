@@ -23,7 +23,7 @@ from .result import IDIMResult
 from .solve import COND_WARN, ConditionWarning, check_excitation, condition_number
 from .stream_moments import RowMoments, noise_correlation
 from .stream_plan import StreamPlan, motionless
-from .verdict import iv_verdict, noise_floor, torque_verdict_sums
+from .verdict import identification_verdict, iv_verdict, noise_floor, torque_verdict_sums
 
 __all__ = ["fit_moments"]
 
@@ -158,6 +158,11 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
     )
     sample = _sample(c, est["beta"], dropped, notes, plan.thinning(nd))
     success, message = _verdict(plan, c, est, (e2, t2, kept), cond, nd, why, n_stuck)
+    reason = None if np.all(np.isfinite(cov)) else "the normal equations are singular"
+    ok, sentence = identification_verdict(
+        est["beta"], cov, reason, cond, COND_WARN, rel["overall"]
+    )  # as IDIMEstimator.fit: an estimate the data cannot support is not a success
+    success, message = success and ok, message + sentence
     from ..plausibility import gate
 
     success, message = gate(success, message, _implausible(c, n_stuck, sample))
