@@ -294,6 +294,6 @@ def _position_noise_fits(result, e, observed, expected, rho, position_noise, fai
         f"{100 * evidence['position_noise_explained_pooled']:.0f} % of that departure "
         f"(at least {100 * evidence['position_noise_explained']:.0f} % on each joint that shows "
         "it), with the power that noise gives. Reduce the position noise (encoder resolution, a lower cut-off) "
-        "or use an errors-in-variables estimate (--method idim-iv); the model need not change"
+        "or use an errors-in-variables estimate (IDIM-IV); the model need not change"
     )
     return True
