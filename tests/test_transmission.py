@@ -1,106 +1,45 @@
 """Transmissions: gear ratios, a coupled wrist, motor-side terms and channels (models/transmission).
 
 The independent implementation is pinocchio for the rigid bodies plus the motor terms written
-here from their definition (θm = K q, τ = Kᵀ τm, rotor torques on the motor side).
+from their definition in tests/_wrist_logs.py (θm = K q, τ = Kᵀ τm, rotor torques on the
+motor side).
 """
 
 import contextlib
 import io
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import physid
+from _wrist_logs import (
+    FCM,
+    FVM,
+    IM,
+    JOINTS,
+    URDF,
+    K,
+    coupled,
+    sidecar,
+    toml_matrix,
+    trajectory,
+    truth_torque,
+    write_log,
+)
 from physid.cli import main
 from physid.errors import ModelFileError
 
 pin = pytest.importorskip("pinocchio")
 
-URDF = Path(physid.__file__).parent / "models" / "data" / "arm6.urdf"
-JOINTS = [
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-]
-N = np.array([100.0, 100.0, 80.0, 60.0, 60.0, 50.0])
-K = np.diag(N)
-K[5, 4] = N[5]  # motor 6 turns with q5 + q6
-IM = np.array([4e-5, 4e-5, 3e-5, 2e-5, 2e-5, 1e-4])  # rotor inertias [kg·m²]
-FVM = np.array([1e-4, 1e-4, 1e-4, 1e-4, 1e-4, 1e-3])  # motor-side viscous [N·m·s/rad]
-FCM = np.array([5e-3, 5e-3, 5e-3, 3e-3, 3e-3, 2e-2])  # motor-side Coulomb [N·m]
-
-
-def _toml_matrix(M):
-    return "[" + ", ".join("[" + ", ".join(repr(float(v)) for v in r) + "]" for r in M) + "]"
-
-
-def _motor_tables(values=None):
-    out = ""
-    for k in range(6):
-        if values is None:
-            out += (
-                f'[transmission.motors.motor_{k + 1}]\ninertia = "Im{k + 1}"\n'
-                f'viscous = "Fvm{k + 1}"\ncoulomb = "Fcm{k + 1}"\n'
-            )
-        else:
-            im, fv, fc = (float(v[k]) for v in values)
-            out += (
-                f"[transmission.motors.motor_{k + 1}]\ninertia = {im!r}\nviscous = {fv!r}\n"
-                f"coulomb = {fc!r}\n"
-            )
-    return out
-
-
-def _sidecar(tmp_path, name, body):
-    (tmp_path / "arm6.urdf").write_text(URDF.read_text())
-    path = tmp_path / name
-    path.write_text(f'extends = "arm6.urdf"\n{body}')
-    return path
-
-
-def _coupled(tmp_path, values=None, extra=""):
-    body = f"[transmission]\nmotor_from_joint = {_toml_matrix(K)}\n{extra}" + _motor_tables(values)
-    return _sidecar(tmp_path, "coupled.toml", body)
-
-
-def _trajectory(seed, T=20.0, fs=200.0):
-    """A finite Fourier series per joint (period 10 s), with exact derivatives."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(0.0, T, 1.0 / fs)
-    w = 2 * np.pi / 10.0
-    q, qd, qdd = (np.zeros((t.size, 6)) for _ in range(3))
-    for j in range(6):
-        for h in range(1, 5):
-            a, b = rng.normal(scale=0.4 / h, size=2)
-            s, c = np.sin(h * w * t), np.cos(h * w * t)
-            q[:, j] += a * s + b * c
-            qd[:, j] += h * w * (a * c - b * s)
-            qdd[:, j] += -((h * w) ** 2) * (a * s + b * c)
-    return t, q, qd, qdd
-
-
-def _truth_torque(q, qd, qdd):
-    """pinocchio's rigid bodies + the rotors written from their definition (not physid's)."""
-    pm = pin.buildModelFromUrdf(str(URDF))
-    data = pm.createData()
-    tau = np.array([pin.rnea(pm, data, q[s], qd[s], qdd[s]) for s in range(q.shape[0])])
-    thd, thdd = qd @ K.T, qdd @ K.T  # θ̇m = K q̇, θ̈m = K q̈
-    tau_m = IM * thdd + FVM * thd + FCM * np.sign(thd)  # on the motor side
-    return tau + tau_m @ K  # τ = Kᵀ τm
-
 
 def test_coupled_wrist_matches_pinocchio_plus_motor_terms(tmp_path):
     """Inverse dynamics, M(q) and the regressor against the independent implementation."""
-    model = physid.load_model(_coupled(tmp_path, values=(IM, FVM, FCM)))
+    model = physid.load_model(coupled(tmp_path, values=(IM, FVM, FCM)))
     assert model.parameter_names[-3:] == ("Im6", "Fvm6", "Fcm6")
-    _, q, qd, qdd = _trajectory(3, T=0.5)
+    _, q, qd, qdd = trajectory(3, T=0.5)
     tau = model.inverse_dynamics(q, qd, qdd)
-    truth = _truth_torque(q, qd, qdd)
+    truth = truth_torque(q, qd, qdd)
     assert np.max(np.abs(tau - truth)) < 1e-10 * np.max(np.abs(truth))
     Y = model.regressor(q, qd, qdd)
     assert np.max(np.abs(Y @ model.parameter_vector() - truth)) < 1e-10 * np.max(np.abs(truth))
@@ -126,7 +65,7 @@ def test_motor_channels_become_joint_channels(tmp_path):
     kt = [0.5, 0.5, 0.4, 0.3, 0.3, 0.3]
     q0 = [0.0, -1.5, 1.5, 0.0, 0.0, 0.0]
     extra = f"joint_offsets = {q0}\ntorque_constants = {kt}\n"
-    model = physid.load_model(_coupled(tmp_path, extra=extra))
+    model = physid.load_model(coupled(tmp_path, extra=extra))
     rng = np.random.default_rng(0)
     q = rng.normal(size=(7, 6))
     th = (q - q0) @ K.T
@@ -167,35 +106,22 @@ def _identify_and_validate(tmp_path, model_path, tag, status=0):
     return json.loads(buf.getvalue())["relative_error"], json.loads(saved.read_text())
 
 
-def _write_log(path, seed, noise):
-    """A motor-side log (qm, taum) of the coupled robot, without a q or tau column."""
-    t, q, qd, qdd = _trajectory(seed)
-    tau = _truth_torque(q, qd, qdd)
-    rng = np.random.default_rng(seed + 100)
-    tau_m = np.linalg.solve(K.T, tau.T).T + noise * rng.normal(size=tau.shape)
-    th = q @ K.T
-    names = ["t"] + [f"qm{k + 1}" for k in range(6)] + [f"taum{k + 1}" for k in range(6)]
-    np.savetxt(
-        path, np.column_stack([t, th, tau_m]), delimiter=",", header=",".join(names), comments=""
-    )
-
-
 def test_coupled_wrist_identification_beats_the_model_without_coupling(tmp_path):
     """Held out, the coupled model's wrist torque error is >= 2× smaller than without the
     coupling terms (the same K for the channels, motor 6's terms on joint 6 alone), and the
     coupled fit recovers motor 6's inertia and friction (seeded; noise 2 mN·m motor-side)."""
-    _write_log(tmp_path / "ident.csv", 1, 0.002)
-    _write_log(tmp_path / "held.csv", 2, 0.002)
-    coupled = _coupled(tmp_path)
+    write_log(tmp_path / "ident.csv", 1, 0.002)
+    write_log(tmp_path / "held.csv", 2, 0.002)
+    coupled_path = coupled(tmp_path)
     # without coupling terms: τ = Kᵀ τm and q = K⁻¹ θm as above, but armature and friction per
     # joint (what a per-joint recipe can say about motor 6)
     joints = "".join(f"[joints.{j}]\narmature = 0\nviscous = 0\ncoulomb = 0\n" for j in JOINTS)
-    plain = _sidecar(
+    plain = sidecar(
         tmp_path,
         "plain.toml",
-        f"[transmission]\nmotor_from_joint = {_toml_matrix(K)}\n{joints}",
+        f"[transmission]\nmotor_from_joint = {toml_matrix(K)}\n{joints}",
     )
-    err_c, res_c = _identify_and_validate(tmp_path, coupled, "coupled")
+    err_c, res_c = _identify_and_validate(tmp_path, coupled_path, "coupled")
     err_p, _ = _identify_and_validate(tmp_path, plain, "plain", status=1)
     for j in ("tau5", "tau6"):
         assert err_p[j] >= 2.0 * err_c[j], (j, err_p[j], err_c[j])
@@ -215,7 +141,7 @@ def test_coupled_wrist_identification_beats_the_model_without_coupling(tmp_path)
         ),
         (
             "[transmission]\nmotor_from_joint = "
-            + _toml_matrix(np.vstack([np.eye(6)[:5], np.eye(6)[4]]))
+            + toml_matrix(np.vstack([np.eye(6)[:5], np.eye(6)[4]]))
             + "\n",
             r"motor_from_joint is singular .*smallest singular value",
         ),
@@ -245,11 +171,11 @@ def test_coupled_wrist_identification_beats_the_model_without_coupling(tmp_path)
 )
 def test_bad_transmission_tables(tmp_path, body, regex):
     with pytest.raises(ModelFileError, match=regex):
-        physid.load_model(_sidecar(tmp_path, "coupled.toml", body))
+        physid.load_model(sidecar(tmp_path, "coupled.toml", body))
 
 
 def test_currents_need_torque_constants(tmp_path):
-    model = physid.load_model(_coupled(tmp_path))
+    model = physid.load_model(coupled(tmp_path))
     cols = {f"im{k + 1}": np.ones(3) for k in range(6)}
     with pytest.raises(ModelFileError, match="has no torque_constants"):
         model.joint_side_channels(list(cols), cols.__getitem__)
@@ -290,7 +216,7 @@ def test_forward_dynamics_of_a_coupled_model_inverts_inverse_dynamics(
 ):
     """make_rhs (simulation): q̈ = M⁻¹(τ − h) with the rotors' Kᵀ diag(Im) K in M."""
     values = (IM, FVM, np.zeros(6))  # no Coulomb term: sign(θ̇m) is exact here
-    model = physid.load_model(_coupled(tmp_path, values=values))
+    model = physid.load_model(coupled(tmp_path, values=values))
     if kernel == "numpy":
         monkeypatch.setattr(model, "_core_kernel", lambda: None)
     rhs = model.make_rhs()
@@ -305,7 +231,7 @@ def test_forward_dynamics_of_a_coupled_model_inverts_inverse_dynamics(
 def test_simulating_motor_coulomb_terms_says_how(tmp_path):
     from physid.models.urdf import ModelWarning
 
-    model = physid.load_model(_coupled(tmp_path, values=(IM, FVM, FCM)))
+    model = physid.load_model(coupled(tmp_path, values=(IM, FVM, FCM)))
     with pytest.warns(
         ModelWarning, match=r"motor-side Coulomb terms \['Fcm1', .*tanh\(θ̇m / 1 rad/s\)"
     ):
@@ -315,12 +241,12 @@ def test_simulating_motor_coulomb_terms_says_how(tmp_path):
 def test_identify_from_encoder_counts_and_currents_through_the_map(tmp_path):
     """`--map qm1=enc1,…,im1=cur1,…`: the model's torque constants turn currents into torques;
     noise-free, motor 6's terms come back to 1e-3."""
-    _write_log(tmp_path / "log.csv", 1, 0.0)
+    write_log(tmp_path / "log.csv", 1, 0.0)
     data = np.loadtxt(tmp_path / "log.csv", delimiter=",", skiprows=1)
     data[:, 7:] /= 2.0  # currents of motors with kt = 2 N·m/A
     head = ["time"] + [f"enc{k}" for k in range(1, 7)] + [f"cur{k}" for k in range(1, 7)]
     np.savetxt(tmp_path / "raw.csv", data, delimiter=",", header=",".join(head), comments="")
-    model = _coupled(tmp_path, extra="torque_constants = [2, 2, 2, 2, 2, 2]\n")
+    model = coupled(tmp_path, extra="torque_constants = [2, 2, 2, 2, 2, 2]\n")
     mapping = "t=time," + ",".join(f"qm{k}=enc{k},im{k}=cur{k}" for k in range(1, 7))
     saved = tmp_path / "fit.json"
     argv = ["identify", str(tmp_path / "raw.csv"), "--model", str(model), "--map", mapping]
@@ -357,7 +283,7 @@ def test_gear_ratio_columns_for_either_sign_of_the_ratio():
 def test_currents_beside_motor_and_joint_torques_name_both_clashes(tmp_path):
     """im with taum: the message names taum (and any joint torque channel found with them)."""
     kt = [0.5, 0.5, 0.4, 0.3, 0.3, 0.3]
-    model = physid.load_model(_coupled(tmp_path, extra=f"torque_constants = {kt}\n"))
+    model = physid.load_model(coupled(tmp_path, extra=f"torque_constants = {kt}\n"))
     cols = {f"{stem}{k + 1}": np.zeros(4) for stem in ("im", "taum") for k in range(6)}
     with pytest.raises(ModelFileError, match=r"both motor-side im1..im6 and \['taum1..'\]"):
         model.joint_side_channels(list(cols), cols.__getitem__, "log.csv")
