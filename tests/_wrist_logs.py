@@ -99,12 +99,13 @@ def truth_torque(q, qd, qdd):
     return tau + tau_m @ K  # τ = Kᵀ τm
 
 
-def write_log(path, seed, noise, T=20.0):
+def write_log(path, seed, noise, T=20.0, noise_seed=None):
     """A motor-side log (qm, taum) of the coupled robot, without a q or tau column; ``noise``
-    [N·m] is the standard deviation of white noise on the motor torques."""
+    [N·m] is the standard deviation of white noise on the motor torques (drawn with
+    ``noise_seed``, by default ``seed + 100``)."""
     t, q, qd, qdd = trajectory(seed, T=T)
     tau = truth_torque(q, qd, qdd)
-    rng = np.random.default_rng(seed + 100)
+    rng = np.random.default_rng(seed + 100 if noise_seed is None else noise_seed)
     tau_m = np.linalg.solve(K.T, tau.T).T + noise * rng.normal(size=tau.shape)
     th = q @ K.T
     names = ["t"] + [f"qm{k + 1}" for k in range(6)] + [f"taum{k + 1}" for k in range(6)]
