@@ -4,16 +4,20 @@ The full-rate rows ``[W | τ]`` of a record are computed for one *owned* range o
 samples ``[a, b)`` at a time, from the raw samples around it with margins:
 
 * the physid FIR state filter needs its half-width M of raw samples on each side (exact);
-* the zero-phase IIR filters (the parallel Chebyshev filter of every candidate nd, the
-  Butterworth state filter) need the length after which their impulse response stays below
-  1e-17 of its peak (`stream_plan.decay_length`): a cut inside the record then changes nothing
-  within the owned range beyond rounding. A window that holds the record's first or last sample
-  uses there exactly the padding the in-memory code uses (``padlen = min(n − 1, edge)``), so the
-  end effects are the same;
+* the parallel Chebyshev filter (zero phase, every candidate nd) needs no left margin: its
+  forward pass continues from the state the previous window left at ``a``
+  (`stream_filter.filtfilt_window`, bit for bit the whole record's), and only its backward
+  pass starts inside the record, at the end of a right margin over which its free response
+  decays below `PARALLEL_DECAY` of the impulse response's peak (`stream_plan.decay_length`);
+* the Butterworth state filter (zero phase) needs the length after which its impulse response
+  stays below `stream_plan.DECAY` on each side;
+* a window that holds the record's first or last sample uses there exactly the padding the
+  in-memory code uses (``padlen = min(n − 1, edge)``), so the end effects are the same;
 * the stiction masks are moving windows (at most `STILL_SECONDS` plus the filters' main lobes).
 
-Columns of ``[W | τ]`` that are exactly zero in a window are not filtered (a zero-phase filter of
-zero is zero): a 7-DOF base regressor has about 40 % of them.
+Columns of ``[W | τ]`` that are exactly zero in a window, and whose carried forward state is
+zero, are not filtered (a zero-phase filter of zero is zero): a 7-DOF base regressor has about
+40 % of them.
 """
 
 from __future__ import annotations
@@ -27,12 +31,22 @@ from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dila
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
+from .stream_filter import filtfilt_window
 from .stream_plan import StreamPlan, decay_length, still_windows
 
-__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS"]
+__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS", "PARALLEL_DECAY"]
 
 #: Columns of the full-rate rows run through the parallel filter at a time.
 COLUMNS = 32
+#: The parallel filter's right margin: where its impulse response stays below this (relative).
+#: Measured (white noise through the windows against one `scipy.signal.sosfiltfilt`, nd 5 to
+#: 300): the backward pass's free response left at the margin's start is about 100× this
+#: threshold, 1e-14 here, below the filter's own rounding (5e-16 at nd = 5 … 2e-13 at nd = 300,
+#: relative); the estimate of the 7-DOF benchmark and of the tests moves by 1e-13 relative or
+#: less between 1e-17 and 1e-12 (test goal 1e-10). 1e-10 would leave 1e-12 of transient,
+#: above the rounding at small nd: 1e-12 is the shortest with two orders to spare (30 %
+#: shorter than 1e-17).
+PARALLEL_DECAY = 1e-12
 
 
 class Margins:
@@ -40,11 +54,15 @@ class Margins:
 
     def __init__(self, plan: StreamPlan):
         nds = [nd for nd in plan.candidates if nd > 1]
-        par = max([decay_length(_decimation_sos(nd)) for nd in nds], default=0)
+        par = max([decay_length(_decimation_sos(nd), PARALLEL_DECAY) for nd in nds], default=0)
         reach = max(contamination_reach(plan.cutoff, nd) for nd in plan.candidates)
         edge = max(decimation_edge(nd) for nd in plan.candidates)
-        #: full-rate samples on each side of the owned range fed to the parallel filter
+        #: full-rate samples after the owned range fed to the parallel filter (its backward
+        #: pass's transient, the masks' reach)
         self.parallel = max(par, edge + 1, reach + 2)
+        #: full-rate samples before the owned range: the masks' reach and the parallel
+        #: filter's end padding (its last ``edge + 1`` samples), not the filter's transient
+        self.left = max(edge + 1, reach + 2)
         self.butter = 0
         if plan.settings["differentiation"] == "butterworth":
             self.butter = decay_length(_butter(plan.cutoff))
@@ -112,7 +130,7 @@ def windows(plan: StreamPlan, k: int, mg: Margins):
     step = plan.block_samples
     for a in range(0, n_full, step):
         b = n_full if n_full - a < step + step // 2 else a + step
-        c0, c1 = max(0, a - mg.parallel), min(n_full, b + mg.parallel)
+        c0, c1 = max(0, a - mg.left), min(n_full, b + mg.parallel)
         if plan.settings["differentiation"] == "physid":
             r0, r1 = c0, c1 + 2 * plan.half_width
         else:
@@ -165,7 +183,8 @@ def window_rows(
     timings : dict, optional
     cache : dict, optional
         Carried from one window to the next of the same source: the full-rate rows of the
-        previous window, whose overlap with this one is copied instead of computed again.
+        previous window, whose overlap with this one is copied instead of computed again, and
+        the parallel filter's forward state (required for every window but the first).
 
     Returns
     -------
@@ -195,25 +214,18 @@ def window_rows(
     if cache is not None:
         cache["rows"] = (c0, c1)
     tic = _tick(timings, "regressor", tic)
-    live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
+    nonzero = np.any(stacked != 0.0, axis=0)
     n_full = plan.n_stacked(k)
     stick_raw = _sticking(plan, k, q, r0, mg)
+    states = cache.setdefault("forward", {}) if cache is not None else {}
     out = {}
     for nd in plan.candidates:
         edge = decimation_edge(nd)
         s = np.arange(a, b)
         if nd > 1:
             s = s[(s >= edge) & (s < n_full - edge) & ((s - edge) % nd == 0)]
-        dec = np.zeros((s.size, stacked.shape[1]))
-        if nd > 1 and s.size:
-            sos, padlen = _decimation_sos(nd), min(c1 - c0 - 1, edge)
-            for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
-                cols = live[i : i + COLUMNS]
-                # time on the last, contiguous axis: sosfiltfilt's fast layout
-                block = np.ascontiguousarray(stacked[:, cols].T)
-                y = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)
-                dec[:, cols] = y[:, s - c0].T
-        elif s.size:
+            dec = _parallel(stacked, nonzero, s, win, n_full, nd, states)
+        else:
             dec = stacked[s - c0].copy()
         Wk = dec[:, : nj * p].reshape(-1, nj, p)
         tk = dec[:, nj * p :]
@@ -224,6 +236,32 @@ def window_rows(
         out[nd] = (Wk, tk, s + off, t_raw[s + off - r0], stuck, rev)
     _tick(timings, "parallel filter", tic)
     return out
+
+
+def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict):
+    """The parallel filter of ``stacked`` (full-rate rows ``[c0, c1)``) at the samples ``s`` of
+    the owned range: `filtfilt_window` per chunk of live columns, the forward state carried in
+    ``states[nd]`` from one window to the next."""
+    a, b, c0, c1 = win[:4]
+    sos, padlen = _decimation_sos(nd), min(n_full - 1, decimation_edge(nd))
+    last = c1 == n_full
+    p0 = max(min(a, n_full - 1 - padlen), 0) if last else a  # the end padding's samples
+    if a > 0 and nd not in states:
+        raise ValueError("the parallel filter's state of the previous window is missing")
+    zf = states.get(nd)
+    if zf is None:
+        zf = states[nd] = np.zeros((sos.shape[0], stacked.shape[1], 2))
+    live = np.flatnonzero(nonzero | np.any(zf != 0.0, axis=(0, 2)))
+    dec = np.zeros((s.size, stacked.shape[1]))
+    for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
+        cols = live[i : i + COLUMNS]
+        # time on the last, contiguous axis: sosfilt's fast layout
+        block = np.ascontiguousarray(stacked[p0 - c0 :, cols].T)
+        y, zf[:, cols] = filtfilt_window(
+            sos, block, a - p0, b - p0, s - a, zf[:, cols], first=a == 0, last=last, padlen=padlen
+        )
+        dec[:, cols] = y.T
+    return dec
 
 
 def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
