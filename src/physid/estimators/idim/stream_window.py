@@ -54,7 +54,10 @@ class Margins:
 
     def __init__(self, plan: StreamPlan):
         nds = [nd for nd in plan.candidates if nd > 1]
-        par = max([decay_length(_decimation_sos(nd), PARALLEL_DECAY) for nd in nds], default=0)
+        #: nd -> samples after the owned range the parallel filter of nd needs (its backward
+        #: pass's transient)
+        self.right = {nd: decay_length(_decimation_sos(nd), PARALLEL_DECAY) for nd in nds}
+        par = max(self.right.values(), default=0)
         reach = max(contamination_reach(plan.cutoff, nd) for nd in plan.candidates)
         edge = max(decimation_edge(nd) for nd in plan.candidates)
         #: full-rate samples after the owned range fed to the parallel filter (its backward
@@ -224,7 +227,7 @@ def window_rows(
         s = np.arange(a, b)
         if nd > 1:
             s = s[(s >= edge) & (s < n_full - edge) & ((s - edge) % nd == 0)]
-            dec = _parallel(stacked, nonzero, s, win, n_full, nd, states)
+            dec = _parallel(stacked, nonzero, s, win, n_full, nd, states, mg.right[nd])
         else:
             dec = stacked[s - c0].copy()
         Wk = dec[:, : nj * p].reshape(-1, nj, p)
@@ -238,11 +241,12 @@ def window_rows(
     return out
 
 
-def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict):
+def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, right: int):
     """The parallel filter of ``stacked`` (full-rate rows ``[c0, c1)``) at the samples ``s`` of
-    the owned range: `filtfilt_window` per chunk of live columns, the forward state carried in
-    ``states[nd]`` from one window to the next."""
+    the owned range: `filtfilt_window` per chunk of live columns over ``[a, b + right)``, the
+    forward state carried in ``states[nd]`` from one window to the next."""
     a, b, c0, c1 = win[:4]
+    c1 = min(c1, b + right)  # a smaller nd's transient is shorter than the window's margin
     sos, padlen = _decimation_sos(nd), min(n_full - 1, decimation_edge(nd))
     last = c1 == n_full
     p0 = max(min(a, n_full - 1 - padlen), 0) if last else a  # the end padding's samples
@@ -256,7 +260,7 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict):
     for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
         cols = live[i : i + COLUMNS]
         # time on the last, contiguous axis: sosfilt's fast layout
-        block = np.ascontiguousarray(stacked[p0 - c0 :, cols].T)
+        block = np.ascontiguousarray(stacked[p0 - c0 : c1 - c0, cols].T)
         y, zf[:, cols] = filtfilt_window(
             sos, block, a - p0, b - p0, s - a, zf[:, cols], first=a == 0, last=last, padlen=padlen
         )
