@@ -251,13 +251,13 @@ def _windowed_filtfilt(sos, x, step, margin, padlen):
     from physid.estimators.idim.stream_filter import filtfilt_window
 
     n = x.shape[1]
-    out, state, a = np.empty_like(x), None, 0
+    out, carry, a = np.empty_like(x), None, 0
     while a < n:
         b = min(n, a + step)
         c1 = min(n, b + margin)
         p0 = max(0, min(a, n - 1 - padlen)) if c1 == n else a  # the end padding's samples
-        y, state = filtfilt_window(
-            sos, x[:, p0:c1], a - p0, b - p0, np.arange(b - a), state,
+        y, carry = filtfilt_window(
+            sos, x[:, p0:c1], a - p0, b - p0, np.arange(b - a), carry,
             first=a == 0, last=c1 == n, padlen=padlen,
         )  # fmt: skip
         out[:, a:b] = y
@@ -292,7 +292,7 @@ def test_parallel_filter_window_by_window_equals_sosfiltfilt(nd, n, step):
 
     a = step
     y, _ = filtfilt_window(
-        sos, x[:, a : a + step + margin], 0, step, np.arange(step), np.zeros((sos.shape[0], 3, 2)),
+        sos, x[:, a : a + step + margin], 0, step, np.arange(step), (np.empty((3, 0)), np.zeros((sos.shape[0], 3, 2))),
         first=False, last=False, padlen=padlen,
     )  # fmt: skip
     assert np.max(np.abs(y - ref[:, a : a + step])) > 1e-3 * scale

@@ -45,7 +45,7 @@ def step_state(sos) -> np.ndarray:
     return _zi(sos.tobytes(), sos.shape[0])
 
 
-def filtfilt_window(sos, x, i0: int, i1: int, take, state, *, first: bool, last: bool, padlen: int):
+def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last: bool, padlen: int):
     """Samples of ``sosfiltfilt(sos, record, axis=-1, padlen=padlen)`` from a stretch of it.
 
     Parameters
@@ -55,12 +55,14 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, state, *, first: bool, last:
         Samples ``c0 .. c0 + m − 1`` of ``k`` signals of the record (time on the last axis).
     i0, i1 : int
         The window's own samples are ``x[:, i0:i1]`` (``c0 + i0 = a``, ``c0 + i1 = b``); the
-        forward pass starts at ``i0``, the samples after ``i1`` are the right margin.
+        samples after ``i1`` are the right margin.
     take : ndarray of int
         Samples wanted, relative to ``i0`` (in ``[0, i1 − i0)``).
-    state : ndarray, shape (n_sections, k, 2) or None
-        The forward pass's state after sample ``a − 1`` (what this function returned for the
-        previous window); ignored when ``first``.
+    carry : tuple or None
+        ``(ahead, state)``: the forward pass over the ``h`` samples from ``a`` on, shape (k, h),
+        and its state after them, shape (n_sections, k, 2) (what this function returned for
+        the previous window: nothing of the forward pass is computed twice); ignored when
+        ``first``.
     first : bool
         ``a`` is the record's first sample (then ``i0 = 0``, and ``x`` holds samples
         ``1 .. padlen`` too).
@@ -75,32 +77,35 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, state, *, first: bool, last:
     y : ndarray, shape (k, take.size)
         The filtered samples ``a + take``: bit for bit the whole record's when ``last``, else
         up to the free response left at the window's end.
-    state : ndarray, shape (n_sections, k, 2)
-        The forward state after sample ``b − 1`` (for the next window).
+    carry : tuple
+        ``(ahead, state)`` for the next window (``ahead``: the forward pass from ``b`` to
+        ``x``'s end).
     """
     zi = step_state(sos)
     if first:
+        ahead = np.empty((x.shape[0], 0))
         if padlen > 0:
             pad = 2 * x[:, :1] - x[:, padlen:0:-1]
-            _, state = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
+            _, z = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
         else:
-            state = zi * x[:, :1]
-    f_own, state_b = signal.sosfilt(sos, x[:, i0:i1], axis=-1, zi=state)
-    parts = [f_own]
-    z = state_b
-    if x.shape[1] > i1:
-        f_more, z = signal.sosfilt(sos, x[:, i1:], axis=-1, zi=z)
-        parts.append(f_more)
+            z = zi * x[:, :1]
+    else:
+        ahead, z = carry
+    h = ahead.shape[1]
+    if h > x.shape[1] - i0:
+        raise ValueError(f"the carried forward pass ({h} samples) runs past the window's end")
+    f = ahead
+    if x.shape[1] > i0 + h:  # the forward pass from where the previous window's stopped
+        f_new, z = signal.sosfilt(sos, x[:, i0 + h :], axis=-1, zi=z)
+        f = np.concatenate([ahead, f_new], axis=1) if h else f_new
+    carry = (f[:, i1 - i0 :].copy(), z)
+    if np.size(take) == 0:  # only the carry is wanted
+        return np.empty((x.shape[0], 0)), carry
+    # the backward pass from the end (through the end padding's forward pass when ``last``)
+    z = zi * f[:, -1:]
     if last and padlen > 0:
         pad = 2 * x[:, -1:] - x[:, -2 : -(padlen + 2) : -1]
-        f_pad, _ = signal.sosfilt(sos, pad, axis=-1, zi=z)
-        parts.append(f_pad)
-    if np.size(take) == 0:  # only the state is wanted
-        return np.empty((x.shape[0], 0)), state_b
-    # the backward pass, piece by piece from the end (the state carried: the same recursion)
-    z = zi * parts[-1][:, -1:]
-    for f in parts[:0:-1]:
-        _, z = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=z)
-    back, _ = signal.sosfilt(sos, f_own[:, ::-1], axis=-1, zi=z)
-    n_own = f_own.shape[1]
-    return back[:, n_own - 1 - np.asarray(take)], state_b
+        f_pad, _ = signal.sosfilt(sos, pad, axis=-1, zi=carry[1])
+        _, z = signal.sosfilt(sos, f_pad[:, ::-1], axis=-1, zi=zi * f_pad[:, -1:])
+    back, _ = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=z)
+    return back[:, f.shape[1] - 1 - np.asarray(take)], carry

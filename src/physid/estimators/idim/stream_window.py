@@ -244,7 +244,8 @@ def window_rows(
 def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, right: int):
     """The parallel filter of ``stacked`` (full-rate rows ``[c0, c1)``) at the samples ``s`` of
     the owned range: `filtfilt_window` per chunk of live columns over ``[a, b + right)``, the
-    forward state carried in ``states[nd]`` from one window to the next."""
+    forward pass carried in ``states[nd]`` from one window to the next (``(live, ahead, z)``:
+    the columns filtered so far, their forward pass from the owned range's end, its state)."""
     a, b, c0, c1 = win[:4]
     c1 = min(c1, b + right)  # a smaller nd's transient is shorter than the window's margin
     sos, padlen = _decimation_sos(nd), min(n_full - 1, decimation_edge(nd))
@@ -252,19 +253,31 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
     p0 = max(min(a, n_full - 1 - padlen), 0) if last else a  # the end padding's samples
     if a > 0 and nd not in states:
         raise ValueError("the parallel filter's state of the previous window is missing")
-    zf = states.get(nd)
-    if zf is None:
-        zf = states[nd] = np.zeros((sos.shape[0], stacked.shape[1], 2))
-    live = np.flatnonzero(nonzero | np.any(zf != 0.0, axis=(0, 2)))
+    was, ahead, z = states.get(nd, (np.zeros(0, dtype=np.intp), None, None))
+    # a column is filtered once it has held a non-zero value (its forward pass never returns
+    # to exactly zero); one that has not is zero after the filter
+    live = np.union1d(np.flatnonzero(nonzero), was)
+    pos = np.searchsorted(live, was)  # where the carried columns sit among the live ones
+    h = 0 if ahead is None else ahead.shape[1]
+    new_ahead = np.zeros((live.size, c1 - b))
+    new_z = np.zeros((sos.shape[0], live.size, 2))
     dec = np.zeros((s.size, stacked.shape[1]))
     for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
-        cols = live[i : i + COLUMNS]
+        chunk = slice(i, i + COLUMNS)
+        cols = live[chunk]
+        carry = None
+        if a > 0:  # the carried pass of these columns (zero for those not filtered before)
+            carry = np.zeros((cols.size, h)), np.zeros((sos.shape[0], cols.size, 2))
+            inside = (pos >= i) & (pos < i + cols.size)
+            carry[0][pos[inside] - i] = ahead[inside]
+            carry[1][:, pos[inside] - i] = z[:, inside]
         # time on the last, contiguous axis: sosfilt's fast layout
         block = np.ascontiguousarray(stacked[p0 - c0 : c1 - c0, cols].T)
-        y, zf[:, cols] = filtfilt_window(
-            sos, block, a - p0, b - p0, s - a, zf[:, cols], first=a == 0, last=last, padlen=padlen
+        y, (new_ahead[chunk], new_z[:, chunk]) = filtfilt_window(
+            sos, block, a - p0, b - p0, s - a, carry, first=a == 0, last=last, padlen=padlen
         )
         dec[:, cols] = y.T
+    states[nd] = (live, new_ahead, new_z)
     return dec
 
 
