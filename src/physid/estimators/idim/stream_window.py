@@ -39,13 +39,16 @@ __all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS
 #: Columns of the full-rate rows run through the parallel filter at a time.
 COLUMNS = 32
 #: The parallel filter's right margin: where its impulse response stays below this (relative).
-#: Measured (white noise through the windows against one `scipy.signal.sosfiltfilt`, nd 5 to
-#: 300): the backward pass's free response left at the margin's start is about 100× this
-#: threshold, 1e-14 here, below the filter's own rounding (5e-16 at nd = 5 … 2e-13 at nd = 300,
-#: relative); the estimate of the 7-DOF benchmark and of the tests moves by 1e-13 relative or
-#: less between 1e-17 and 1e-12 (test goal 1e-10). 1e-10 would leave 1e-12 of transient,
-#: above the rounding at small nd: 1e-12 is the shortest with two orders to spare (30 %
-#: shorter than 1e-17).
+#: Only the backward pass starts inside the record, from ``z_i · f`` at the margin's end; the
+#: free response it leaves at the owned range is ~100× this threshold relative to the signal
+#: (white noise through the windows against one `scipy.signal.sosfiltfilt`: 1.4e-14 at nd = 5,
+#: below the whole-record call's own rounding from nd ≈ 50 on, which is 2e-13 at nd = 300).
+#: Streamed against in-memory estimate (largest relative difference, the tests' 2-link arm, 4
+#: settings / the 7-DOF benchmark, normwise) for thresholds 1e-17, 1e-14, 1e-12, 1e-10, 1e-8:
+#: ≤ 2.5e-12 / 4.5e-12, ≤ 6.4e-12 / 1.1e-11, ≤ 5.4e-12 / 1.3e-11, ≤ 4.7e-12 / 6.3e-12, then
+#: 6.7e-11: rounding, not the transient, sets the difference down to 1e-10, which the transient
+#: reaches at 1e-8. 1e-12 keeps two decades of threshold before that onset and a 20× margin
+#: below the tests' 1e-10, with a margin of ~95·nd samples (1e-17: ~135·nd).
 PARALLEL_DECAY = 1e-12
 
 
