@@ -8,7 +8,8 @@ twice, block by block, and never holds its regressor:
    as `auto_cutoff` computes it), the robust noise statistics, the candidate decimations;
 2. `idim_moments` (`.stream_moments`, `.stream_window`): the main pass: windows of
    ``block_samples`` full-rate samples with the filters' margins give exactly the in-memory
-   rows (state filter, base regressor, parallel filter and decimation, stiction masks); their
+   rows (state filter, base regressor, parallel filter and decimation, stiction masks; the
+   parallel filter's forward pass carried from window to window, `.stream_filter`); their
    per-fold, per-joint QR factors, lagged products and a thinned sample are accumulated;
 3. `fit_moments` (`.stream_fit`): the cross-validated choice of nd, OLS/WLS, the covariance
    (``stderr`` "filtered" or "iid"), the condition number and the verdict.
@@ -119,8 +120,9 @@ def fit_streamed(
     Notes
     -----
     Peak memory, independent of the record's length: about
-    ``3 · (block_samples + 2·L) · (n_joints · p + n_joints) · 8`` bytes for one window (L: the
-    filters' margins, ~123·nd full-rate samples), plus
+    ``(3 · (block_samples + 1.1·L) + L) · (n_joints · p + n_joints) · 8`` bytes for one window
+    (L: the parallel filter's right margin, ~95·nd full-rate samples, whose forward pass is
+    carried to the next window), plus
     ``n_candidates · (10 · n_joints · (p+1)² + 2 · n_joints · p²) · 8`` bytes of accumulators and
     ``20000 · n_joints · (p+1) · 8`` bytes of kept rows per candidate.
 

@@ -180,9 +180,9 @@ def _accumulate(acc: CandidateMoments, rows, fold, tails, rho, keep):
         if rev is None:
             acc.lagged[1] = acc.lagged[0]
     if keep.any():
-        acc.sample["W"].append(W[keep].copy())
-        acc.sample["tau"].append(tau[keep].copy())
-        acc.sample["t"].append(t[keep].copy())
+        acc.sample["W"].append(W[keep])  # a boolean index copies: nothing of the window is held
+        acc.sample["tau"].append(tau[keep])
+        acc.sample["t"].append(t[keep])
         acc.sample["rev"].append(np.zeros(kept[keep].shape, bool) if rev is None else rev[keep])
 
 
@@ -239,8 +239,10 @@ def idim_moments(model, plan: StreamPlan, source, index: int, *, timings=None, p
     Notes
     -----
     Peak memory: one window of raw samples and of full-rate rows,
-    ``(block_samples + 2 · margins) · (n_joints · p + n_joints) · 8`` bytes times about 3
-    (regressor, filter input and output), plus the accumulators (see the module docstring).
+    ``(block_samples + margins) · (n_joints · p + n_joints) · 8`` bytes times about 3
+    (regressor, filter input and output; margins: ``12·nd`` before the owned range, the parallel
+    filter's ~95·nd after it), the carried forward pass over the latter, plus the accumulators
+    (see the module docstring).
     """
     from ...signals.blocks import as_block_source
     from .base_parameters import base_regressor_info

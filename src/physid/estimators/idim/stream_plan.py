@@ -141,8 +141,8 @@ class StreamPlan:
         return max(1, math.ceil(total / MAX_KEPT_ROWS))
 
 
-def decay_length(sos) -> int:
-    """Samples after which the impulse response of ``sos`` stays below `DECAY` of its peak.
+def decay_length(sos, decay: float = DECAY) -> int:
+    """Samples after which the impulse response of ``sos`` stays below ``decay`` of its peak.
 
     The transient a zero-phase filter leaves at a cut inside the record decays as fast, so
     a window with this margin on each side gives the whole record's values inside it.
@@ -152,7 +152,7 @@ def decay_length(sos) -> int:
         x = np.zeros(n)
         x[0] = 1.0
         h = np.abs(signal.sosfilt(sos, x))
-        last = int(np.flatnonzero(h > DECAY * h.max())[-1])
+        last = int(np.flatnonzero(h > decay * h.max())[-1])
         if last < n - n // 4:
             return int(1.1 * last) + 8
         n *= 2

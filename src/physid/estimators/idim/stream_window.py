@@ -4,16 +4,20 @@ The full-rate rows ``[W | τ]`` of a record are computed for one *owned* range o
 samples ``[a, b)`` at a time, from the raw samples around it with margins:
 
 * the physid FIR state filter needs its half-width M of raw samples on each side (exact);
-* the zero-phase IIR filters (the parallel Chebyshev filter of every candidate nd, the
-  Butterworth state filter) need the length after which their impulse response stays below
-  1e-17 of its peak (`stream_plan.decay_length`): a cut inside the record then changes nothing
-  within the owned range beyond rounding. A window that holds the record's first or last sample
-  uses there exactly the padding the in-memory code uses (``padlen = min(n − 1, edge)``), so the
-  end effects are the same;
+* the parallel Chebyshev filter (zero phase, every candidate nd) needs no left margin: its
+  forward pass continues from the state the previous window left at ``a``
+  (`stream_filter.filtfilt_window`, bit for bit the whole record's), and only its backward
+  pass starts inside the record, at the end of a right margin over which its free response
+  decays below `PARALLEL_DECAY` of the impulse response's peak (`stream_plan.decay_length`);
+* the Butterworth state filter (zero phase) needs the length after which its impulse response
+  stays below `stream_plan.DECAY` on each side;
+* a window that holds the record's first or last sample uses there exactly the padding the
+  in-memory code uses (``padlen = min(n − 1, edge)``), so the end effects are the same;
 * the stiction masks are moving windows (at most `STILL_SECONDS` plus the filters' main lobes).
 
-Columns of ``[W | τ]`` that are exactly zero in a window are not filtered (a zero-phase filter of
-zero is zero): a 7-DOF base regressor has about 40 % of them.
+Columns of ``[W | τ]`` that are exactly zero in a window, and whose carried forward state is
+zero, are not filtered (a zero-phase filter of zero is zero): a 7-DOF base regressor has about
+40 % of them.
 """
 
 from __future__ import annotations
@@ -27,12 +31,25 @@ from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dila
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
+from .stream_filter import filtfilt_window
 from .stream_plan import StreamPlan, decay_length, still_windows
 
-__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS"]
+__all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS", "PARALLEL_DECAY"]
 
 #: Columns of the full-rate rows run through the parallel filter at a time.
 COLUMNS = 32
+#: The parallel filter's right margin: where its impulse response stays below this (relative).
+#: Only the backward pass starts inside the record, from ``z_i · f`` at the margin's end; the
+#: free response it leaves at the owned range is ~100× this threshold relative to the signal
+#: (white noise through the windows against one `scipy.signal.sosfiltfilt`: 1.4e-14 at nd = 5,
+#: below the whole-record call's own rounding from nd ≈ 50 on, which is 2e-13 at nd = 300).
+#: Streamed against in-memory estimate (largest relative difference, the tests' 2-link arm, 4
+#: settings / the 7-DOF benchmark, normwise) for thresholds 1e-17, 1e-14, 1e-12, 1e-10, 1e-8:
+#: ≤ 2.5e-12 / 4.5e-12, ≤ 6.4e-12 / 1.1e-11, ≤ 5.4e-12 / 1.3e-11, ≤ 4.7e-12 / 6.3e-12, then
+#: 6.7e-11: rounding, not the transient, sets the difference down to 1e-10, which the transient
+#: reaches at 1e-8. 1e-12 keeps two decades of threshold before that onset and a 20× margin
+#: below the tests' 1e-10, with a margin of ~95·nd samples (1e-17: ~135·nd).
+PARALLEL_DECAY = 1e-12
 
 
 class Margins:
@@ -40,11 +57,18 @@ class Margins:
 
     def __init__(self, plan: StreamPlan):
         nds = [nd for nd in plan.candidates if nd > 1]
-        par = max([decay_length(_decimation_sos(nd)) for nd in nds], default=0)
+        #: nd -> samples after the owned range the parallel filter of nd needs (its backward
+        #: pass's transient)
+        self.right = {nd: decay_length(_decimation_sos(nd), PARALLEL_DECAY) for nd in nds}
+        par = max(self.right.values(), default=0)
         reach = max(contamination_reach(plan.cutoff, nd) for nd in plan.candidates)
         edge = max(decimation_edge(nd) for nd in plan.candidates)
-        #: full-rate samples on each side of the owned range fed to the parallel filter
+        #: full-rate samples after the owned range fed to the parallel filter (its backward
+        #: pass's transient, the masks' reach)
         self.parallel = max(par, edge + 1, reach + 2)
+        #: full-rate samples before the owned range: the masks' reach and the parallel
+        #: filter's end padding (its last ``edge + 1`` samples), not the filter's transient
+        self.left = max(edge + 1, reach + 2)
         self.butter = 0
         if plan.settings["differentiation"] == "butterworth":
             self.butter = decay_length(_butter(plan.cutoff))
@@ -112,7 +136,7 @@ def windows(plan: StreamPlan, k: int, mg: Margins):
     step = plan.block_samples
     for a in range(0, n_full, step):
         b = n_full if n_full - a < step + step // 2 else a + step
-        c0, c1 = max(0, a - mg.parallel), min(n_full, b + mg.parallel)
+        c0, c1 = max(0, a - mg.left), min(n_full, b + mg.parallel)
         if plan.settings["differentiation"] == "physid":
             r0, r1 = c0, c1 + 2 * plan.half_width
         else:
@@ -165,7 +189,8 @@ def window_rows(
     timings : dict, optional
     cache : dict, optional
         Carried from one window to the next of the same source: the full-rate rows of the
-        previous window, whose overlap with this one is copied instead of computed again.
+        previous window, whose overlap with this one is copied instead of computed again, and
+        the parallel filter's forward state (required for every window but the first).
 
     Returns
     -------
@@ -195,25 +220,18 @@ def window_rows(
     if cache is not None:
         cache["rows"] = (c0, c1)
     tic = _tick(timings, "regressor", tic)
-    live = np.flatnonzero(np.any(stacked != 0.0, axis=0))
+    nonzero = np.any(stacked != 0.0, axis=0)
     n_full = plan.n_stacked(k)
     stick_raw = _sticking(plan, k, q, r0, mg)
+    states = cache.setdefault("forward", {}) if cache is not None else {}
     out = {}
     for nd in plan.candidates:
         edge = decimation_edge(nd)
         s = np.arange(a, b)
         if nd > 1:
             s = s[(s >= edge) & (s < n_full - edge) & ((s - edge) % nd == 0)]
-        dec = np.zeros((s.size, stacked.shape[1]))
-        if nd > 1 and s.size:
-            sos, padlen = _decimation_sos(nd), min(c1 - c0 - 1, edge)
-            for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
-                cols = live[i : i + COLUMNS]
-                # time on the last, contiguous axis: sosfiltfilt's fast layout
-                block = np.ascontiguousarray(stacked[:, cols].T)
-                y = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)
-                dec[:, cols] = y[:, s - c0].T
-        elif s.size:
+            dec = _parallel(stacked, nonzero, s, win, n_full, nd, states, mg.right[nd])
+        else:
             dec = stacked[s - c0].copy()
         Wk = dec[:, : nj * p].reshape(-1, nj, p)
         tk = dec[:, nj * p :]
@@ -224,6 +242,46 @@ def window_rows(
         out[nd] = (Wk, tk, s + off, t_raw[s + off - r0], stuck, rev)
     _tick(timings, "parallel filter", tic)
     return out
+
+
+def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, right: int):
+    """The parallel filter of ``stacked`` (full-rate rows ``[c0, c1)``) at the samples ``s`` of
+    the owned range: `filtfilt_window` per chunk of live columns over ``[a, b + right)``, the
+    forward pass carried in ``states[nd]`` from one window to the next (``(live, ahead, z)``:
+    the columns filtered so far, their forward pass from the owned range's end, its state)."""
+    a, b, c0, c1 = win[:4]
+    c1 = min(c1, b + right)  # a smaller nd's transient is shorter than the window's margin
+    sos, padlen = _decimation_sos(nd), min(n_full - 1, decimation_edge(nd))
+    last = c1 == n_full
+    p0 = max(min(a, n_full - 1 - padlen), 0) if last else a  # the end padding's samples
+    if a > 0 and nd not in states:
+        raise ValueError("the parallel filter's state of the previous window is missing")
+    was, ahead, z = states.get(nd, (np.zeros(0, dtype=np.intp), None, None))
+    # a column is filtered once it has held a non-zero value (its forward pass never returns
+    # to exactly zero); one that has not is zero after the filter
+    live = np.union1d(np.flatnonzero(nonzero), was)
+    pos = np.searchsorted(live, was)  # where the carried columns sit among the live ones
+    h = 0 if ahead is None else ahead.shape[1]
+    new_ahead = np.zeros((live.size, c1 - b))
+    new_z = np.zeros((sos.shape[0], live.size, 2))
+    dec = np.zeros((s.size, stacked.shape[1]))
+    for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
+        chunk = slice(i, i + COLUMNS)
+        cols = live[chunk]
+        carry = None
+        if a > 0:  # the carried pass of these columns (zero for those not filtered before)
+            carry = np.zeros((cols.size, h)), np.zeros((sos.shape[0], cols.size, 2))
+            inside = (pos >= i) & (pos < i + cols.size)
+            carry[0][pos[inside] - i] = ahead[inside]
+            carry[1][:, pos[inside] - i] = z[:, inside]
+        # time on the last, contiguous axis: sosfilt's fast layout
+        block = np.ascontiguousarray(stacked[p0 - c0 : c1 - c0, cols].T)
+        y, (new_ahead[chunk], new_z[:, chunk]) = filtfilt_window(
+            sos, block, a - p0, b - p0, s - a, carry, first=a == 0, last=last, padlen=padlen
+        )
+        dec[:, cols] = y.T
+    states[nd] = (live, new_ahead, new_z)
+    return dec
 
 
 def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
