@@ -125,6 +125,20 @@ def test_parallel_decimate_equals_scipy_decimate_in_the_interior():
     assert same is not None and all_rows.size == 4000
 
 
+def test_parallel_decimate_skips_zero_columns_bit_for_bit():
+    rng = np.random.default_rng(1)
+    x = np.zeros((3000, 5, 4))  # (samples, joints, parameters), like a regressor
+    x[:, 0, :] = np.cumsum(rng.normal(size=(3000, 4)), axis=0)
+    x[:, 3, 1] = rng.normal(size=3000)
+    x[1500, 4, 2] = 1.0  # zero except at one sample: filtered, not skipped
+    y, kept = parallel_decimate(x, 7, block_columns=3)
+    sos = signal.cheby1(8, RIPPLE_DB, 0.8 / 7, output="sos")
+    flat = x.reshape(3000, -1)
+    ref = signal.sosfiltfilt(sos, flat.T, axis=-1, padlen=84)[:, kept].T.reshape(y.shape)
+    np.testing.assert_array_equal(y, ref)  # the skipped columns are exactly zero too
+    assert np.count_nonzero(np.any(y != 0, axis=0)) == 6
+
+
 def test_stacked_recordings_are_filtered_apart(arm, truth, clean):
     other = _run(arm, phase=0.7, scale=0.8)
     info = base_regressor_info(arm)
