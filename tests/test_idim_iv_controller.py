@@ -91,6 +91,25 @@ def test_unknown_feedforward_is_refused(planar2):
         IDIMEstimator(model, "iv", feedforward="computed-torque", **ROWS).fit(rec)
 
 
+@pytest.mark.parametrize("value", [["gravity"], {"kind": "gravity"}])
+def test_feedforward_of_another_type_is_refused_not_a_type_error(planar2, value):
+    """A list or table where the name of a feed-forward belongs (an edited metadata, a Python
+    caller): the same clear error as an unknown name, from the fit and from validate."""
+    import dataclasses
+
+    from physid.analysis.validation.output_error import check_controller
+
+    model, _ = planar2
+    rec = _log(model, 0)
+    with pytest.raises(InputError, match="feedforward=.*one of"):
+        IDIMEstimator(model, "iv", feedforward=value, **ROWS).fit(rec)
+    edited = dataclasses.replace(rec, metadata={**rec.metadata, "feedforward": value})
+    with pytest.raises(InputError, match="metadata feedforward=.*one of"):
+        IDIMEstimator(model, "iv", **ROWS).fit(edited)
+    with pytest.raises(InputError, match="feedforward must be one of"):
+        check_controller(2, feedforward=value)
+
+
 def test_cli_iv_reads_the_controller_from_the_log_or_the_flag(tmp_path):
     """simulate --feedforward gravity → identify --method idim-iv: the log's controller by
     default; --feedforward overrides it; refused with a method that does not simulate."""

@@ -81,7 +81,7 @@ def check_controller(nj: int, kp=None, kd=None, feedforward=None) -> dict:
             )
         out[name] = gains
     if feedforward is not None:
-        if feedforward not in FEEDFORWARD:
+        if not isinstance(feedforward, str) or feedforward not in FEEDFORWARD:
             raise InputError(
                 f"{arg('feedforward')} must be one of {sorted(FEEDFORWARD)}; got {feedforward!r}."
             )
