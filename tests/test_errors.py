@@ -104,6 +104,17 @@ def test_gains_raise_one_class_from_every_entry_point(bad, cls):
         InputErrorEstimator(model, torque="pd", kp=bad, kd=good).fit(rec)
 
 
+def test_pd_torque_refuses_a_log_with_feed_forward():
+    """torque="pd" rebuilds Kp (r - q) - Kd q̇: on a log whose controller added g(q) that
+    torque is wrong, so the estimator refuses instead of fitting it."""
+    model = physid.load_model("manipulator")
+    rest = _still_arm()
+    rec = Recording(rest.t, rest.data, rest.names, metadata={"feedforward": "gravity"})
+    est = InputErrorEstimator(model, torque="pd", kp=[1.0] * 4, kd=[1.0] * 4)
+    with pytest.raises(InputError, match=r"feed-forward \(metadata feedforward = 'gravity'\)"):
+        est.fit(rec)
+
+
 def test_parameter_resolution_is_shared_by_both_model_kinds():
     chain = physid.load_model("manipulator")
     msd = physid.load_model("msd")

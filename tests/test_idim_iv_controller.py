@@ -91,6 +91,48 @@ def test_unknown_feedforward_is_refused(planar2):
         IDIMEstimator(model, "iv", feedforward="computed-torque", **ROWS).fit(rec)
 
 
+@pytest.mark.parametrize("value", [["gravity"], {"kind": "gravity"}])
+def test_feedforward_of_another_type_is_refused_not_a_type_error(planar2, value):
+    """A list or table where the name of a feed-forward belongs (an edited metadata, a Python
+    caller): the same clear error as an unknown name, from the fit and from validate."""
+    import dataclasses
+
+    from physid.analysis.validation.output_error import check_controller
+
+    model, _ = planar2
+    rec = _log(model, 0)
+    with pytest.raises(InputError, match="feedforward=.*one of"):
+        IDIMEstimator(model, "iv", feedforward=value, **ROWS).fit(rec)
+    edited = dataclasses.replace(rec, metadata={**rec.metadata, "feedforward": value})
+    with pytest.raises(InputError, match="metadata feedforward=.*one of"):
+        IDIMEstimator(model, "iv", **ROWS).fit(edited)
+    with pytest.raises(InputError, match="feedforward must be one of"):
+        check_controller(2, feedforward=value)
+
+
+def test_validate_simulates_the_feedforward_the_fit_was_given(planar2, tmp_path):
+    """A log without metadata (the user's own), fitted with feedforward="gravity" and the gains
+    given: the result file keeps both, and validate re-simulates PD + g(q) with them, not PD
+    alone (which sags ~0.3 rad under gravity with these soft gains)."""
+    import dataclasses
+
+    from physid.analysis.validation import load_result, validate
+    from physid.estimators.results import save_result
+
+    model, _ = planar2
+    bare = [dataclasses.replace(_log(model, s, noise=1e-4), metadata={}) for s in (0, 1)]
+    fit = IDIMEstimator(model, "iv", kp=KP, kd=KD, feedforward="gravity", **ROWS).fit(bare[0])
+    path = save_result(
+        fit.result_, tmp_path / "fit.json", model=str(URDF),
+        gains={"kp": KP, "kd": KD}, feedforward="gravity",
+    )  # fmt: skip
+    report = validate(load_result(path), bare[1])
+    note = next(n for n in report.notes if n.startswith("(b)"))
+    assert "Kd qd + g(q) with kp [20, 10] (from the result file)" in note, note
+    assert "feed-forward from the result file" in note
+    assert min(report.fit_percent.values()) > 99.0, report.fit_percent
+
+
 def test_cli_iv_reads_the_controller_from_the_log_or_the_flag(tmp_path):
     """simulate --feedforward gravity → identify --method idim-iv: the log's controller by
     default; --feedforward overrides it; refused with a method that does not simulate."""

@@ -112,3 +112,15 @@ def test_single_output_estimators_refuse_a_structure_naming_the_ones_that_apply(
 
     with pytest.raises(InputError, match=r"Structure models .* make\('equation-error'"):
         make(method, chain).fit(_held_out(chain, 6))
+
+
+def test_untestable_residual_with_a_covariance_is_reported_not_a_traceback(chain):
+    # a held-out record with no force and no motion: every residual is constant, so no test can
+    # run; the parameter-error explanation (which needs a covariance) must leave it unexplained
+    held = _held_out(chain, 6)
+    zero = type(held)(held.t, np.zeros((held.t.size, 3)), ["F", "x1", "x2"], ["N", "m", "m"])
+    truth = replace(_truth(chain), covariance=np.eye(len(chain.parameters)) * 1e-6)
+    report = validate_structure(truth, zero)
+    assert not report["consistent"]
+    assert report["verdict"].startswith("not testable: the residual of x1, x2")
+    assert "no whiteness test is possible" in report["verdict"]

@@ -413,6 +413,7 @@ def _save(args, result) -> None:
         recording=args.recordings[0],
         model_options=options,
         gains=gains or None,
+        feedforward=getattr(args, "feedforward", None),
     )
     progress(f"identify: result written to {args.save}")
 

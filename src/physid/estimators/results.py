@@ -369,7 +369,9 @@ class ResultMixin:
         raise InputError(f"{type(self).__name__} does not implement predict().")
 
 
-def save_result(result, path, *, model=None, recording=None, model_options=None, gains=None) -> str:
+def save_result(
+    result, path, *, model=None, recording=None, model_options=None, gains=None, feedforward=None
+) -> str:
     """Write a result file (JSON) that `load_result` and ``physid validate`` read back.
 
     Parameters
@@ -393,6 +395,9 @@ def save_result(result, path, *, model=None, recording=None, model_options=None,
         PD gains given explicitly to the fit, ``{"kp": [...], "kd": [...]}`` (one value per
         joint; ``torque="pd"`` of input-error, IDIM-IV's closed loop), written as ``"gains"``;
         ``validate`` rebuilds the torque with them instead of the held-out record's metadata.
+    feedforward : {None, "none", "gravity", "gravity+friction"}
+        The feed-forward given explicitly to the fit (IDIM-IV's closed loop), written as
+        ``"feedforward"``; ``validate`` re-simulates that controller unless told otherwise.
 
     Returns
     -------
@@ -424,6 +429,14 @@ def save_result(result, path, *, model=None, recording=None, model_options=None,
         data["gains"] = {
             k: None if v is None else [float(x) for x in np.ravel(v)] for k, v in gains.items()
         }
+    if feedforward is not None:
+        from ..simulate.feedforward import FEEDFORWARD
+
+        if not isinstance(feedforward, str) or feedforward not in FEEDFORWARD:
+            raise InputError(
+                f"feedforward must be one of {sorted(FEEDFORWARD)}; got {feedforward!r}."
+            )
+        data["feedforward"] = feedforward
     if recording is not None:
         data["recording"] = str(Path(str(recording)).resolve())
         if Path(str(recording)).resolve() == Path(path).resolve():

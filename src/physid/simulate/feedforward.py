@@ -29,7 +29,7 @@ _FRICTION = ("Fv", "Fc", "Fvp", "Fvn", "Fcp", "Fcn")  # and the transmission's m
 
 
 def _check(model, kind: str) -> None:
-    if kind not in FEEDFORWARD:
+    if not isinstance(kind, str) or kind not in FEEDFORWARD:
         raise InputError(f"feedforward must be one of {sorted(FEEDFORWARD)}; got {kind!r}.")
     if kind != "none" and not hasattr(model, "chain"):
         raise InputError(

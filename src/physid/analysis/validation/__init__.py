@@ -175,7 +175,8 @@ def validate(
         default: the gains saved in the result file, else the recording's metadata. The note of
         (b) says which gains were used and where they came from.
     feedforward : {None, "none", "gravity", "gravity+friction"}
-        Chains: the feed-forward added to the PD law in (b); default: the recording's metadata.
+        Chains: the feed-forward added to the PD law in (b); default: the one the fit was given
+        (saved in the result file), else the recording's metadata.
 
     Returns
     -------

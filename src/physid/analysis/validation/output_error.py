@@ -81,7 +81,7 @@ def check_controller(nj: int, kp=None, kd=None, feedforward=None) -> dict:
             )
         out[name] = gains
     if feedforward is not None:
-        if feedforward not in FEEDFORWARD:
+        if not isinstance(feedforward, str) or feedforward not in FEEDFORWARD:
             raise InputError(
                 f"{arg('feedforward')} must be one of {sorted(FEEDFORWARD)}; got {feedforward!r}."
             )
@@ -94,7 +94,8 @@ def _controller_of(loaded, meta, given: dict):
 
     Gains: given (``kp=``/``kd=``, the command line's ``--kp/--kd``), else the fit's saved gains
     (``gains`` of the result file: identify's ``--kp/--kd``), else the held-out recording's
-    metadata. Feed-forward: given, else the recording's metadata, else none.
+    metadata. Feed-forward: given, else the fit's (``feedforward`` of the result file: identify's
+    ``--feedforward``), else the recording's metadata, else none.
     """
     saved = loaded.data.get("gains") or {}
     out, sources = {}, {}
@@ -107,6 +108,8 @@ def _controller_of(loaded, meta, given: dict):
             out[name], sources[name] = meta[name], "the held-out recording's metadata"
     if "feedforward" in given:
         ff, sources["feedforward"] = given["feedforward"], "given"
+    elif loaded.data.get("feedforward") is not None:
+        ff, sources["feedforward"] = str(loaded.data["feedforward"]), "the result file"
     elif meta.get("feedforward") is not None:
         ff, sources["feedforward"] = str(meta["feedforward"]), "the recording's metadata"
     else:

@@ -233,6 +233,7 @@ _KEYS = {
     "stick_threshold": _stick_threshold,
     "prefilter_cutoff": lambda p, k, v: _number(p, k, v, null=True),
     "gains": _gains,
+    "feedforward": _optional(_text),
     "half_width": _setting(integer=True, text=False),
     "decimate": _setting(integer=True),
     "cutoff": _setting(number=True),

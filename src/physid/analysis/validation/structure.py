@@ -59,9 +59,13 @@ def validate_structure(result, recording, *, max_lag: int = MAX_LAG) -> dict[str
         verdict = "consistent: every output's residual is explained (99 % band)"
     else:
         bad = [k for k, v in ok.items() if not v]
+        untestable = [k for k in bad if not residual[k]["autocorrelation"]]
         missed = any(not residual[k]["independent"] for k in bad)
         verdict = (
-            f"the model misses dynamics: the residual of {', '.join(bad)} is "
+            f"not testable: the residual of {', '.join(untestable)} "
+            f"({residual[untestable[0]]['verdict']})"
+            if untestable
+            else f"the model misses dynamics: the residual of {', '.join(bad)} is "
             + ("correlated with the force" if missed else "not white")
             + " beyond what noise explains"
         )
@@ -126,9 +130,9 @@ def _parameter_explanation(result, recording, sim, forces, residual, ok, max_lag
     limit = float(chi2.ppf(0.99, len(names)))
     left = e - (J @ delta).reshape(e.shape) * scale
     for j, name in enumerate(y_names):
-        if ok[name]:
-            continue
         res = residual[name]
+        if ok[name] or not res["autocorrelation"]:  # passed, or untestable (NaN, constant)
+            continue
         again = residual_analysis(left[:, j], forces, max_lag=max_lag)
         if again["autocorrelation"] and forces.shape[1] == 1:
             y = np.asarray(recording[name], dtype=float)

@@ -74,7 +74,7 @@ def _feedforward_of(value, meta: Mapping[str, Any], k: int) -> str:
     from ...simulate.feedforward import FEEDFORWARD
 
     kind = value if value is not None else meta.get("feedforward", "none")
-    if kind not in FEEDFORWARD:
+    if not isinstance(kind, str) or kind not in FEEDFORWARD:
         where = (
             arg("feedforward", repr(kind), cli=str(kind))
             if value is not None

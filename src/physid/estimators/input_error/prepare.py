@@ -59,6 +59,20 @@ def _gains(value, name: str, n_joints: int, metadata: Mapping[str, Any]) -> np.n
     return per_joint(value, name, n_joints)
 
 
+def _check_pd_only(metadata: Mapping[str, Any]) -> None:
+    """Refuse ``torque="pd"`` on a log whose controller added a feed-forward to the PD law:
+    the torque rebuilt from ``Kp (r - q) - Kd q̇`` would lack it (a silently wrong fit)."""
+    ff = metadata.get("feedforward")
+    if ff is not None and ff != "none":
+        raise InputError(
+            f"{arg('torque', repr('pd'), cli='pd')} rebuilds the torque from the PD law alone, "
+            f"but this recording's controller added a feed-forward (metadata feedforward = "
+            f"{ff!r}) that the rebuilt torque would lack. Use "
+            f"{arg('torque', repr('measured'), cli='measured')} (the logged torques), or IDIM-IV, "
+            "which simulates that controller."
+        )
+
+
 def _check_names(given: Mapping[str, float], names: Sequence[str], what: str) -> dict[str, float]:
     unknown = sorted(set(given) - set(names))
     if unknown:
@@ -376,6 +390,7 @@ def filter_recording(est, recording) -> _Filtered:
         tau = recording.select(needed)
         tau_f = lowpass.apply(tau)
     else:
+        _check_pd_only(recording.metadata)
         kp = _gains(est.kp, "kp", nj, recording.metadata)
         kd = _gains(est.kd, "kd", nj, recording.metadata)
         r_f = lowpass.apply(recording.select(needed))
