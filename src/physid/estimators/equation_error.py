@@ -99,7 +99,8 @@ def channel_noise(x, dt: float, band: float) -> dict:
     stderr = var * float(np.sqrt(2.2 / (segments * np.count_nonzero(above))))
     total = float(np.var(x))
     tiny = var <= 1e-30 * max(total, 1e-300)
-    snr = np.inf if tiny else 10 * np.log10(max(total - var, 0) / var)
+    with np.errstate(divide="ignore"):  # a channel of pure noise: -inf dB, said as such
+        snr = np.inf if tiny else 10 * np.log10(max(total - var, 0) / var)
     return {"variance": var, "variance_stderr": stderr, "snr_db": float(snr)}
 
 

@@ -58,8 +58,8 @@ def _check_symbolic_size(spec: ChainSpec) -> None:
         f"{where}the chain {spec.name!r} has {n} joints; symbolic chain models (kind = "
         f'"chain", point masses on Denavit-Hartenberg links) are limited to '
         f"{MAX_SYMBOLIC_JOINTS} joints, because their symbolic Lagrange derivation grows like "
-        "a high power of the joint count (5 joints take about 15 s, 6 about 2 min, "
-        f"{n} would not finish). Describe a longer arm as a URDF file or as a rigid-body "
+        "a high power of the joint count (5 joints take about 15 s, 6 about 2 min, and each "
+        "further joint several times longer). Describe a longer arm as a URDF file or as a rigid-body "
         "TOML model with link inertias (docs/model-files.md), which are built numerically."
     )
 

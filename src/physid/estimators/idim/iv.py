@@ -133,7 +133,17 @@ def controller(recs, nj: int, kp=None, kd=None, feedforward=None) -> list:
 
 
 def describe_controller(loops) -> str:
-    """One sentence naming the controller(s) IV simulated (for the result's message)."""
+    """One sentence naming the controller(s) IV simulated (for the result's message).
+
+    Parameters
+    ----------
+    loops : sequence of tuple
+        The closed loops of `controller` (their fourth item is the feed-forward's name).
+
+    Returns
+    -------
+    str
+    """
     from ...simulate.feedforward import FEEDFORWARD
 
     laws = sorted({FEEDFORWARD[loop[3]] for loop in loops})

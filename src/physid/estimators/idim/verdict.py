@@ -70,15 +70,34 @@ def torque_noise_floor(recordings, n_joints: int, decimate: int) -> np.ndarray:
 
 
 def torque_noise_sigma(tau) -> np.ndarray:
-    """Robust white-noise std of raw torques (n_samples, n_joints) [N·m]: the MAD of the third
-    difference over √20."""
+    """Robust white-noise std of raw torques: the MAD of the third difference over √20.
+
+    Parameters
+    ----------
+    tau : ndarray, shape (n_samples, n_joints) [N·m]
+
+    Returns
+    -------
+    ndarray, shape (n_joints,) [N·m]
+    """
     d3 = np.diff(tau, n=3, axis=0)
     return 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20)
 
 
 def noise_floor(sigma, decimate: int) -> np.ndarray:
-    """``σ · √g``: white noise of std ``sigma`` after the parallel filter of ``decimate`` (g its
-    white-noise power gain, 1 for nd = 1)."""
+    """``σ · √g``: white noise of std ``sigma`` after the parallel filter of ``decimate``.
+
+    Parameters
+    ----------
+    sigma : array_like, shape (n_joints,) [N·m]
+        White-noise std of the raw torques (`torque_noise_sigma`).
+    decimate : int
+        nd of the parallel filter (g, its white-noise power gain, is 1 for nd = 1).
+
+    Returns
+    -------
+    ndarray, shape (n_joints,) [N·m]
+    """
     from .decimation import _decimation_sos
 
     gain = 1.0
@@ -242,6 +261,8 @@ def identification_verdict(beta, cov, reason, cond: float, cond_limit: float, re
     cond : float
         Condition number of the (column-scaled, weighted) regressor solved.
     cond_limit : float
+        The condition number above which the first-order bound is checked (the conditioning
+        warning's level).
     rel_error : float
         Overall relative torque error ``‖e‖ / ‖τ‖`` of the fit.
 
@@ -272,6 +293,7 @@ def identification_verdict(beta, cov, reason, cond: float, cond_limit: float, re
     return False, (
         f" Weakly identified: {cause} ({counted}); the motion does not excite the base "
         "parameters enough for the data to support the estimate, however small the torque "
-        "error. Design an exciting trajectory (physid design-excitation MODEL), record longer, "
-        "or fit fewer parameters."
+        "error. Design an exciting trajectory (physid design-excitation MODEL)"
+        # a longer record narrows the intervals, not the conditioning of the same motion
+        + (", or fit fewer parameters." if ill else ", record longer, or fit fewer parameters.")
     )

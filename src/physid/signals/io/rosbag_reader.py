@@ -341,8 +341,8 @@ def _join_topics(path, parts):
     if len(run.segments) > 1:
         raise DataFileError(
             f"{path}: the topics of the run have gaps: {' '.join(run.notes[1:])}. Export the "
-            "topics to files and join them (physid.signals.join_recordings: each segment a "
-            "separate experiment), or read one topic."
+            "topics to files and join them (each segment then a separate experiment), or read "
+            "one topic."
         )
     seg = run.segments[0]
     notes = [n.replace("files", "topics").replace("a file's", "a topic's") for n in run.notes]
