@@ -239,7 +239,7 @@ def test_a_time_gap_is_refused_with_where_to_split(tmp_path, at):
     with pytest.raises(
         DataFileError,
         match=rf"r\.npz: time is not uniformly sampled: the interval from sample {at - 1} "
-        rf"\(t = .*\) to sample {at} .*Split the file at sample {at}.*--join",
+        rf"\(t = .*\) to sample {at} .*Split the file at sample {at}.*join_recordings",
     ):
         list(src.blocks(100))
     assert _concat(open_blocks(path, MAP, uniform_rtol=None).blocks(100))[0][at] == t[at]
