@@ -143,7 +143,21 @@ def test_an_unreachable_scheduler_is_a_clear_error(logs, tmp_path, capsys):
                                tmp_path / "f", "--scheduler", "tcp://127.0.0.1:9",
                                "--scheduler-timeout", "2"], capsys)  # fmt: skip
     assert code == 2
-    assert "--scheduler 'tcp://127.0.0.1:9': no Dask scheduler answered within 2 s" in err
+    assert "could not reach the Dask scheduler at 'tcp://127.0.0.1:9' within 2 s" in err
+    assert "--scheduler-timeout" in err and "--scheduler local" in err
+    assert not (tmp_path / "f").exists()
+
+
+@pytest.mark.parametrize("mode", [["--each", "--out", "f"], ["--joint"]])
+def test_a_scheduler_address_without_a_port_is_a_clear_error(logs, tmp_path, capsys, mode):
+    pytest.importorskip("distributed", reason="Dask schedulers need physid[dask]")
+    _, paths, _, _ = logs
+    mode = [str(tmp_path / m) if m == "f" else m for m in mode]
+    code, _, err = cli_output(["identify", *paths, "--model", MODEL, *mode, "--scheduler",
+                               "tcp://nohost", "--scheduler-timeout", "2"], capsys)  # fmt: skip
+    assert code == 2 and "Traceback" not in err
+    assert "--scheduler 'tcp://nohost' is not a Dask scheduler address" in err
+    assert "missing port number" in err and "tcp://HOST:PORT" in err
     assert not (tmp_path / "f").exists()
 
 

@@ -27,9 +27,14 @@ from pathlib import Path
 from typing import Any
 
 from .._validate import check_int, check_positive
-from ..errors import InputError, PhysidError, SchedulerError, arg
+from ..errors import InputError, PhysidError, arg
 from .fleet_result import FleetResult, read_reference
-from .sweep_backends import SCHEDULER_TIMEOUT, _import_distributed, parse_scheduler
+from .sweep_backends import (
+    SCHEDULER_TIMEOUT,
+    _dask_client,
+    _import_distributed,
+    parse_scheduler,
+)
 
 __all__ = ["run_fleet", "fit_one_log", "FLEET_METHODS"]
 
@@ -414,7 +419,7 @@ def _run_on_dask(task, paths, kind, address, retries, timeout, bar):
             client = distributed.Client(cluster)
             backend = f"dask LocalCluster ({address} worker processes)"
         else:
-            client = _client_at(distributed, address, timeout)
+            client = _dask_client(distributed, address, timeout)
             backend = f"dask {address}"
         return backend, map_on_dask(client, task, paths, retries, bar)
     finally:
@@ -422,19 +427,6 @@ def _run_on_dask(task, paths, kind, address, retries, timeout, bar):
             client.close()
         if cluster is not None:
             cluster.close()
-
-
-def _client_at(distributed, address: str, timeout: float):
-    """A client of the scheduler at ``address``, or `SchedulerError` naming it after ``timeout``."""
-    try:
-        return distributed.Client(address, timeout=f"{timeout}s")
-    except (OSError, TimeoutError) as exc:
-        raise SchedulerError(
-            f"{arg('scheduler')} {address!r}: no Dask scheduler answered within {timeout:g} s "
-            f"({type(exc).__name__}). Check the address and that a scheduler runs there "
-            f"(`dask scheduler`), or use {arg('scheduler', repr('local'), cli='local')}.",
-            arguments=("scheduler",),
-        ) from None
 
 
 def map_on_dask(client, task, paths, retries, bar) -> list[dict]:

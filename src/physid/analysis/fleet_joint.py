@@ -27,8 +27,13 @@ import time
 from collections.abc import Mapping, Sequence
 
 from ..errors import InputError, arg
-from .fleet import _cached_model, _client_at, _local_kind
-from .sweep_backends import SCHEDULER_TIMEOUT, _import_distributed, parse_scheduler
+from .fleet import _cached_model, _local_kind
+from .sweep_backends import (
+    SCHEDULER_TIMEOUT,
+    _dask_client,
+    _import_distributed,
+    parse_scheduler,
+)
 
 __all__ = ["run_joint", "JOINT_SETTINGS"]
 
@@ -92,7 +97,7 @@ def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
             client = distributed.Client(cluster)
             backend = f"dask LocalCluster ({address} worker processes)"
         else:
-            client, backend = _client_at(distributed, address, timeout), f"dask {address}"
+            client, backend = _dask_client(distributed, address, timeout), f"dask {address}"
 
         def run(task, items):
             futures = client.map(task, list(items), retries=int(retries), pure=False)

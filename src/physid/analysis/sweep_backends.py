@@ -266,9 +266,16 @@ def _kill_pool(pool: cf.ProcessPoolExecutor) -> None:
 
 
 def _dask_client(distributed, address: str, timeout: float):
-    """A client of the scheduler at ``address``, or `SchedulerError` after ``timeout`` s."""
+    """A client of the scheduler at ``address``, or `SchedulerError` after ``timeout`` s (or at
+    once for an address Dask cannot parse, such as one without a port)."""
     try:
         return distributed.Client(address, timeout=f"{timeout}s")
+    except ValueError as exc:  # raised by distributed's address parser
+        raise SchedulerError(
+            f"{arg('scheduler')} {address!r} is not a Dask scheduler address ({exc}); write it "
+            "as 'tcp://HOST:PORT', e.g. 'tcp://10.0.0.2:8786'.",
+            arguments=("scheduler",),
+        ) from None
     except (OSError, TimeoutError) as exc:
         raise SchedulerError(
             f"could not reach the Dask scheduler at {address!r} within {timeout:g} s "
