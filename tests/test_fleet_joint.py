@@ -118,3 +118,22 @@ def test_cli_joint_scheduler_refusals_name_the_flags(logs, capsys):
     assert code == 2 and "--stderr hac" in capsys.readouterr().err
     code = main(["identify", *paths, "--model", "manipulator", "--scheduler", "serial"])
     assert code == 2 and "add --each" in capsys.readouterr().err
+
+
+def test_a_bad_log_on_a_cluster_is_one_named_error_not_worker_tracebacks(logs, tmp_path, capfd):
+    pytest.importorskip("distributed", reason="needs physid[dask]")
+    from physid.errors import ShapeError
+
+    paths, _ = logs
+    rec = physid.load_recording(paths[1])
+    extra = physid.signals.Recording(
+        rec.t, np.column_stack([rec.data, rec.data[:, :1]]), [*rec.names, "q5"]
+    )
+    bad = tmp_path / "five_joints.npz"
+    extra.save(bad)
+    with pytest.raises(
+        ShapeError, match=r"source 2 \(.*five_joints.npz\) has channel\(s\) \['q5'\]"
+    ):
+        run_joint("manipulator", [paths[0], str(bad)], method="idim-ols", scheduler="local:2")
+    err = capfd.readouterr().err
+    assert "Compute Failed" not in err and "Traceback" not in err

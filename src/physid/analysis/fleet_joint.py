@@ -26,7 +26,7 @@ import logging
 import time
 from collections.abc import Mapping, Sequence
 
-from ..errors import InputError, arg
+from ..errors import InputError, PhysidError, arg
 from .fleet import _cached_model, _local_kind
 from .sweep_backends import (
     SCHEDULER_TIMEOUT,
@@ -75,6 +75,30 @@ def _moments_task(model_ref, model_options, load_options, plan, item):
         return idim_moments(model, plan, src, k)
 
 
+class _Failed:
+    """A task's `PhysidError`, returned as a value: a worker neither logs it as a crash nor has
+    it retried (it would fail again the same way); the client raises it."""
+
+    def __init__(self, error: PhysidError):
+        self.error = error
+
+
+def _returning_errors(task, item):
+    """``task(item)``, or `_Failed` holding the `PhysidError` it raised."""
+    try:
+        return task(item)
+    except PhysidError as exc:
+        return _Failed(exc)
+
+
+def _raise_failed(results: list) -> list:
+    """``results``, or the first `_Failed` one's error raised."""
+    for r in results:
+        if isinstance(r, _Failed):
+            raise r.error
+    return results
+
+
 @contextlib.contextmanager
 def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
     """``(map, backend)``: ``map(task, items) -> list`` in order, on the chosen backend."""
@@ -100,9 +124,10 @@ def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
             client, backend = _dask_client(distributed, address, timeout), f"dask {address}"
 
         def run(task, items):
-            futures = client.map(task, list(items), retries=int(retries), pure=False)
+            wrapped = functools.partial(_returning_errors, task)
+            futures = client.map(wrapped, list(items), retries=int(retries), pure=False)
             try:
-                return client.gather(futures)  # in order; the first error is raised
+                return _raise_failed(client.gather(futures))  # in order; the first error
             except BaseException:
                 client.cancel(futures)
                 raise
@@ -145,7 +170,7 @@ def run_joint(
         ``"serial"``, ``"local"``, ``"local:N"``, ``"tcp://HOST:PORT"`` or a Client (as
         `physid.analysis.fleet.run_fleet`).
     retries : int
-        Times a task is retried when it raised (a dead worker's task is rerun by Dask).
+        Times Dask reruns a task whose worker died (a log's `PhysidError` is raised at once).
     model_options : mapping, optional
         `physid.load_model` keywords.
     scheduler_timeout : float [s]
