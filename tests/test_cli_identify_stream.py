@@ -120,3 +120,16 @@ def test_a_fleet_log_too_large_for_memory_is_fitted_block_by_block(log, monkeypa
         name = se[:-3]
         assert streamed[name] == pytest.approx(memory[name], rel=1e-9, abs=0)
     assert "every" in streamed["warnings"] or streamed["result"] is not None
+
+
+def test_a_time_gap_met_while_streaming_is_worded_for_the_command_line(tmp_path, capsys):
+    t = np.arange(0.0, 2.0, 1e-3)
+    t[1200:] += 0.5
+    q = np.column_stack([np.sin(t * (k + 1)) for k in range(4)])
+    path = tmp_path / "gap.csv"
+    header = "t," + ",".join([f"q{k}" for k in range(1, 5)] + [f"tau{k}" for k in range(1, 5)])
+    np.savetxt(path, np.column_stack([t, q, q]), delimiter=",", header=header, comments="")
+    code, _, err = _identify(capsys, str(path), "--method", "idim-ols", "--stream", "on")
+    assert code == 2 and "Split the file at sample 1200" in err
+    assert "(--join, in memory, splits files at gaps)" in err
+    assert "uniform_rtol" not in err and "physid.signals" not in err

@@ -341,6 +341,9 @@ def _map_entries(match: re.Match) -> str:
 # patterns reword the rest, and any text a result carries, such as its stderr_reason)
 _CLI_WORDS = (
     (re.compile(r" ?\(or uniform_rtol=None to keep the time vector as it is\)"), ""),
+    (re.compile(r",? or pass uniform_rtol=None to keep the times as they are"), ""),  # blocks
+    (re.compile(r"physid\.signals\.join_recordings splits"), "--join, in memory, splits"),
+    (re.compile(r"load_recording\(\.\.\., resample=True\) reads"), "--resample reads"),
     (re.compile(r",? or uniform_rtol=None to keep the time vector as it is"), ""),
     # a verb without --noise-std (simulate msd): only the input can be changed
     (re.compile(r", or give the noise as a standard deviation instead \(noise_std=\.\.\.\)"), ""),
