@@ -133,3 +133,16 @@ def test_a_time_gap_met_while_streaming_is_worded_for_the_command_line(tmp_path,
     assert code == 2 and "Split the file at sample 1200" in err
     assert "(--join, in memory, splits files at gaps)" in err
     assert "uniform_rtol" not in err and "physid.signals" not in err
+
+
+def test_a_fleet_log_streamed_keeps_every_setting_it_was_given(log, monkeypatch):
+    from physid.analysis import fleet
+    from physid.estimators.idim import stream
+
+    options = {"per_joint_variance": False, "check_condition": False}
+    memory = fleet.fit_one_log("manipulator", log, "idim-wls", fit_options=options)
+    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    streamed = fleet.fit_one_log("manipulator", log, "idim-wls", fit_options=options)
+    assert memory["status"] == streamed["status"] == "ok"
+    for name in [k[:-3] for k in memory if k.endswith("_se")]:
+        assert streamed[name + "_se"] == pytest.approx(memory[name + "_se"], rel=1e-8, abs=0)

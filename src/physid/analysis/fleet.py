@@ -173,11 +173,6 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options) -> d
     return out
 
 
-#: `IDIMEstimator` settings a streamed fit takes; others (IV, --consistent, HAC) keep a log in
-#: memory.
-_STREAMED = ("differentiation", "cutoff", "half_width", "decimate", "stderr", "stick_threshold")
-
-
 def _streamable(path, model, method, fit_options, load_options) -> bool:
     """A log too large for an in-memory fit, whose fit and file can stream."""
     from ..estimators.idim.stream import streams_better
@@ -199,10 +194,10 @@ def _streamable(path, model, method, fit_options, load_options) -> bool:
 
 def _fit_streamed(model, path, method, fit_options, load_options):
     """A long log fitted block by block: ``(result, n_samples, duration, caught warnings)``."""
-    from ..estimators.idim.stream import fit_streamed
+    from ..estimators.idim.stream import STREAMED_SETTINGS, fit_streamed
     from ..signals.io import open_blocks
 
-    options = {k: v for k, v in dict(fit_options or {}).items() if k in _STREAMED}
+    options = {k: v for k, v in dict(fit_options or {}).items() if k in STREAMED_SETTINGS}
     load = {k: v for k, v in dict(load_options or {}).items() if k != "resample"}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

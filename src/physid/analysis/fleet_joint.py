@@ -27,6 +27,7 @@ import time
 from collections.abc import Mapping, Sequence
 
 from ..errors import InputError, PhysidError, arg
+from ..estimators.idim.stream import STREAMED_SETTINGS
 from .fleet import _cached_model, _local_kind
 from .sweep_backends import (
     SCHEDULER_TIMEOUT,
@@ -38,16 +39,7 @@ from .sweep_backends import (
 __all__ = ["run_joint", "JOINT_SETTINGS"]
 
 #: `IDIMEstimator` settings a joint fit over a cluster takes (it streams each log).
-JOINT_SETTINGS = (
-    "differentiation",
-    "cutoff",
-    "half_width",
-    "decimate",
-    "stderr",
-    "per_joint_variance",
-    "stick_threshold",
-    "check_condition",
-)
+JOINT_SETTINGS = STREAMED_SETTINGS
 
 
 def _survey_task(model_ref, model_options, load_options, cutoff, block_samples, item):

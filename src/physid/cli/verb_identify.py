@@ -545,15 +545,10 @@ def _run_idim(args, model, recordings, method: str) -> int:
     return _print_idim(args, result, method)
 
 
-#: The `IDIMEstimator` settings a streamed fit takes (the others concern IV or --consistent).
-_STREAMED_SETTINGS = ("differentiation", "cutoff", "half_width", "decimate", "stderr",
-                      "stick_threshold")  # fmt: skip
-
-
 def _run_streamed(args, model, method: str) -> int:
     """``--stream``: the files read block by block, the fit in bounded memory."""
     from .._progress import is_enabled
-    from ..estimators.idim.stream import fit_streamed
+    from ..estimators.idim.stream import STREAMED_SETTINGS, fit_streamed
     from ._streaming import open_sources
 
     options = _idim_options(args, method)
@@ -573,7 +568,7 @@ def _run_streamed(args, model, method: str) -> int:
                 method=method.removeprefix("idim-"),
                 block_samples=args.block_samples,
                 progress=is_enabled(),
-                **{k: options[k] for k in _STREAMED_SETTINGS},
+                **{k: options[k] for k in STREAMED_SETTINGS if k in options},
             )
     finally:
         for src in sources:

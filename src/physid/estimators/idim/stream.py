@@ -52,11 +52,23 @@ __all__ = [
     "in_memory_peak",
     "streams_better",
     "STREAM_ABOVE",
+    "STREAMED_SETTINGS",
 ]
 
 #: The in-memory fit's estimated peak [bytes] above which a fit streams by default
 #: (``identify --stream auto``, fleets' long logs), unless a quarter of the free memory is less.
 STREAM_ABOVE = 2 * 2**30
+#: The `IDIMEstimator` settings `fit_streamed` takes (the others concern IV or ``consistent``).
+STREAMED_SETTINGS = (
+    "differentiation",
+    "cutoff",
+    "half_width",
+    "decimate",
+    "stderr",
+    "per_joint_variance",
+    "stick_threshold",
+    "check_condition",
+)
 #: The in-memory fit holds about this many copies of the full-rate regressor at its peak.
 COPIES_IN_MEMORY = 3
 
