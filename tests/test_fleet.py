@@ -337,6 +337,8 @@ def test_bad_arguments_are_refused(logs, tmp_path, model):
 
 def test_an_unreachable_scheduler_is_named(logs):
     _, paths, _ = logs
-    with pytest.raises(SchedulerError, match=r"Dask scheduler at 'tcp://127\.0\.0\.1:9' within 2 s"):
+    with pytest.raises(
+        SchedulerError, match=r"Dask scheduler at 'tcp://127\.0\.0\.1:9' within 2 s"
+    ):
         run_fleet(MODEL, paths, scheduler="tcp://127.0.0.1:9", scheduler_timeout=2,
                   progress=False)  # fmt: skip
