@@ -110,6 +110,8 @@ def test_blocks_concatenated_equal_the_whole_load(tmp_path, fmt):
         assert (src.n_samples, src.names, src.units) == (N, whole.names, whole.units)
         assert src.dt == whole.dt and src.t0 == whole.t[0]
         assert src.metadata["channel_map"] == whole.metadata["channel_map"]
+        for key in ("source", "format"):  # errors and the scale check name the file
+            assert src.metadata[key] == whole.metadata[key]
         for size in (7, 250, N):  # 7 and 250 do not divide 1003
             t, data, blocks = _concat(src.blocks(size))
             lengths = [b.n_samples for b in blocks]

@@ -252,6 +252,7 @@ class FileBlocks:
                 )
         self.names, self.units = tuple(first.names), tuple(first.units)
         self.metadata = {k: v for k, v in first.metadata.items() if k != "max_sampling_deviation"}
+        self.metadata.update(source=str(path), format=fmt)  # as load_recording sets them
 
     # ------------------------------------------------------------------ reading
     def _probe(self, a: int, b: int):
