@@ -264,7 +264,7 @@ def _cli_rows(folder: Path, hours: list[float], quick: bool) -> list[dict]:
                 "value": m["wall"],
                 "unit": "s",
                 "goal": "<= 30 s" if h == 1 else "linear in length",
-                "met": None if quick or h != 1 else m["wall"] <= 30.0,
+                "met": None if quick or h != 1 else m["rc"] == 0 and m["wall"] <= 30.0,
             }
         )
         rows.append(
@@ -273,7 +273,7 @@ def _cli_rows(folder: Path, hours: list[float], quick: bool) -> list[dict]:
                 "value": m["peak"] / 2**30,
                 "unit": "GiB",
                 "goal": "<= 1 GiB",
-                "met": None if quick else m["peak"] <= 2**30,
+                "met": None if quick else m["rc"] == 0 and m["peak"] <= 2**30,
             }
         )
     if len(results) > 1:
