@@ -101,6 +101,9 @@ def test_result_files_are_read_by_validate(logs, tmp_path, capsys):
         (["--against", "ref.json"], "--against applies to a fleet"),
         (["--out", "x", "--scheduler", "local"], "--scheduler, --out apply to a fleet"),
         (["--each", "--out", "x", "--scheduler", "local:0"], "needs a worker count N >= 1"),
+        (["--each", "--out", "x", "--stream", "on"], "--stream with --each"),
+        (["--each", "--out", "x", "--block-samples", "7"], "--block-samples with --each"),
+        (["--joint", "--scheduler", "serial", "--stream", "off"], "--stream off with --joint"),
         (["--each", "--out", "x", "--scheduler", "http://h:1"], "--scheduler 'http://h:1'"),
     ],
 )

@@ -22,6 +22,12 @@ _NOT_WITH_EACH = {
     "--joints": ("joints", None, "(a sub-tree) is not available for fleets yet"),
     "--detrend": ("detrend", None, "is not available for fleets"),
     "--topic": ("topic", None, "(ROS bags) is not available for fleets yet; convert the bags"),
+    "--stream": (
+        "stream",
+        "auto",
+        "is chosen per log: a log too long for memory is fitted block by block",
+    ),
+    "--block-samples": ("block_samples", 65536, "is chosen per log (65536 when it streams)"),
 }
 _ONLY_WITH_EACH = ("scheduler", "scheduler_timeout", "out", "against")
 
@@ -193,6 +199,11 @@ def run_joint_on_cluster(args, model, method: str, fit_options: dict):
             f"--joint --scheduler spreads one fit's normal equations over a cluster: --method "
             f"idim-ols or idim-wls (got --method {method}); leave --scheduler out to fit in "
             "this process."
+        )
+    if getattr(args, "stream", "auto") == "off":
+        raise InputError(
+            "--stream off with --joint --scheduler: the fit over a cluster reads every log block "
+            "by block; leave --stream off out, or leave --scheduler out to fit in this process."
         )
     flags = {"stderr": ("--stderr hac", "hac"), "consistent": ("--consistent", True)}
     for key, (flag, bad) in flags.items():
