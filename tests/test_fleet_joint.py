@@ -96,6 +96,8 @@ def test_joint_refuses_what_it_cannot_spread(logs):
         run_joint("manipulator", paths, fit_options={"consistent": True}, scheduler="serial")
     with pytest.raises(InputError, match="at least one log"):
         run_joint("manipulator", [], scheduler="serial")
+    with pytest.raises(InputError, match=r"resample=True, but .* reads each log block by block"):
+        run_joint("manipulator", paths, load_options={"resample": True}, scheduler="serial")
 
 
 def test_cli_joint_scheduler_prints_the_fit_over_all_logs(logs, capsys):

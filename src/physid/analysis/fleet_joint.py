@@ -178,7 +178,8 @@ def run_joint(
     Raises
     ------
     InputError
-        An empty ``paths``, a method other than OLS/WLS, a setting a joint fit does not take.
+        An empty ``paths``, a method other than OLS/WLS, a setting a joint fit does not take,
+        ``resample=True`` in ``load_options``.
     PhysidError
         A log that cannot be read or does not fit with the others (named).
     SchedulerError
@@ -202,7 +203,12 @@ def run_joint(
             f"a joint fit over a cluster takes {', '.join(JOINT_SETTINGS)}; not {other}."
         )
     load = dict(load_options or {})
-    load.pop("resample", None)
+    if load.pop("resample", None):
+        raise InputError(
+            f"{arg('load_options')} holds resample=True, but a joint fit over a cluster reads "
+            "each log block by block and cannot interpolate a whole record; resample the logs "
+            "first, or fit them in memory (IDIMEstimator.fit of the loaded recordings)."
+        )
     opts = dict(model_options or {})
     settings = {**fit_options, "method": method.removeprefix("idim-")}
     settings["block_samples"] = int(block_samples)
