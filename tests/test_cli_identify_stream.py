@@ -146,3 +146,27 @@ def test_a_fleet_log_streamed_keeps_every_setting_it_was_given(log, monkeypatch)
     assert memory["status"] == streamed["status"] == "ok"
     for name in [k[:-3] for k in memory if k.endswith("_se")]:
         assert streamed[name + "_se"] == pytest.approx(memory[name + "_se"], rel=1e-8, abs=0)
+
+
+def test_motor_side_logs_fit_the_same_in_memory_streamed_and_in_a_fleet(tmp_path, monkeypatch):
+    """A transmission's motor-side channels (qm, taum) become q and tau the same way for one
+    fit, a streamed fit and a fleet's log (one conversion, `physid.signals.joint_side`)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from _wrist_logs import coupled, write_log
+    from physid.analysis import fleet
+    from physid.estimators.idim import stream
+
+    log = tmp_path / "wrist.csv"
+    write_log(log, 1, 0.002)
+    model = str(coupled(tmp_path))
+    memory = fleet.fit_one_log(model, str(log), "idim-ols")
+    assert memory["status"] == "ok", memory["reason"]
+    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    streamed = fleet.fit_one_log(model, str(log), "idim-ols", workers=2)
+    assert streamed["status"] == "ok", streamed["reason"]
+    for se in [k for k in memory if k.endswith("_se")]:
+        name = se[:-3]
+        assert streamed[name] == pytest.approx(memory[name], rel=1e-8, abs=1e-12)

@@ -94,6 +94,7 @@ def fit_one_log(
     *,
     model_options: Mapping | None = None,
     flags: Mapping[str, str | None] | None = None,
+    workers: int = 1,
 ) -> dict:
     """Fit one log of a fleet; never raises for a problem of the log (a failed row instead).
 
@@ -113,6 +114,10 @@ def fit_one_log(
     flags : mapping, optional
         Python keyword → command-line flag, to word a failure's reason for the command line
         (`physid.errors.PhysidError.render`).
+    workers : int
+        Fits running at the same time on this machine: a log streams (is read block by block)
+        when its in-memory fit would need more than a quarter of the free memory shared by them
+        (`physid.estimators.idim.stream.streams_better`).
 
     Returns
     -------
@@ -126,7 +131,7 @@ def fit_one_log(
     start = time.perf_counter()
     row = _empty_row(path)
     try:
-        row.update(_fit(model_ref, path, method, fit_options, load_options, model_options))
+        row.update(_fit(model_ref, path, method, fit_options, load_options, model_options, workers))
         row["status"] = "ok"
     except PhysidError as exc:
         row["reason"] = exc.render(flags)
@@ -138,19 +143,20 @@ def fit_one_log(
     return row
 
 
-def _fit(model_ref, path, method, fit_options, load_options, model_options) -> dict:
+def _fit(model_ref, path, method, fit_options, load_options, model_options, workers=1) -> dict:
     """The fit of `fit_one_log`: load the log, fit, and the row's numbers (raises on failure)."""
     from ..estimators.idim import IDIMEstimator
     from ..signals import load_recording
+    from ..signals.joint_side import joint_side
 
     model = _cached_model(model_ref, model_options)
     _check_log_path(path)
-    if _streamable(path, model, method, fit_options, load_options):
+    if _streamable(path, model, method, fit_options, load_options, workers):
         result, n, duration, caught = _fit_streamed(model, path, method, fit_options, load_options)
     else:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            rec = load_recording(path, **dict(load_options or {}))
+            rec = joint_side(model, load_recording(path, **dict(load_options or {})))
             est = IDIMEstimator(model, method.removeprefix("idim-"), **dict(fit_options or {}))
             est.fit(rec)
         result, n, duration = est.result_, int(rec.n_samples), float(rec.t[-1] - rec.t[0])
@@ -173,7 +179,7 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options) -> d
     return out
 
 
-def _streamable(path, model, method, fit_options, load_options) -> bool:
+def _streamable(path, model, method, fit_options, load_options, workers=1) -> bool:
     """A log too large for an in-memory fit, whose fit and file can stream."""
     from ..estimators.idim.stream import streams_better
     from ..signals.io import BLOCK_FORMATS
@@ -187,7 +193,7 @@ def _streamable(path, model, method, fit_options, load_options) -> bool:
     if SUPPORTED_SUFFIXES.get(Path(path).suffix.lower()) not in BLOCK_FORMATS:
         return False
     try:
-        return streams_better([path], model)[0]
+        return streams_better([path], model, workers=workers)[0]
     except PhysidError:
         return False  # the in-memory load says what is wrong with the file
 
@@ -196,6 +202,7 @@ def _fit_streamed(model, path, method, fit_options, load_options):
     """A long log fitted block by block: ``(result, n_samples, duration, caught warnings)``."""
     from ..estimators.idim.stream import STREAMED_SETTINGS, fit_streamed
     from ..signals.io import open_blocks
+    from ..signals.joint_side import joint_side_blocks
 
     options = {k: v for k, v in dict(fit_options or {}).items() if k in STREAMED_SETTINGS}
     load = {k: v for k, v in dict(load_options or {}).items() if k != "resample"}
@@ -203,7 +210,11 @@ def _fit_streamed(model, path, method, fit_options, load_options):
         warnings.simplefilter("always")
         with open_blocks(path, **load) as src:
             result = fit_streamed(
-                model, src, method=method.removeprefix("idim-"), progress=False, **options
+                model,
+                joint_side_blocks(model, src),  # motor-side channels through the transmission
+                method=method.removeprefix("idim-"),
+                progress=False,
+                **options,
             )
             duration = float(src.dt * (src.n_samples - 1))
             n = int(src.n_samples)
@@ -326,6 +337,8 @@ def run_fleet(
     reference = None
     if against is not None:  # before any fit: a wrong reference must cost nothing
         reference = read_reference(against, _cached_model(model_ref, model_options))
+    if kind == "local":
+        kind, address = _local_kind(len(paths))
     task = functools.partial(
         fit_one_log,
         model_ref,
@@ -334,6 +347,7 @@ def run_fleet(
         load_options=dict(load_options or {}),
         model_options=dict(model_options or {}),
         flags=dict(flags or {}),
+        workers=int(address) if kind == "dask-local" else 1,  # they share this machine's memory
     )
     start = time.perf_counter()
     backend, rows = run_tasks(task, paths, kind, address, retries, scheduler_timeout, progress)

@@ -28,6 +28,7 @@ from collections.abc import Mapping, Sequence
 
 from ..errors import InputError, PhysidError, arg
 from ..estimators.idim.stream import STREAMED_SETTINGS
+from ..signals.joint_side import joint_side_blocks
 from .fleet import _cached_model, _local_kind
 from .sweep_backends import (
     SCHEDULER_TIMEOUT,
@@ -49,7 +50,8 @@ def _survey_task(model_ref, model_options, load_options, cutoff, block_samples, 
 
     k, path = item
     model = _cached_model(model_ref, model_options)
-    with open_blocks(path, **load_options) as src:
+    with open_blocks(path, **load_options) as raw:
+        src = joint_side_blocks(model, raw)  # motor-side channels through the transmission
         survey = survey_source(
             model, src, k, spectrum=k == 0 and cutoff == "auto", block_samples=block_samples
         )
@@ -63,8 +65,8 @@ def _moments_task(model_ref, model_options, load_options, plan, item):
 
     k, path = item
     model = _cached_model(model_ref, model_options)
-    with open_blocks(path, **load_options) as src:
-        return idim_moments(model, plan, src, k)
+    with open_blocks(path, **load_options) as raw:
+        return idim_moments(model, plan, joint_side_blocks(model, raw), k)
 
 
 class _Failed:
@@ -222,7 +224,7 @@ def run_joint(
         names = [n for n, _ in surveyed]
         plan = plan_from_surveys(model, names, [s for _, s in surveyed], **settings)
         if isinstance(plan.stick, float):  # the speed-fraction rule needs the speed's rms
-            sources = [open_blocks(p, **load) for p in paths]
+            sources = [joint_side_blocks(model, open_blocks(p, **load)) for p in paths]
             try:
                 plan = dataclasses.replace(plan, qd_rms=speed_rms(model, plan, sources))
             finally:
@@ -234,7 +236,7 @@ def run_joint(
         total = total + m
     result = fit_moments(model, plan, total)
     with open_blocks(paths[0], **load) as first:
-        result = scale_gate(model, result, [first])
+        result = scale_gate(model, result, [joint_side_blocks(model, first)])
     elapsed = time.perf_counter() - start
     note = f" Fitted as a map-reduce over {len(paths)} logs on {backend} in {elapsed:.1f} s."
     return dataclasses.replace(result, message=result.message + note)

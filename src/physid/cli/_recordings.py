@@ -270,11 +270,9 @@ def _load_notes(path, rec, where, bag) -> None:
 def _checked(args, rec, model):
     """Motor-side channels, units against the model, plausibility of unit-less channels,
     --detrend."""
-    convert = getattr(model, "joint_side_channels", None)
-    if convert is not None:  # motor-side qm/taum/im through the model's transmission
-        source = str(rec.metadata.get("source") or "the recording")
-        cols, units = convert(rec.names, rec.__getitem__, source)
-        rec = rec.with_channels(cols, units) if cols else rec
+    from ..signals.joint_side import joint_side
+
+    rec = joint_side(model, rec)  # motor-side qm/taum/im through the model's transmission
     if model is not None:
         if callable(getattr(model, "recording_channels", None)):  # the --map that fixes it
             model.recording_channels(rec.names, dict(zip(rec.names, rec.units, strict=True)))

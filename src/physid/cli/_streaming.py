@@ -117,8 +117,8 @@ def open_sources(args, paths, model) -> list:
     the model on the first block.
     """
     from ..errors import PhysidError
-    from ..signals.blocks import TransformedBlocks
     from ..signals.io import open_blocks, parse_channel_map
+    from ..signals.joint_side import joint_side_blocks
     from ._recordings import (
         _model_channel_map,
         _reworded,
@@ -142,9 +142,7 @@ def open_sources(args, paths, model) -> list:
                 delimiter=getattr(args, "delimiter", None),
                 uniform_rtol=1e-3,  # as a whole file is read by the command line
             )
-            convert = getattr(model, "joint_side_channels", None)
-            if convert is not None:
-                src = TransformedBlocks(src, _joint_side(convert))
+            src = joint_side_blocks(model, src)  # motor-side channels, block by block
             first = next(iter(src.blocks(min(src.n_samples, 4096))))
             check_recording_units(model, first)
             _warn_implausible_data(model, first)
@@ -154,14 +152,3 @@ def open_sources(args, paths, model) -> list:
             getattr(s, "close", lambda: None)()
         raise _reworded(exc) from None
     return sources
-
-
-def _joint_side(convert):
-    """A block transform: motor-side channels (qm, taum, im) to joint-side q and tau."""
-
-    def transform(rec):
-        source = str(rec.metadata.get("source") or "the recording")
-        cols, units = convert(rec.names, rec.__getitem__, source)
-        return rec.with_channels(cols, units) if cols else rec
-
-    return transform
