@@ -249,10 +249,16 @@ def record_arrays(model, recording):
     """The forces (n, n_inputs) and outputs (n, n_outputs) of a recording, and its period."""
     missing = [c for c in (*model.input_names, *model.output_names) if c not in recording.names]
     if missing:
+        bases = [
+            f"{c!r} is the measured displacement of base {node!r}"
+            for c, node in zip(model.base_names, model.base_nodes, strict=True)
+            if c in missing
+        ]
         raise InputError(
-            f"the recording lacks channel(s) {missing} of model {model.name!r} (it has "
-            f"{list(recording.names)}); map them with {arg('channels')} or the model file's "
-            "[recording] table."
+            f"the recording lacks channel(s) {missing} of model {model.name!r} ({model.source}"
+            + (f"; {', '.join(bases)}" if bases else "")
+            + f"); it has {list(recording.names)}. Map them with {arg('channels')} or the "
+            "model file's [recording] table."
         )
     return recording.select(model.input_names), recording.select(model.output_names), recording.dt
 

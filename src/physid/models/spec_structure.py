@@ -239,8 +239,8 @@ def _parse_structure(data, text, source, name, params) -> StructureSpec:
         springs = _parse_links(data, "springs", text, source, names, nodes, base_names)
         dampers = _parse_links(data, "dampers", text, source, names, nodes, base_names)
         _check_bases_joined(bases, springs, dampers)
-    forces = _parse_forces(data, text, source, nodes, required=not bases)
-    outputs = _parse_outputs(data, text, source, nodes)
+    forces = _parse_forces(data, text, source, nodes, base_names, required=not bases)
+    outputs = _parse_outputs(data, text, source, nodes, base_names)
     _check_base_accelerations(outputs, dampers, base_names)
     used = {}
     for channel, where in [(f[1], f[2]) for f in (*forces, *bases)] + [
@@ -378,7 +378,7 @@ def _parse_matrices(table, text, source, names) -> tuple:
     return tuple(nodes), tuple(out)
 
 
-def _parse_forces(data, text, source, nodes, *, required: bool = True) -> tuple:
+def _parse_forces(data, text, source, nodes, bases=(), *, required: bool = True) -> tuple:
     entries = _table_list(data, "forces", source, '[[forces]] on = "x1", channel = "F"')
     if not entries and required:
         raise ModelFileError(
@@ -389,7 +389,7 @@ def _parse_forces(data, text, source, nodes, *, required: bool = True) -> tuple:
     for i, e in enumerate(entries):
         where = _where(source, text, f"forces[{i}]", "on", table="forces", index=i)
         _check_keys(e, {"on", "channel", "description"}, where, "[[forces]]")
-        node = _node(e.get("on"), nodes, where, "on", ground=False)
+        node = _node(e.get("on"), nodes, where, "on", ground=False, bases=bases)
         channel = e.get("channel", f"F_{node}")
         if not isinstance(channel, str) or not channel.strip() or channel in channels:
             raise ModelFileError(f"{where}: channel must be a unique name; got {channel!r}.")
@@ -449,7 +449,7 @@ def _check_bases_joined(bases, springs, dampers) -> None:
             )
 
 
-def _parse_outputs(data, text, source, nodes) -> tuple:
+def _parse_outputs(data, text, source, nodes, bases=()) -> tuple:
     entries = _table_list(data, "outputs", source, '[[outputs]] displacement = "x2"')
     if not entries:
         raise ModelFileError(f'{source}: a structure needs [[outputs]] (displacement = "x2").')
@@ -464,7 +464,7 @@ def _parse_outputs(data, text, source, nodes) -> tuple:
                 f"{where}: an output measures exactly one of {list(_QUANTITIES)} of a node; "
                 f"got {given}."
             )
-        node = _node(e[key], nodes, where, key, ground=False)
+        node = _node(e[key], nodes, where, key, ground=False, bases=bases)
         channel = e.get("channel", node if key == "displacement" else f"{key[0]}_{node}")
         if not isinstance(channel, str) or not channel.strip() or channel in channels:
             raise ModelFileError(f"{where}: channel must be a unique name; got {channel!r}.")

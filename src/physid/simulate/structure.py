@@ -309,8 +309,9 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     t : array_like, shape (n_samples,) [s]
         Uniform sample times (at least 2).
     forces : mapping or ndarray
-        channel -> force samples [N] (one per entry of ``model.input_names``), or an array
-        (n_samples, n_inputs) in that order; linear between samples.
+        channel -> samples of every input, forces [N] and base displacements [m] (one per entry
+        of ``model.input_names``), or an array (n_samples, n_inputs) in that order; linear
+        between samples.
     params : mapping, optional
         Parameter values (default nominal).
     x0 : array_like, shape (2n,), optional
@@ -321,7 +322,8 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     Returns
     -------
     Recording
-        Channels: the forces [N], then the outputs (m, m/s or m/s²).
+        Channels: the forces [N] and base displacements [m], then the outputs (m, m/s or
+        m/s²).
 
     Raises
     ------
@@ -345,9 +347,12 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     if isinstance(forces, dict):
         missing = [c for c in model.input_names if c not in forces]
         if missing:
+            bases = [c for c in missing if c in model.base_names]
             raise InputError(
-                f"{arg('forces')} lacks channel(s) {missing} of model {model.name!r}; give "
-                f"{list(model.input_names)}."
+                f"{arg('forces')} lacks channel(s) {missing} of model {model.name!r} "
+                f"({model.source}); give {list(model.input_names)}"
+                + (f" ({bases} the base displacements [m])" if bases else "")
+                + "."
             )
         u = np.column_stack([np.asarray(forces[c], dtype=float) for c in model.input_names])
     else:
