@@ -19,6 +19,9 @@ The format (docs/structures.md)::
     [[forces]]
     on = "x1"
     channel = "F"
+    [[base_motions]]         # a node moved by a measured displacement [m]; springs and
+    name = "xb"              # dampers may join it like the ground (forces, bases or both)
+    channel = "xb"
     [[outputs]]
     displacement = "x2"      # or velocity / acceleration (with anti_aliasing = "...")
     channel = "x2"

@@ -2,7 +2,9 @@
 
 A `StructureModel` is built from a ``kind = "structure"`` model file (`physid.models.
 spec_structure`): masses on named nodes, springs and dampers between nodes (or the ground),
-forces on nodes and measured outputs (displacement, velocity or acceleration of a node); or the
+forces on nodes, bases moved by a measured displacement x_b (the right-hand side then has
+K_b x_b + C_b ẋ_b from the springs and dampers that join them) and measured outputs
+(displacement, velocity or acceleration of a node); or the
 matrices M, C, K written as expressions. Nonlinear terms: a cubic spring k3·d³ (d the
 elongation, the Duffing spring) and Coulomb friction Fc·sign(q̇_i) on a node.
 
