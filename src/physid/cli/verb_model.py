@@ -145,6 +145,7 @@ def describe(model, *, base: bool = True, force: bool = False) -> dict:
             for k, v in model.parameters.items()
         ]
         out.update(nodes=list(model.nodes), inputs=list(model.input_names))
+        out["bases"] = dict(zip(model.base_nodes, model.base_names, strict=True))
         out["outputs"] = list(model.output_names)
         out["identifiability"] = {
             "identifiable": list(ident.identifiable),
@@ -276,7 +277,9 @@ def run_info(args) -> int:
             mark = "  (estimated)" if p["identifiable"] else "  (not identifiable alone)"
         lines.append(f"  {p['name']} = {p['value']:.6g} {p['unit']}{mark}")
     if info.get("identifiability"):
-        lines.append(f"nodes {info['nodes']}; forces {info['inputs']}; outputs {info['outputs']}")
+        forces = [c for c in info["inputs"] if c not in info.get("bases", {}).values()]
+        bases = "".join(f"; base {k} moved by {v!r}" for k, v in info.get("bases", {}).items())
+        lines.append(f"nodes {info['nodes']}; forces {forces}{bases}; outputs {info['outputs']}")
         lines.append(f"identifiability: {info['identifiability']['message']}")
     if info.get("physical"):
         lines.append(f"physical parameters: {info['physical']['message']}")

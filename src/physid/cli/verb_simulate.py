@@ -1,7 +1,9 @@
 """``physid simulate manipulator|msd|MODEL --out F.csv [...]``: write a simulated recording.
 
 * ``MODEL`` (a ``.toml``/``.urdf`` chain file or the built-in ``arm6``): PD closed loop of any
-  chain model following ``--reference`` → t, q1..qn, qd1..qdn, tau1..taun, r1..rn.
+  chain model following ``--reference`` → t, q1..qn, qd1..qdn, tau1..taun, r1..rn. A structure
+  model (``kind = "structure"``) is driven open loop by the forces and base displacements of
+  the ``--reference`` file → t, the inputs, the outputs.
 
 * ``manipulator``: the closed-loop PD experiment of Cedro & Janecki (section 4) → t, q1..q4,
   qd1..qd4, tau1..tau4, r1..r4.
@@ -339,14 +341,20 @@ def _register_model(systems) -> None:
             "MODEL --out F.csv."
         ),
     )
-    chain.add_argument("model", metavar="MODEL", help="model file (.toml, .urdf) or arm6")
+    chain.add_argument(
+        "model",
+        metavar="MODEL",
+        help='model file (.toml, .urdf) or arm6; a structure model (kind = "structure") is '
+        "driven by the inputs of --reference (docs/structures.md)",
+    )
     chain.add_argument("--out", metavar="F", required=True, help="output file (.csv or .npz)")
     chain.add_argument(
         "--reference",
         metavar="F|LIST",
         default=None,
         help="a recording with t and r1..rn (e.g. from design-excitation), or n comma-separated "
-        "set-points; default: a smooth multi-sine of 0.3 rad (0.05 m) per joint",
+        "set-points; default: a smooth multi-sine of 0.3 rad (0.05 m) per joint. Structure "
+        "models: a recording of every force [N] and base displacement [m] (required)",
     )
     chain.add_argument(
         "--kp",
@@ -376,7 +384,12 @@ def _register_model(systems) -> None:
     chain.add_argument(
         "--dt", metavar="S", default="0.001", help="sample period [s] (default 1 ms)"
     )
-    chain.add_argument("--noise-std", metavar="RAD", default=None, help="white noise std on q")
+    chain.add_argument(
+        "--noise-std",
+        metavar="RAD",
+        default=None,
+        help="white noise std on q (structure models: on every output, in its unit)",
+    )
     chain.add_argument("--seed", metavar="N", default=None, help="noise seed (needs --noise-std)")
     add_recording_options(chain, what="the --reference file", detrend=False)
     chain.set_defaults(func=run_model)
@@ -489,6 +502,8 @@ def run_model(args) -> int:
     check_recording_path(args.out, "--out")  # before the simulation, not after it
 
     model = load_model(args.model)
+    if hasattr(model, "nodes") and hasattr(model, "base_names"):
+        return _run_structure(args, model)
     if not isinstance(model, ChainModel):
         raise InputError(
             f"{args.model!r} is a {type(model).__name__}, not a chain model; simulate it with "
@@ -543,4 +558,51 @@ def run_model(args) -> int:
         f"{wall:.2f} s ({integ['backend']})"
     )
     print(path)
+    return 0
+
+
+def _run_structure(args, model) -> int:
+    """``physid simulate STRUCTURE.toml --reference inputs.csv --out F``: the structure driven
+    by the file's forces and base displacements (linear between samples), on the file's grid."""
+    import numpy as np
+
+    from ..signals import save_recording
+    from ..simulate.structure import simulate_structure
+
+    given = [f for f, v in (("--kp", args.kp), ("--kd", args.kd)) if v is not None]
+    given += ["--feedforward"] if getattr(args, "feedforward", "none") != "none" else []
+    given += ["--dt"] if args.dt != "0.001" else []
+    if given:
+        raise InputError(
+            f"{', '.join(given)} do(es) not apply to structure model {model.name!r}: it runs open "
+            "loop on the --reference file's inputs and time grid; drop it."
+        )
+    if args.reference is None or _is_number_list(args.reference):
+        raise InputError(
+            f"structure model {model.name!r} needs --reference FILE with t and its inputs "
+            f"{list(model.input_names)} (forces [N], base displacements [m])."
+        )
+    rec = read_recording(args, args.reference)
+    missing = [c for c in model.input_names if c not in rec.names]
+    if missing:
+        raise InputError(
+            f"--reference {args.reference!r} has no channel(s) {missing} of {args.model!r} (it "
+            f"has {list(rec.names)}); it needs t and {list(model.input_names)}."
+        )
+    model.check_units(rec)
+    if args.duration is not None:
+        duration = _number(args.duration, "--duration [s]", positive=True)
+        rec = rec.slice_time(rec.t[0], rec.t[0] + duration * (1 + 1e-12))
+    noise = _number(args.noise_std, "--noise-std", positive=True, allow_zero=True)
+    seed = _seed(args.seed)
+    if seed is not None and noise is None:
+        raise InputError("--seed only seeds the measurement noise; give --noise-std as well.")
+    inputs = {c: rec[c] for c in model.input_names}
+    progress(f"physid simulate {args.model}: {model.n} nodes, {rec.n_samples} samples ...")
+    out = simulate_structure(model, rec.t, inputs)
+    if noise:
+        rng = np.random.default_rng(seed)
+        noisy = {c: out[c] + noise * rng.standard_normal(out.n_samples) for c in model.output_names}
+        out = out.with_channels(noisy)
+    print(save_recording(out, args.out))
     return 0

@@ -199,7 +199,7 @@ class StructureResult(ResultMixin):
         """
         from ..simulate.structure import simulate_structure
 
-        forces = {c: recording[c] for c in self.model.input_names}
+        forces = {c: recording[c] for c in self.model.input_names}  # and base displacements
         return simulate_structure(
             self.model, recording.t, forces, {**self.known, **self.parameters}
         )
@@ -250,25 +250,31 @@ def record_arrays(model, recording):
     """The forces (n, n_inputs) and outputs (n, n_outputs) of a recording, and its period."""
     missing = [c for c in (*model.input_names, *model.output_names) if c not in recording.names]
     if missing:
+        bases = [
+            f"{c!r} is the measured displacement of base {node!r}"
+            for c, node in zip(model.base_names, model.base_nodes, strict=True)
+            if c in missing
+        ]
         raise InputError(
-            f"the recording lacks channel(s) {missing} of model {model.name!r} (it has "
-            f"{list(recording.names)}); map them with {arg('channels')} or the model file's "
-            "[recording] table."
+            f"the recording lacks channel(s) {missing} of model {model.name!r} ({model.source}"
+            + (f"; {', '.join(bases)}" if bases else "")
+            + f"); it has {list(recording.names)}. Map them with {arg('channels')} or the "
+            "model file's [recording] table."
         )
     return recording.select(model.input_names), recording.select(model.output_names), recording.dt
 
 
-def noise_report(model, u, y, dt, params=None) -> tuple[dict, bool, float]:
-    """Each channel's estimated noise, whether a force is noisy (SNR < 60 dB) and the band."""
+def noise_report(model, u, y, dt, params=None, inputs=None) -> tuple[dict, bool, float]:
+    """Each channel's estimated noise, whether one of ``inputs`` (default every input, forces
+    and base displacements) is noisy (SNR < 60 dB) and the band."""
     band = float(np.max(model.modal(params).frequency, initial=0.0)) or 1.0
     noise = {}
     for name, col in zip(model.input_names, u.T, strict=True):
         noise[name] = channel_noise(col, dt, band)
     for name, col in zip(model.output_names, y.T, strict=True):
         noise[name] = channel_noise(col, dt, band)
-    noisy = any(
-        noise[c]["snr_db"] is not None and noise[c]["snr_db"] < 60 for c in model.input_names
-    )
+    inputs = model.input_names if inputs is None else inputs
+    noisy = any(noise[c]["snr_db"] is not None and noise[c]["snr_db"] < 60 for c in inputs)
     return noise, noisy, band
 
 
@@ -328,7 +334,9 @@ class EquationErrorEstimator(EstimatorMixin):
             )
         order = _displacement_columns(model)
         u, y, dt = record_arrays(model, recording)
-        noise, noisy, band = noise_report(model, u, y, dt)
+        # base displacements are regressors like the nodes' (their noise is compensated alike);
+        # only a noisy force is an error in the target
+        noise, noisy, band = noise_report(model, u, y, dt, inputs=model.force_names)
         # a nonlinear structure answers with harmonics (3ω of a cubic spring) above its band
         factor = 10.0 if model.nonlinear else 3.0
         cutoff = float(self.cutoff) if self.cutoff is not None else factor * band
@@ -339,13 +347,14 @@ class EquationErrorEstimator(EstimatorMixin):
                 f"the recording has {y.shape[0]} samples; equation-error needs at least 10 times "
                 f"the filter's {2 * half + 1} taps. Record longer or lower {arg('half_width')}."
             )
-        q = y[:, order]
-        raw = np.hstack([q, u, model.cubic_elongations(q) ** 3])
+        m = len(model.force_names)
+        q = np.hstack([y[:, order], u[:, m:]])  # the nodes, then the bases' x_b
+        raw = np.hstack([q, u[:, :m], model.cubic_elongations(q) ** 3])
         d = filter_derivatives(raw, recording.t, half, omega, design="consistent")
-        n, m = model.n, u.shape[1]
-        Q0, Q1, Q2 = d.value[:, :n], d.first[:, :n], d.second[:, :n]
-        U0 = d.value[:, n : n + m]
-        cubes = d.value[:, n + m :]
+        N = q.shape[1]  # F₁x_b is the base velocity the equation needs, from the same bank
+        Q0, Q1, Q2 = d.value[:, :N], d.first[:, :N], d.second[:, :N]
+        U0 = d.value[:, N : N + m]
+        cubes = d.value[:, N + m :]
         signs = np.sign(Q1[:, list(model.friction_nodes)])
         Phi, phi0 = model.regression(Q0, Q1, Q2, unknown, cubes=cubes, signs=signs)
         target = U0 @ model.input_matrix.T - phi0  # (rows, n)
@@ -355,8 +364,9 @@ class EquationErrorEstimator(EstimatorMixin):
             [f.taps for f in design_filter_bank(half, omega, recording.dt, "consistent")]
         )
         unit_reg = _unit_regression(model, unknown)
-        out_var = np.array([noise[model.output_names[c]]["variance"] or 0.0 for c in order])
-        in_var = np.array([noise[c]["variance"] or 0.0 for c in model.input_names])
+        measured = [model.output_names[c] for c in order] + list(model.base_names)
+        out_var = np.array([noise[c]["variance"] or 0.0 for c in measured])
+        in_var = np.array([noise[c]["variance"] or 0.0 for c in model.force_names])
         if self.compensation == "auto" and np.any(out_var > 0):
             R, r = _noise_moments(unit_reg, taps, out_var)
             how = (
@@ -366,7 +376,7 @@ class EquationErrorEstimator(EstimatorMixin):
         theta, H = _solve(Phi, target, R, r)
         cov = _covariance(Phi, H, theta, unit_reg, taps, out_var, in_var, model.input_matrix)
         if R is not None:  # the compensation's own error: it uses estimated variances
-            out_se = [noise[model.output_names[c]]["variance_stderr"] or 0.0 for c in order]
+            out_se = [noise[c]["variance_stderr"] or 0.0 for c in measured]
             cov = cov + _compensation_covariance(H, theta, unit_reg, taps, out_se, Phi.shape[0])
         self.result_ = _result(model, unknown, theta, cov, how, noise, noisy, recording, self)
         self.result_settings_ = {"cutoff": cutoff, "half_width": half}
@@ -388,8 +398,9 @@ def _displacement_columns(model) -> list:
 
 
 def _unit_regression(model, unknown):
-    """The regression of unit samples: row s = k·n + j is F_k q_j = 1 (k = 0, 1, 2)."""
-    n = model.n
+    """The regression of unit samples: row s = k·n + j is F_k q_j = 1 (k = 0, 1, 2); n counts
+    the nodes and then the bases (their x_b are regressors too)."""
+    n = model.n + len(model.base_nodes)
     unit = np.zeros((3 * n, 3, n))
     for k in range(3):
         unit[k * n + np.arange(n), k, np.arange(n)] = 1.0
@@ -457,10 +468,11 @@ def _covariance(Phi, H, theta, unit_reg, taps, out_var, in_var, Bmat):
 
     Phi_u, phi0_u = unit_reg
     n = Phi.shape[1]
-    W = np.einsum("sip,p->is", Phi_u, theta) + phi0_u.T  # (n, 3n)
+    W = np.einsum("sip,p->is", Phi_u, theta) + phi0_u.T  # (n, 3N), N nodes and bases
+    N = W.shape[1] // 3
     p = Phi.shape[2]
     S = np.zeros((p, p))
-    sources = [(var, -np.einsum("ik,kt->it", W[:, j::n], taps)) for j, var in enumerate(out_var)]
+    sources = [(var, -np.einsum("ik,kt->it", W[:, j::N], taps)) for j, var in enumerate(out_var)]
     sources += [(var, np.outer(Bmat[:, c], taps[0])) for c, var in enumerate(in_var)]
     for var, h in sources:
         if not var:
@@ -484,14 +496,14 @@ def _second_order(Phi_u, W, taps, out_var, rows):
     """
     from scipy.signal import fftconvolve
 
-    n = W.shape[0]
+    n, N = W.shape[0], W.shape[1] // 3  # equations (nodes); measured signals (nodes, bases)
     L = taps.shape[1]
     C = np.zeros((n, n, 2 * L - 1, Phi_u.shape[2]))
     for j, var in enumerate(out_var):
         if not var:
             continue
-        a = np.einsum("kip,kl->ilp", Phi_u[j::n], taps)  # φ̃_i's taps on n_j, (n, L, p)
-        h = -np.einsum("ik,kl->il", W[:, j::n], taps)  # e_i's taps on n_j, (n, L)
+        a = np.einsum("kip,kl->ilp", Phi_u[j::N], taps)  # φ̃_i's taps on n_j, (n, L, p)
+        h = -np.einsum("ik,kl->il", W[:, j::N], taps)  # e_i's taps on n_j, (n, L)
         for i in range(n):
             # C_ik(τ) = σ_j² Σ_m a_i[m + τ] h_k[m], τ = −(L−1) … L−1
             C[i] += var * fftconvolve(a[i][None], h[:, ::-1, None], mode="full", axes=1)
@@ -543,7 +555,7 @@ def _result(model, unknown, theta, cov, how, noise, noisy, recording, est) -> St
         messages.append(f"{', '.join(bad)} not distinguishable from 0 in this record")
     if noisy:
         snrs = ", ".join(
-            f"{c} ≈ {noise[c]['snr_db']:.0f} dB" for c in model.input_names if noise[c]["snr_db"]
+            f"{c} ≈ {noise[c]['snr_db']:.0f} dB" for c in model.force_names if noise[c]["snr_db"]
         )
         messages.append(
             f"the force is measured with noise ({snrs}, from its spectrum above the band): "

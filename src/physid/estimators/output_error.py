@@ -168,7 +168,7 @@ def _result(model, unknown, sol, s2, known, u, y, dt, how) -> StructureResult:
             f"{c} ≈ {noise[c]['snr_db']:.0f} dB" for c in model.input_names if noise[c]["snr_db"]
         )
         reason = (
-            f"the force is measured with noise ({snrs}, from its spectrum above the band): the "
+            f"an input is measured with noise ({snrs}, from its spectrum above the band): the "
             "simulated outputs carry it through the structure (errors in variables), the "
             "residuals are not white and (JᵀJ)⁻¹ would be too narrow; use method equation-error "
             "for intervals that hold"

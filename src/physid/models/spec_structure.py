@@ -19,6 +19,9 @@ The format (docs/structures.md)::
     [[forces]]
     on = "x1"
     channel = "F"
+    [[base_motions]]         # a node moved by a measured displacement [m]; springs and
+    name = "xb"              # dampers may join it like the ground (forces, bases or both)
+    channel = "xb"
     [[outputs]]
     displacement = "x2"      # or velocity / acceleration (with anti_aliasing = "...")
     channel = "x2"
@@ -48,6 +51,7 @@ _TOP = {
     "springs",
     "dampers",
     "forces",
+    "base_motions",
     "outputs",
     "matrices",
     "recording",
@@ -123,6 +127,8 @@ class StructureSpec:
         ``(("M", rows), ("C", rows), ("K", rows))`` of expression strings, or ().
     forces : tuple of (node, channel, where)
         Force inputs [N].
+    bases : tuple of (node, channel, where)
+        Base motions: nodes that move with a measured displacement [m] (not coordinates).
     outputs : tuple of OutputSpec
         Measured outputs.
     source : str
@@ -138,6 +144,7 @@ class StructureSpec:
     matrices: tuple = ()
     forces: tuple = ()
     outputs: tuple = ()
+    bases: tuple = ()
     description: str = ""
     source: str = "<string>"
     recording: tuple = ()
@@ -185,9 +192,15 @@ def _expression(value, where, names) -> str:
     return text
 
 
-def _node(value, nodes, where, what, *, ground: bool) -> str:
-    allowed = [GROUND, *nodes] if ground else list(nodes)
+def _node(value, nodes, where, what, *, ground: bool, bases=()) -> str:
+    allowed = [GROUND, *bases, *nodes] if ground else list(nodes)
     if not isinstance(value, str) or value not in allowed:
+        if isinstance(value, str) and value in bases:
+            raise ModelFileError(
+                f"{where}: {what} {value!r} is a base (a [[base_motions]] entry, moved by its "
+                f"measured channel), not a mass; {what} must be one of the [[masses]] names "
+                f"{list(nodes)}."
+            )
         raise ModelFileError(
             f"{where}: {what} {value!r} is not a node; the nodes are the [[masses]] names "
             f"{allowed}."
@@ -205,7 +218,16 @@ def _parse_structure(data, text, source, name, params) -> StructureSpec:
             f"{sorted(_TOP)}."
         )
     names = {p.name for p in params}
+    masses_given = [e.get("name") for e in data.get("masses", []) if isinstance(e, dict)]
+    bases = _parse_bases(data, text, source, masses_given)
+    base_names = tuple(b[0] for b in bases)
     if "matrices" in data:
+        if bases:
+            raise ModelFileError(
+                f"{_where(source, text, 'matrices', 'matrices')}: [[base_motions]] need "
+                "[[springs]]/[[dampers]] joining the base to the masses; [matrices] has no "
+                "elements to join it to."
+            )
         if any(k in data for k in ("masses", "springs", "dampers")):
             raise ModelFileError(
                 f"{_where(source, text, 'matrices', 'matrices')}: give either [matrices] or "
@@ -217,10 +239,22 @@ def _parse_structure(data, text, source, name, params) -> StructureSpec:
         matrices = ()
         masses = _parse_masses(data, text, source, names)
         nodes = tuple(m.nodes[0] for m in masses)
-        springs = _parse_links(data, "springs", text, source, names, nodes)
-        dampers = _parse_links(data, "dampers", text, source, names, nodes)
-    forces = _parse_forces(data, text, source, nodes)
-    outputs = _parse_outputs(data, text, source, nodes)
+        springs = _parse_links(data, "springs", text, source, names, nodes, base_names)
+        dampers = _parse_links(data, "dampers", text, source, names, nodes, base_names)
+        _check_bases_joined(bases, springs, dampers)
+    forces = _parse_forces(data, text, source, nodes, base_names, required=not bases)
+    outputs = _parse_outputs(data, text, source, nodes, base_names)
+    _check_base_accelerations(outputs, dampers, base_names)
+    used = {}
+    for channel, where in [(f[1], f[2]) for f in (*forces, *bases)] + [
+        (o.channel, o.where) for o in outputs
+    ]:
+        if channel in used:
+            raise ModelFileError(
+                f"{where}: channel {channel!r} is already used at {used[channel]}; every force, "
+                "base motion and output needs its own channel."
+            )
+        used[channel] = where
     spec = StructureSpec(
         name=name,
         parameters=params,
@@ -231,6 +265,7 @@ def _parse_structure(data, text, source, name, params) -> StructureSpec:
         matrices=matrices,
         forces=forces,
         outputs=outputs,
+        bases=bases,
         description=str(data.get("description", "")),
         source=source,
         recording=tuple(_parse_recording(data, text, source).items()),
@@ -270,7 +305,7 @@ def _parse_masses(data, text, source, names) -> tuple:
     return tuple(out)
 
 
-def _parse_links(data, key, text, source, names, nodes) -> tuple:
+def _parse_links(data, key, text, source, names, nodes, bases=()) -> tuple:
     value_key = "stiffness" if key == "springs" else "damping"
     allowed = {"between", value_key, "description"} | ({"cubic"} if key == "springs" else set())
     entries = _table_list(data, key, source, f'[[{key}]] between = ["ground", "x1"]')
@@ -284,7 +319,18 @@ def _parse_links(data, key, text, source, names, nodes) -> tuple:
                 f'{where}: between must name two nodes, e.g. between = ["ground", "x1"]; got '
                 f"{between!r}."
             )
-        a, b = (_node(n, nodes, where, "node", ground=True) for n in between)
+        a, b = (_node(n, nodes, where, "node", ground=True, bases=bases) for n in between)
+        fixed = {GROUND, *bases}
+        if a in fixed and b in fixed:
+            raise ModelFileError(
+                f"{where}: {key[:-1]} between {a!r} and {b!r} joins no mass (both ends are "
+                "the ground or a base); join a mass."
+            )
+        if "cubic" in e and (a in bases or b in bases):
+            raise ModelFileError(
+                f"{where}: a cubic spring on base {a if a in bases else b!r} is not supported; "
+                "only linear springs and dampers may touch a base."
+            )
         if a == b:
             raise ModelFileError(
                 f"{where}: {key[:-1]} between {a!r} and itself does nothing; join two different "
@@ -335,15 +381,18 @@ def _parse_matrices(table, text, source, names) -> tuple:
     return tuple(nodes), tuple(out)
 
 
-def _parse_forces(data, text, source, nodes) -> tuple:
+def _parse_forces(data, text, source, nodes, bases=(), *, required: bool = True) -> tuple:
     entries = _table_list(data, "forces", source, '[[forces]] on = "x1", channel = "F"')
-    if not entries:
-        raise ModelFileError(f'{source}: a structure needs [[forces]] (on = "x1", channel = "F").')
+    if not entries and required:
+        raise ModelFileError(
+            f'{source}: a structure needs [[forces]] (on = "x1", channel = "F") or '
+            '[[base_motions]] (name = "xb", channel = "xb").'
+        )
     out, channels = [], set()
     for i, e in enumerate(entries):
         where = _where(source, text, f"forces[{i}]", "on", table="forces", index=i)
         _check_keys(e, {"on", "channel", "description"}, where, "[[forces]]")
-        node = _node(e.get("on"), nodes, where, "on", ground=False)
+        node = _node(e.get("on"), nodes, where, "on", ground=False, bases=bases)
         channel = e.get("channel", f"F_{node}")
         if not isinstance(channel, str) or not channel.strip() or channel in channels:
             raise ModelFileError(f"{where}: channel must be a unique name; got {channel!r}.")
@@ -352,7 +401,58 @@ def _parse_forces(data, text, source, nodes) -> tuple:
     return tuple(out)
 
 
-def _parse_outputs(data, text, source, nodes) -> tuple:
+def _parse_bases(data, text, source, masses) -> tuple:
+    """[[base_motions]]: (name, channel, where) of each base, a node moved by a measured
+    displacement [m] that springs and dampers may join, like the ground."""
+    entries = _table_list(data, "base_motions", source, '[[base_motions]] name = "xb"')
+    out, seen = [], set()
+    for i, e in enumerate(entries):
+        where = _where(source, text, f"base_motions[{i}]", "name", table="base_motions", index=i)
+        _check_keys(e, {"name", "channel", "description"}, where, "[[base_motions]]")
+        node = e.get("name")
+        if not isinstance(node, str) or not node.strip() or node == GROUND or node in seen:
+            raise ModelFileError(
+                f"{where}: each base needs a unique name other than 'ground' (the node springs "
+                f'and dampers join, e.g. name = "xb"); got {node!r}.'
+            )
+        if node in masses:
+            raise ModelFileError(
+                f"{where}: base {node!r} has the name of a mass; a base is moved by its "
+                "measured displacement, a mass by the forces on it: give the base another name."
+            )
+        seen.add(node)
+        channel = e.get("channel", node)
+        if not isinstance(channel, str) or not channel.strip():
+            raise ModelFileError(
+                f"{where}: channel must name the recording channel of the base's measured "
+                f"displacement [m]; got {channel!r}."
+            )
+        out.append((node, channel, where))
+    return tuple(out)
+
+
+def _check_base_accelerations(outputs, dampers, bases) -> None:
+    for o in outputs:
+        hit = [d for d in dampers if o.node in d.nodes and set(d.nodes) & set(bases)]
+        if o.quantity == "acceleration" and hit:
+            raise ModelFileError(
+                f"{o.where}: the acceleration of {o.node!r}, joined to a base by the damper at "
+                f"{hit[0].where}, follows the base's velocity without lag (its transfer "
+                "function from x_b is improper); measure its displacement or velocity instead."
+            )
+
+
+def _check_bases_joined(bases, springs, dampers) -> None:
+    touched = {n for e in (*springs, *dampers) for n in e.nodes}
+    for node, _, where in bases:
+        if node not in touched:
+            raise ModelFileError(
+                f"{where}: base {node!r} is joined to no mass: no [[springs]] or [[dampers]] "
+                f'has it in between (e.g. between = ["{node}", "x1"]); it moves nothing.'
+            )
+
+
+def _parse_outputs(data, text, source, nodes, bases=()) -> tuple:
     entries = _table_list(data, "outputs", source, '[[outputs]] displacement = "x2"')
     if not entries:
         raise ModelFileError(f'{source}: a structure needs [[outputs]] (displacement = "x2").')
@@ -367,7 +467,7 @@ def _parse_outputs(data, text, source, nodes) -> tuple:
                 f"{where}: an output measures exactly one of {list(_QUANTITIES)} of a node; "
                 f"got {given}."
             )
-        node = _node(e[key], nodes, where, key, ground=False)
+        node = _node(e[key], nodes, where, key, ground=False, bases=bases)
         channel = e.get("channel", node if key == "displacement" else f"{key[0]}_{node}")
         if not isinstance(channel, str) or not channel.strip() or channel in channels:
             raise ModelFileError(f"{where}: channel must be a unique name; got {channel!r}.")
@@ -387,7 +487,7 @@ def _parse_outputs(data, text, source, nodes) -> tuple:
 def _check_reachable(spec: StructureSpec) -> None:
     """Each output node must be connected to a forced node through springs, dampers or a
     non-zero matrix entry (else no input reaches it)."""
-    adjacency = {n: set() for n in spec.nodes}
+    adjacency = {n: set() for n in (*spec.nodes, *(b[0] for b in spec.bases))}
     for e in (*spec.springs, *spec.dampers):
         a, b = e.nodes
         if GROUND not in (a, b):
@@ -399,7 +499,7 @@ def _check_reachable(spec: StructureSpec) -> None:
                 if i != j and v.strip() not in ("0", "0.0"):
                     adjacency[spec.nodes[i]].add(spec.nodes[j])
                     adjacency[spec.nodes[j]].add(spec.nodes[i])
-    reached = {f[0] for f in spec.forces}
+    reached = {f[0] for f in spec.forces} | {b[0] for b in spec.bases}
     frontier = list(reached)
     while frontier:
         for m in adjacency[frontier.pop()] - reached:
@@ -409,6 +509,7 @@ def _check_reachable(spec: StructureSpec) -> None:
         if o.node not in reached:
             raise ModelFileError(
                 f"{o.where}: no input reaches node {o.node!r} (it is joined to no forced node "
-                f"{sorted({f[0] for f in spec.forces})} by springs or dampers); its output "
+                f"or base {sorted({f[0] for f in (*spec.forces, *spec.bases)})} by springs or "
+                "dampers); its output "
                 "carries no information. Join it, force it, or drop the output."
             )

@@ -2,7 +2,9 @@
 
 A `StructureModel` is built from a ``kind = "structure"`` model file (`physid.models.
 spec_structure`): masses on named nodes, springs and dampers between nodes (or the ground),
-forces on nodes and measured outputs (displacement, velocity or acceleration of a node); or the
+forces on nodes, bases moved by a measured displacement x_b (the right-hand side then has
+K_b x_b + C_b ẋ_b from the springs and dampers that join them) and measured outputs
+(displacement, velocity or acceleration of a node); or the
 matrices M, C, K written as expressions. Nonlinear terms: a cubic spring k3·d³ (d the
 elongation, the Duffing spring) and Coulomb friction Fc·sign(q̇_i) on a node.
 
@@ -114,11 +116,13 @@ class StructureModel:
             positive definite at the nominal values (naming the element).
         """
         index = {n: i for i, n in enumerate(spec.nodes)}
+        index.update({b[0]: len(spec.nodes) + j for j, b in enumerate(spec.bases)})
         terms = _collect_terms(spec, index)
         names = spec.parameter_names
         nominal = {p.name: p.value for p in spec.parameters}
         units = {p.name: p.unit for p in spec.parameters}
         units.update({c: "N" for _, c, _ in spec.forces})
+        units.update({c: "m" for _, c, _ in spec.bases})
         units.update({o.channel: _UNIT[o.quantity] for o in spec.outputs})
         model = cls(
             name=spec.name,
@@ -126,7 +130,7 @@ class StructureModel:
             parameter_names=names,
             _nominal=nominal,
             unknown=tuple(p.name for p in spec.parameters if p.identify),
-            input_names=tuple(c for _, c, _ in spec.forces),
+            input_names=tuple(c for _, c, _ in (*spec.forces, *spec.bases)),
             output_names=tuple(o.channel for o in spec.outputs),
             outputs=tuple((o.quantity, index[o.node]) for o in spec.outputs),
             units=units,
@@ -137,6 +141,7 @@ class StructureModel:
             recording=spec.recording,
         )
         object.__setattr__(model, "_force_nodes", tuple(index[f[0]] for f in spec.forces))
+        object.__setattr__(model, "base_nodes", tuple(b[0] for b in spec.bases))
         _check_mass(model, spec)
         return model
 
@@ -150,6 +155,17 @@ class StructureModel:
     def n(self) -> int:
         """Number of coordinates (nodes)."""
         return len(self.nodes)
+
+    @property
+    def force_names(self) -> tuple:
+        """Channels of the forces [N] (the first entries of ``input_names``)."""
+        return self.input_names[: len(self._force_nodes)]
+
+    @property
+    def base_names(self) -> tuple:
+        """Channels of the measured base displacements [m] (the last entries of
+        ``input_names``), one per entry of ``base_nodes``."""
+        return self.input_names[len(self._force_nodes) :]
 
     @property
     def linear_in_parameters(self) -> bool:
@@ -228,13 +244,57 @@ class StructureModel:
         """
         vals = self.values(params)
         n = self.n
-        return tuple(self._eval(self._terms[k], vals, (n, n)) for k in ("M", "C", "K"))
+        M = self._eval(self._terms["M"], vals, (n, n))
+        return M, *(self._lhs(k, vals)[:, :n] for k in ("C", "K"))
+
+    def _lhs(self, key, vals) -> np.ndarray:
+        """C or K on the left-hand side with the base columns: shape (n, n + n_bases)."""
+        return self._eval(self._terms[key], vals, (self.n, self.n + len(self.base_nodes)))
+
+    def base_matrices(self, params=None) -> tuple[np.ndarray, np.ndarray]:
+        """C_b [N·s/m] and K_b [N/m] of M q̈ + C q̇ + K q = B u + K_b x_b + C_b ẋ_b.
+
+        A spring k (damper c) between base j and node i puts +k (+c) at (i, j): the force
+        k (x_b − q_i) on node i, of which −k q_i is in K. Empty (n, 0) without base motions.
+
+        Parameters
+        ----------
+        params : mapping, optional
+            Overrides of the nominal values.
+
+        Returns
+        -------
+        Cb, Kb : ndarray, shape (n, n_bases)
+        """
+        vals = self.values(params)
+        return tuple(0.0 - self._lhs(k, vals)[:, self.n :] for k in ("C", "K"))
+
+    def velocity_feedthrough(self, params=None) -> np.ndarray:
+        """P, shape (n, n_inputs), with q̇ = v + P u for the state x = [q, v] of `state_space`.
+
+        P = M⁻¹ C_b in the base columns (a damper to a moving base makes the velocity jump
+        with the base's), 0 in the force columns.
+
+        Parameters
+        ----------
+        params : mapping, optional
+
+        Returns
+        -------
+        ndarray (n, n_inputs)
+        """
+        M = self.matrices(params)[0]
+        Cb = self.base_matrices(params)[0]
+        P = np.zeros((self.n, len(self.input_names)))
+        P[:, len(self._force_nodes) :] = np.linalg.solve(M, Cb)
+        return P
 
     @property
     def input_matrix(self) -> np.ndarray:
-        """B, shape (n, n_inputs): force j acts on node ``_force_nodes[j]``."""
-        b = np.zeros((self.n, len(self.input_names)))
-        b[list(self._force_nodes), np.arange(len(self.input_names))] = 1.0
+        """B, shape (n, n_forces): force j acts on node ``_force_nodes[j]``."""
+        nf = len(self._force_nodes)
+        b = np.zeros((self.n, nf))
+        b[list(self._force_nodes), np.arange(nf)] = 1.0
         return b
 
     def nonlinear_forces(self, q, qd, params=None, *, smooth: float | None = None) -> np.ndarray:
@@ -293,7 +353,12 @@ class StructureModel:
         return cubic, friction
 
     def state_space(self, params=None):
-        """The linear part as ẋ = A x + B_s u, y = C_s x + D_s u with x = [q, q̇].
+        """The linear part as ẋ = A x + B_s u, y = C_s x + D_s u with x = [q, v].
+
+        u = [forces, base displacements x_b]. v = q̇ − P x_b with P = M⁻¹ C_b
+        (`velocity_feedthrough`), so that the base's velocity never appears:
+        q̇ = v + P x_b, M v̇ = B u_F + (K_b − C P) x_b − C v − K q, whose transfer function is
+        (M s² + C s + K)⁻¹ (B u_F + (K_b + C_b s) x_b). Without a damper on a base, v = q̇.
 
         Parameters
         ----------
@@ -307,13 +372,19 @@ class StructureModel:
         Ds : ndarray (n_outputs, n_inputs)
         """
         M, C, K = self.matrices(params)
+        Cb, Kb = self.base_matrices(params)
         n = self.n
-        MinvKC = np.linalg.solve(M, np.hstack([K, C, self.input_matrix]))
+        MinvKC = np.linalg.solve(M, np.hstack([K, C, self.input_matrix, Cb]))
         A = np.zeros((2 * n, 2 * n))
         A[:n, n:] = np.eye(n)
         A[n:, :n] = -MinvKC[:, :n]
         A[n:, n:] = -MinvKC[:, n : 2 * n]
-        Bs = np.vstack([np.zeros((n, self.input_matrix.shape[1])), MinvKC[:, 2 * n :]])
+        nf = self.input_matrix.shape[1]
+        P = MinvKC[:, 2 * n + nf :]
+        forced = np.vstack([np.zeros((n, nf)), MinvKC[:, 2 * n : 2 * n + nf]])
+        based = np.vstack([P, np.linalg.solve(M, Kb - C @ P)])
+        Bs = np.hstack([forced, based])
+        Pu = np.hstack([np.zeros((n, nf)), P])
         Cs = np.zeros((len(self.outputs), 2 * n))
         Ds = np.zeros((len(self.outputs), Bs.shape[1]))
         for r, (quantity, i) in enumerate(self.outputs):
@@ -321,7 +392,8 @@ class StructureModel:
                 Cs[r, i] = 1.0
             elif quantity == "velocity":
                 Cs[r, n + i] = 1.0
-            else:  # q̈ = M⁻¹(B u − K q − C q̇): row i of the lower half of A, B_s
+                Ds[r] = Pu[i]
+            else:  # a damper on a base would put ẋ_b into q̈ (refused in the model file)  # q̈ = M⁻¹(B u − K q − C q̇): row i of the lower half of A, B_s
                 Cs[r] = A[n + i]
                 Ds[r] = Bs[n + i]
         return A, Bs, Cs, Ds
@@ -333,7 +405,10 @@ class StructureModel:
         Parameters
         ----------
         q, qd, qdd : ndarray, shape (n_samples, n) [m, m/s, m/s²]
-            (Filtered) displacements and derivatives of every node.
+            (Filtered) displacements and derivatives of every node; with base motions, ``q``
+            and ``qd`` have n + n_bases columns, the bases' x_b and ẋ_b after the nodes (their
+            springs and dampers are then columns of Φ, the −K_b x_b − C_b ẋ_b of the
+            left-hand side).
         unknown : sequence of str, optional
             The columns of Φ (default `unknown`); the others are held at ``params``.
         params : mapping, optional
@@ -449,8 +524,12 @@ class StructureModel:
         if not unident:
             message = (
                 f"all {len(lin)} linear parameters ({', '.join(lin)}) are identifiable from "
-                f"inputs {list(self.input_names)} and outputs {list(self.output_names)} "
-                "(the forces carry the scale)"
+                f"inputs {list(self.input_names)} and outputs {list(self.output_names)}"
+                + (
+                    " (the forces carry the scale)"
+                    if self.force_names
+                    else " (the parameters held fixed carry the scale)"
+                )
             )
         else:
             message = (
@@ -622,12 +701,15 @@ def _collect_terms(spec: StructureSpec, index: dict) -> dict:
         terms["M"].append(_Term(i, i, 1.0, m.value))
         if m.extra:
             terms["friction"].append(_Term(i, i, 1.0, m.extra))
+    n = len(spec.nodes)
     for key, elements in (("K", spec.springs), ("C", spec.dampers)):
         for e in elements:
             a, b = (index.get(n, -1) if n != GROUND else -1 for n in e.nodes)
             if e.value.strip() not in ("0", "0.0"):
+                # a base (index ≥ n) has no row: it moves with its channel; its column holds
+                # −k (−c), the left-hand side's share of k (x_b − q_i)
                 for r, c, s in ((a, a, 1.0), (b, b, 1.0), (a, b, -1.0), (b, a, -1.0)):
-                    if r >= 0 and c >= 0:
+                    if 0 <= r < n and c >= 0:
                         terms[key].append(_Term(r, c, s, e.value))
             if e.extra:
                 terms["cubic"].append(_Term(a, b, 1.0, e.extra))

@@ -82,8 +82,9 @@ def structure_response(model, t, u, params=None, *, x0=None, rtol: float = 1e-9)
     model : StructureModel
     t : ndarray, shape (n_samples,) [s]
         Uniform sample times.
-    u : ndarray, shape (n_samples, n_inputs) [N]
-        Forces, in the order of ``model.input_names``; linear between samples.
+    u : ndarray, shape (n_samples, n_inputs) [N, m]
+        Forces and base displacements, in the order of ``model.input_names``; linear between
+        samples (a base's velocity is then the slope between samples, exactly).
     params : mapping, optional
         Parameter values (default nominal).
     x0 : ndarray, shape (2n,), optional
@@ -103,14 +104,20 @@ def structure_response(model, t, u, params=None, *, x0=None, rtol: float = 1e-9)
     n = model.n
     x0 = np.zeros(2 * n) if x0 is None else np.asarray(x0, dtype=float)
     A, Bs, Cs, Ds = model.state_space(params)
+    P = model.velocity_feedthrough(params)  # the state is [q, v], q̇ = v + P u
+    x0 = np.concatenate([x0[:n], x0[n:] - P @ u[0]])
     dt = float(t[1] - t[0])
     if not model.nonlinear:
         x = _linear_states(A, Bs, u, dt, x0)
-        return x, x @ Cs.T + u @ Ds.T
+        y = x @ Cs.T + u @ Ds.T
+        x[:, n:] += u @ P.T
+        return x, y
     x = _nonlinear_states(model, t, u, params, x0, rtol)
+    y = x @ Cs.T + u @ Ds.T
+    x[:, n:] += u @ P.T
     M = model.matrices(params)[0]
     fnl = model.nonlinear_forces(x[:, :n], x[:, n:], params, smooth=_V_EPS)
-    y = x @ Cs.T + u @ Ds.T - fnl @ np.linalg.solve(M, np.eye(n)).T @ _acc_rows(model, n)
+    y -= fnl @ np.linalg.solve(M, np.eye(n)).T @ _acc_rows(model, n)
     return x, y
 
 
@@ -158,7 +165,8 @@ def batch_outputs(model, t, u, param_sets) -> np.ndarray:
         y = x @ Cs.T + u @ Ds.T
         if any(q == "acceleration" for q, _ in model.outputs):
             M = model.matrices(params)[0]
-            fnl = model.nonlinear_forces(x[:, :n], x[:, n:], params, smooth=_V_EPS)
+            qd = x[:, n:] + u @ model.velocity_feedthrough(params).T
+            fnl = model.nonlinear_forces(x[:, :n], qd, params, smooth=_V_EPS)
             y -= np.linalg.solve(M, fnl.T).T @ _acc_rows(model, n)
         out.append(y)
     return np.array(out)
@@ -183,7 +191,8 @@ def _batch_parts(model, param_sets):
         f_idx = [f[0] for f in friction]
         MinvF = Minv[:, f_idx] * np.array([f[1] for f in friction]) if friction else None
         k3 = np.array([c[2] for c in cubic])
-        parts.append((A, Bs, Minv @ inc, D, k3, MinvF, f_idx))
+        P = model.velocity_feedthrough(params)[f_idx]  # q̇ = v + P u at the friction nodes
+        parts.append((A, Bs, Minv @ inc, D, k3, MinvF, f_idx, P))
     return parts
 
 
@@ -201,12 +210,14 @@ def nonlinear_batch(model, t, u, param_sets, x0=None, rtol=1e-9) -> np.ndarray:
     u : ndarray (n_samples, n_inputs) [N]
     param_sets : sequence of mapping
     x0 : ndarray (2n,), optional
+        Initial state [q, v] (v = q̇ − P u, `StructureModel.velocity_feedthrough`).
     rtol : float
         LSODA's relative tolerance.
 
     Returns
     -------
     ndarray (n_sets, n_samples, 2n)
+        The states [q, v] (v = q̇ without a damper on a base).
     """
     from scipy.integrate import solve_ivp
 
@@ -217,13 +228,14 @@ def nonlinear_batch(model, t, u, param_sets, x0=None, rtol=1e-9) -> np.ndarray:
         out = []
         slope = np.diff(u, axis=0) / np.diff(t)[:, None]
         dt = t[1] - t[0]
-        for A, Bs, MinvInc, D, k3, MinvF, f_idx in parts:
+        for A, Bs, MinvInc, D, k3, MinvF, f_idx, P in parts:
 
-            def rhs(tau, x, A=A, Bs=Bs, MinvInc=MinvInc, D=D, k3=k3, MinvF=MinvF, f_idx=f_idx):
+            def rhs(tau, x, A=A, Bs=Bs, MinvInc=MinvInc, D=D, k3=k3, MinvF=MinvF, f_idx=f_idx, P=P):
                 k = min(max(int((tau - t[0]) / dt), 0), t.size - 2)
-                dx = A @ x + Bs @ (u[k] + (tau - t[k]) * slope[k])
+                uk = u[k] + (tau - t[k]) * slope[k]
+                dx = A @ x + Bs @ uk
                 dx[n:] -= MinvInc @ (k3 * (D @ x[:n]) ** 3)
-                dx[n:] -= MinvF @ np.tanh(x[n + np.array(f_idx)] / _V_EPS)
+                dx[n:] -= MinvF @ np.tanh((x[n + np.array(f_idx)] + P @ uk) / _V_EPS)
                 return dx
 
             sol = solve_ivp(
@@ -297,8 +309,9 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     t : array_like, shape (n_samples,) [s]
         Uniform sample times (at least 2).
     forces : mapping or ndarray
-        channel -> force samples [N] (one per entry of ``model.input_names``), or an array
-        (n_samples, n_inputs) in that order; linear between samples.
+        channel -> samples of every input, forces [N] and base displacements [m] (one per entry
+        of ``model.input_names``), or an array (n_samples, n_inputs) in that order; linear
+        between samples.
     params : mapping, optional
         Parameter values (default nominal).
     x0 : array_like, shape (2n,), optional
@@ -309,7 +322,8 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     Returns
     -------
     Recording
-        Channels: the forces [N], then the outputs (m, m/s or m/s²).
+        Channels: the forces [N] and base displacements [m], then the outputs (m, m/s or
+        m/s²).
 
     Raises
     ------
@@ -333,9 +347,12 @@ def simulate_structure(model, t, forces, params=None, *, x0=None, states: bool =
     if isinstance(forces, dict):
         missing = [c for c in model.input_names if c not in forces]
         if missing:
+            bases = [c for c in missing if c in model.base_names]
             raise InputError(
-                f"{arg('forces')} lacks channel(s) {missing} of model {model.name!r}; give "
-                f"{list(model.input_names)}."
+                f"{arg('forces')} lacks channel(s) {missing} of model {model.name!r} "
+                f"({model.source}); give {list(model.input_names)}"
+                + (f" ({bases} the base displacements [m])" if bases else "")
+                + "."
             )
         u = np.column_stack([np.asarray(forces[c], dtype=float) for c in model.input_names])
     else:
