@@ -70,11 +70,11 @@ def validate_structure(result, recording, *, max_lag: int = MAX_LAG) -> dict[str
             + " beyond what noise explains"
         )
     notes = [
-        "simulated from rest on the held-out forces (linear between samples)",
+        "simulated from rest on the held-out inputs (forces and base motions, linear between samples)",
         f"residual tests at ±{max_lag} lags against the 99 % band, per output",
     ]
     if impulses is None:
-        notes.append("several forces: input noise is not tested as an explanation")
+        notes.append("several inputs: input noise is not tested as an explanation")
     return {
         "fit_percent": fits,
         "residual": residual,
