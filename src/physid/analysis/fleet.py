@@ -31,8 +31,8 @@ from ..errors import InputError, PhysidError, arg
 from .fleet_result import FleetResult, read_reference
 from .sweep_backends import (
     SCHEDULER_TIMEOUT,
-    _dask_client,
     _import_distributed,
+    dask_client,
     parse_scheduler,
 )
 
@@ -409,33 +409,8 @@ def _local_kind(n: int) -> tuple[str, Any]:
 
 
 def _run_on_dask(task, paths, kind, address, retries, timeout, bar):
-    distributed = _import_distributed()
-    cluster = client = None
-    try:
-        if kind == "dask-client":
-            client = address
-            backend = f"dask client {getattr(getattr(client, 'scheduler', None), 'address', '')}"
-        elif kind == "dask-local":
-            import logging
-
-            cluster = distributed.LocalCluster(
-                n_workers=address,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-            client = distributed.Client(cluster)
-            backend = f"dask LocalCluster ({address} worker processes)"
-        else:
-            client = _dask_client(distributed, address, timeout)
-            backend = f"dask {address}"
+    with dask_client(kind, address, timeout) as (client, backend):
         return backend, map_on_dask(client, task, paths, retries, bar)
-    finally:
-        if client is not None and kind != "dask-client":
-            client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def map_on_dask(client, task, paths, retries, bar) -> list[dict]:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import logging
 import time
 from collections.abc import Mapping, Sequence
 
@@ -32,8 +31,7 @@ from ..signals.joint_side import joint_side_blocks
 from .fleet import _cached_model, _local_kind
 from .sweep_backends import (
     SCHEDULER_TIMEOUT,
-    _dask_client,
-    _import_distributed,
+    dask_client,
     parse_scheduler,
 )
 
@@ -102,20 +100,7 @@ def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
     if kind == "serial":
         yield (lambda task, items: [task(x) for x in items]), "serial (in-process)"
         return
-    distributed = _import_distributed()
-    cluster = client = None
-    try:
-        if kind == "dask-client":
-            client, backend = address, "dask client"
-        elif kind == "dask-local":
-            cluster = distributed.LocalCluster(
-                n_workers=address, threads_per_worker=1, processes=True,
-                dashboard_address=None, silence_logs=logging.ERROR,
-            )  # fmt: skip
-            client = distributed.Client(cluster)
-            backend = f"dask LocalCluster ({address} worker processes)"
-        else:
-            client, backend = _dask_client(distributed, address, timeout), f"dask {address}"
+    with dask_client(kind, address, timeout) as (client, backend):
 
         def run(task, items):
             wrapped = functools.partial(_returning_errors, task)
@@ -127,11 +112,6 @@ def _mapper(scheduler, n_logs: int, retries: int, timeout: float):
                 raise
 
         yield run, backend
-    finally:
-        if client is not None and kind != "dask-client":
-            client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def run_joint(

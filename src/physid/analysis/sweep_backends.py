@@ -4,6 +4,7 @@ cluster; the scheduler argument, the progress bar, and stopping cleanly on an in
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import math
 import multiprocessing
 import os
@@ -286,6 +287,55 @@ def _dask_client(distributed, address: str, timeout: float):
         ) from None
 
 
+@contextlib.contextmanager
+def dask_client(kind: str, address, timeout: float):
+    """``(client, backend)`` for a parsed scheduler, closed (with its cluster) on exit.
+
+    Parameters
+    ----------
+    kind : {"dask-client", "dask-local", "dask-address"}
+        From `parse_scheduler`.
+    address : distributed.Client, int or str
+        The caller's client (left open), the worker count of a LocalCluster of single-threaded
+        worker processes, or a scheduler address.
+    timeout : float [s]
+        How long a scheduler address may take to answer.
+
+    Yields
+    ------
+    tuple
+        The client and the backend in words.
+    """
+    distributed = _import_distributed()
+    cluster = client = None
+    try:
+        if kind == "dask-client":
+            client = address
+            where = getattr(getattr(client, "scheduler", None), "address", "")
+            backend = f"dask client {where}"
+        elif kind == "dask-local":
+            import logging
+
+            cluster = distributed.LocalCluster(
+                n_workers=address,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+            client = distributed.Client(cluster)
+            backend = f"dask LocalCluster ({address} worker processes)"
+        else:
+            client = _dask_client(distributed, address, timeout)
+            backend = f"dask {address}"
+        yield client, backend
+    finally:
+        if client is not None and kind != "dask-client":
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def _run_dask(client, trial, specs, chunksize, retries, bar):
     distributed = _import_distributed()
     chunks = _chunks(specs, chunksize)
@@ -340,36 +390,8 @@ def _run_local(trial, specs, workers, chunksize, retries, bar):
 
 
 def _run_on_dask(trial, specs, kind, address, chunksize, retries, timeout, bar):
-    distributed = _import_distributed()
-    cluster = None
-    client = None
-    try:
-        if kind == "dask-client":
-            client = address
-            backend = (
-                f"dask client {getattr(client, 'scheduler', None) and client.scheduler.address}"
-            )
-        elif kind == "dask-local":
-            import logging
-
-            cluster = distributed.LocalCluster(
-                n_workers=address,
-                threads_per_worker=1,
-                processes=True,
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-            client = distributed.Client(cluster)
-            backend = f"dask LocalCluster ({address} worker processes)"
-        else:
-            client = _dask_client(distributed, address, timeout)
-            backend = f"dask {address}"
+    with dask_client(kind, address, timeout) as (client, backend):
         n_workers = _dask_workers(client)
         size = chunksize or _default_chunksize(len(specs), n_workers, chunks_per_worker=2)
         rows = _run_dask(client, trial, specs, size, int(retries), bar)
-    finally:
-        if client is not None and kind != "dask-client":
-            client.close()
-        if cluster is not None:
-            cluster.close()
     return backend, rows
