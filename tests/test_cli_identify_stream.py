@@ -170,3 +170,9 @@ def test_motor_side_logs_fit_the_same_in_memory_streamed_and_in_a_fleet(tmp_path
     for se in [k for k in memory if k.endswith("_se")]:
         name = se[:-3]
         assert streamed[name] == pytest.approx(memory[name], rel=1e-8, abs=1e-12)
+
+
+def test_block_samples_below_two_is_refused_before_anything_is_read(log, capsys):
+    code, _, err = _identify(capsys, log, "--method", "idim-ols", "--block-samples", "1")
+    assert code == 2 and "--block-samples must be an integer of at least 2" in err
+    assert "streamed in blocks" not in err

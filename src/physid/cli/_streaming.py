@@ -85,6 +85,9 @@ def wants_stream(args, paths, model, method: str) -> bool:
     from ..estimators.idim.stream import streams_better
 
     choice = getattr(args, "stream", "auto")
+    block = getattr(args, "block_samples", 65536)
+    if block is None or block < 2:
+        raise InputError(f"--block-samples must be an integer of at least 2; got {block!r}.")
     if choice == "off":
         return False
     why = _why_not(args, paths, method)
