@@ -26,11 +26,12 @@ HERE = Path(__file__).resolve().parent
 def _load(path: Path):
     spec = importlib.util.spec_from_file_location(path.stem, path)
     mod = importlib.util.module_from_spec(spec)
-    sys.path.insert(0, str(HERE))
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.path.remove(str(HERE))
+    # registered under its name, so that worker processes of a benchmark (a process pool)
+    # can pickle its functions by reference and import the module themselves
+    sys.modules[path.stem] = mod
+    if str(HERE) not in sys.path:
+        sys.path.insert(0, str(HERE))
+    spec.loader.exec_module(mod)
     return mod
 
 
