@@ -320,22 +320,3 @@ def test_parallel_filter_state_is_carried_through_windows_without_rows(arm, rec)
     ref = _fit(arm, rec, decimate=20)
     got = fit_streamed(arm, ArrayBlocks(rec), decimate=20, block_samples=100, progress=False)
     _same(ref, got)
-
-
-@pytest.mark.parametrize("k", [1, 7])
-@pytest.mark.parametrize("reverse", [False, True])
-def test_the_compiled_sosfilt_is_scipys_bit_for_bit_and_leaves_its_state_argument(k, reverse):
-    from scipy import signal
-
-    from physid.estimators.idim import stream_filter
-
-    sos = signal.cheby1(8, 0.001, 0.8 / 5, output="sos")
-    rng = np.random.default_rng(k)
-    x = rng.normal(size=(k, 1001))
-    zi = rng.normal(size=(sos.shape[0], k, 2))
-    before = zi.copy()
-    y, z = stream_filter._sosfilt(sos, x, zi, reverse=reverse)
-    ref, z_ref = signal.sosfilt(sos, x[:, ::-1] if reverse else x, axis=-1, zi=zi)
-    np.testing.assert_array_equal(y, ref[:, ::-1] if reverse else ref)
-    np.testing.assert_array_equal(z, z_ref)
-    np.testing.assert_array_equal(zi, before)  # the caller's state is not updated in place

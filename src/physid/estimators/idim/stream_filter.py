@@ -17,20 +17,11 @@ whole record's too. Elsewhere the backward pass starts at the window's end ``c1`
 ``z_i · f_{c1−1}`` instead of the state the record's later samples would give; the difference is a
 free response of the filter, which decays over the right margin (`stream_plan.decay_length`).
 No left margin is needed at all.
-
-The passes run in a small C kernel (``c/sosfilt.c``: the same transposed direct form II, the
-same operations in the same order as ``scipy.signal.sosfilt``, so bit for bit its result) over
-the signals stored time-major, the inner loop across signals, which the compiler vectorises:
-about 5× faster than ``sosfilt`` one signal at a time. Without a C compiler (or with
-``PHYSID_NO_C``) ``sosfilt`` does the same work.
 """
 
 from __future__ import annotations
 
-import ctypes
 import functools
-import os
-from importlib import resources
 
 import numpy as np
 from scipy import signal
@@ -45,47 +36,6 @@ def _zi(sos_bytes: bytes, n_sections: int) -> np.ndarray:
     zi.shape = (n_sections, 1, 2)  # sosfiltfilt's layout for time on the last axis of (k, m)
     zi.flags.writeable = False
     return zi
-
-
-@functools.lru_cache(maxsize=1)
-def _kernel():
-    """The compiled ``sosfilt_tm`` (``c/sosfilt.c``), or None without a C compiler."""
-    from ...models.codegen import build_shared_library
-
-    if os.environ.get("PHYSID_NO_C"):
-        return None
-    source = resources.files("physid.estimators.idim").joinpath("c/sosfilt.c").read_text("utf-8")
-    lib = build_shared_library(source, "sosfilt")
-    if lib is None:
-        return None
-    p = ctypes.c_void_p
-    lib.sosfilt_tm.argtypes = [p, ctypes.c_int, p, p, ctypes.c_long, ctypes.c_long, p, ctypes.c_int]
-    lib.sosfilt_tm.restype = None
-    return lib
-
-
-def _sosfilt(sos, x, zi, *, reverse: bool = False):
-    """``scipy.signal.sosfilt(sos, x, axis=-1, zi=zi)`` (on ``x[:, ::-1]`` when ``reverse``,
-    the output then in the original time order): ``(y, z)``, ``x`` (k, m), ``zi`` (ns, k, 2).
-
-    With the C kernel the signals are filtered time-major, bit for bit as ``sosfilt``."""
-    lib = _kernel()
-    if lib is None or x.shape[1] == 0:
-        if reverse:
-            y, z = signal.sosfilt(sos, x[:, ::-1], axis=-1, zi=zi)
-            return y[:, ::-1], z
-        return signal.sosfilt(sos, x, axis=-1, zi=zi)
-    sos = np.ascontiguousarray(sos, dtype=float)
-    xt = np.ascontiguousarray(np.asarray(x, dtype=float).T)  # (m, k)
-    # (ns, 2, k), always a copy: the kernel updates it in place, and ``zi`` is the caller's
-    z = np.array(np.transpose(np.asarray(zi, dtype=float), (0, 2, 1)), order="C", copy=True)
-    y = np.empty_like(xt)
-    m, k = xt.shape
-    lib.sosfilt_tm(
-        sos.ctypes.data, sos.shape[0], xt.ctypes.data, y.ctypes.data, m, k, z.ctypes.data,
-        int(bool(reverse)),
-    )  # fmt: skip
-    return y.T, np.transpose(z, (0, 2, 1))
 
 
 def step_state(sos) -> np.ndarray:
@@ -136,7 +86,7 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last:
         ahead = np.empty((x.shape[0], 0))
         if padlen > 0:
             pad = 2 * x[:, :1] - x[:, padlen:0:-1]
-            _, z = _sosfilt(sos, pad, zi * pad[:, :1])
+            _, z = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
         else:
             z = zi * x[:, :1]
     else:
@@ -146,7 +96,7 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last:
         raise ValueError(f"the carried forward pass ({h} samples) runs past the window's end")
     f = ahead
     if x.shape[1] > i0 + h:  # the forward pass from where the previous window's stopped
-        f_new, z = _sosfilt(sos, x[:, i0 + h :], z)
+        f_new, z = signal.sosfilt(sos, x[:, i0 + h :], axis=-1, zi=z)
         f = np.concatenate([ahead, f_new], axis=1) if h else f_new
     carry = (f[:, i1 - i0 :].copy(), z)
     if np.size(take) == 0:  # only the carry is wanted
@@ -155,7 +105,7 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last:
     z = zi * f[:, -1:]
     if last and padlen > 0:
         pad = 2 * x[:, -1:] - x[:, -2 : -(padlen + 2) : -1]
-        f_pad, _ = _sosfilt(sos, pad, carry[1])
-        _, z = _sosfilt(sos, f_pad, zi * f_pad[:, -1:], reverse=True)
-    back, _ = _sosfilt(sos, f, z, reverse=True)
-    return back[:, np.asarray(take)], carry
+        f_pad, _ = signal.sosfilt(sos, pad, axis=-1, zi=carry[1])
+        _, z = signal.sosfilt(sos, f_pad[:, ::-1], axis=-1, zi=zi * f_pad[:, -1:])
+    back, _ = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=z)
+    return back[:, f.shape[1] - 1 - np.asarray(take)], carry

@@ -31,7 +31,7 @@ from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dila
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
-from .stream_filter import _kernel, filtfilt_window
+from .stream_filter import filtfilt_window
 from .stream_plan import StreamPlan, decay_length, still_windows
 
 __all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS", "PARALLEL_DECAY"]
@@ -274,11 +274,8 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
             inside = (pos >= i) & (pos < i + cols.size)
             carry[0][pos[inside] - i] = ahead[inside]
             carry[1][:, pos[inside] - i] = z[:, inside]
-        # the gathered rows are time-major, the compiled filter's layout (no copy); scipy's
-        # sosfilt runs fastest with time on the last, contiguous axis
-        block = stacked[p0 - c0 : c1 - c0, cols].T
-        if _kernel() is None:
-            block = np.ascontiguousarray(block)
+        # time on the last, contiguous axis: sosfilt's fast layout
+        block = np.ascontiguousarray(stacked[p0 - c0 : c1 - c0, cols].T)
         y, (new_ahead[chunk], new_z[:, chunk]) = filtfilt_window(
             sos, block, a - p0, b - p0, s - a, carry, first=a == 0, last=last, padlen=padlen
         )
