@@ -64,11 +64,11 @@ def test_stream_on_gives_the_in_memory_estimate(log, capsys):
 
 
 def test_stream_auto_streams_only_above_the_memory_rule(log, capsys, monkeypatch):
-    from physid.estimators.idim import stream
+    from physid import _resources as resources
 
     _, _, err = _identify(capsys, log, "--method", "idim-ols")
     assert "block by block" not in err  # 8 s of a 4-joint arm: far below 2 GiB
-    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
     code, out, err = _identify(capsys, log, "--method", "idim-wls")
     assert code == 0 and "fitting block by block (--stream auto)" in err
     assert out["method"] == "idim-wls"
@@ -107,11 +107,11 @@ def test_stream_options_are_refused_with_input_error(log, capsys):
 
 
 def test_a_fleet_log_too_large_for_memory_is_fitted_block_by_block(log, monkeypatch):
+    from physid import _resources as resources
     from physid.analysis import fleet
-    from physid.estimators.idim import stream
 
     memory = fleet.fit_one_log("manipulator", log, "idim-ols")
-    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
     streamed = fleet.fit_one_log("manipulator", log, "idim-ols")
     assert memory["status"] == streamed["status"] == "ok"
     assert streamed["n_samples"] == memory["n_samples"] == 8000
@@ -136,12 +136,12 @@ def test_a_time_gap_met_while_streaming_is_worded_for_the_command_line(tmp_path,
 
 
 def test_a_fleet_log_streamed_keeps_every_setting_it_was_given(log, monkeypatch):
+    from physid import _resources as resources
     from physid.analysis import fleet
-    from physid.estimators.idim import stream
 
     options = {"per_joint_variance": False, "check_condition": False}
     memory = fleet.fit_one_log("manipulator", log, "idim-wls", fit_options=options)
-    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
     streamed = fleet.fit_one_log("manipulator", log, "idim-wls", fit_options=options)
     assert memory["status"] == streamed["status"] == "ok"
     for name in [k[:-3] for k in memory if k.endswith("_se")]:
@@ -156,15 +156,15 @@ def test_motor_side_logs_fit_the_same_in_memory_streamed_and_in_a_fleet(tmp_path
 
     sys.path.insert(0, str(Path(__file__).parent))
     from _wrist_logs import coupled, write_log
+    from physid import _resources as resources
     from physid.analysis import fleet
-    from physid.estimators.idim import stream
 
     log = tmp_path / "wrist.csv"
     write_log(log, 1, 0.002)
     model = str(coupled(tmp_path))
     memory = fleet.fit_one_log(model, str(log), "idim-ols")
     assert memory["status"] == "ok", memory["reason"]
-    monkeypatch.setattr(stream, "STREAM_ABOVE", 1024)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
     streamed = fleet.fit_one_log(model, str(log), "idim-ols", workers=2)
     assert streamed["status"] == "ok", streamed["reason"]
     for se in [k for k in memory if k.endswith("_se")]:

@@ -307,9 +307,9 @@ def test_cli_stream_json_says_so(msd_file, capsys, blocks_from_file):
 def test_cli_stream_auto_streams_a_record_too_large_for_memory(
     msd_file, capsys, blocks_from_file, monkeypatch
 ):
-    from physid.cli import _estimate_stream
+    from physid import _resources as resources
 
-    monkeypatch.setattr(_estimate_stream, "STREAM_ABOVE", 1000)  # 8000 samples × 400 B > 1 kB
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1000)  # 8000 samples × 400 B > 1 kB
     code, out, err = _run(capsys, msd_file, "--method", "rls", "--json")
     assert code == 0
     assert json.loads(out)["streamed"] is True

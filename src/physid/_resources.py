@@ -7,10 +7,13 @@ from collections.abc import Callable
 
 from .errors import InputError
 
-__all__ = ["available_memory", "check_memory", "format_bytes"]
+__all__ = ["available_memory", "check_memory", "format_bytes", "stream_limit", "STREAM_ABOVE"]
 
 #: Fraction of the available memory one request may claim.
 MEMORY_FRACTION = 0.5
+#: An in-memory fit whose estimated peak exceeds this [bytes] (or `stream_limit`'s share of the
+#: available memory) reads its record block by block instead, when it can (``--stream auto``).
+STREAM_ABOVE = 2 * 2**30
 
 
 def available_memory() -> int:
@@ -101,3 +104,22 @@ def check_memory(
             f"{what} needs about {format_bytes(nbytes)} of memory, more than half of the "
             f"{format_bytes(avail)} available; {fix}."
         )
+
+
+def stream_limit(workers: int = 1) -> int:
+    """The in-memory peak [bytes] above which a fit streams its record by default.
+
+    `STREAM_ABOVE`, or a quarter of the available memory shared by ``workers`` processes when
+    that is less: the one rule of ``identify --stream auto``, ``estimate --stream auto`` and a
+    fleet's long logs.
+
+    Parameters
+    ----------
+    workers : int
+        Processes fitting at the same time on this machine.
+
+    Returns
+    -------
+    int
+    """
+    return int(min(STREAM_ABOVE, available_memory() // (4 * max(int(workers), 1))))

@@ -5,9 +5,9 @@ the MSD, 2e5 and 8e5 samples) of about 350 bytes per sample for ``--method rls``
 ``--method algebraic``; their block fits (`physid.estimators.recursive.fit_blocks`,
 `physid.estimators.algebraic.fit_blocks`) hold a block and a few sums whatever the length, with
 the same estimate, standard errors and verdict. ``--stream auto`` (the default) streams when the
-in-memory fit would need more than `STREAM_ABOVE` bytes or a quarter of the available memory
-(about 6 million samples, 1.7 hours at 1 kHz, for rls) and the settings stream: below that the
-in-memory fit is faster (one pass instead of three) and keeps the full histories. ``on``
+in-memory fit would need more than `physid._resources.stream_limit` (2 GiB, or a quarter of
+the available memory: about 6 million samples, 1.7 hours at 1 kHz, for rls) and the settings
+stream: below that the in-memory fit is faster (one pass instead of three) and keeps the full histories. ``on``
 streams whenever it can (and says why not otherwise); ``off`` never streams.
 """
 
@@ -16,10 +16,8 @@ from __future__ import annotations
 from ..errors import InputError, PhysidError
 from ._common import progress
 
-__all__ = ["add_stream_options", "block_source", "STREAM_ABOVE", "BYTES_PER_SAMPLE"]
+__all__ = ["block_source", "BYTES_PER_SAMPLE"]
 
-#: The in-memory fit's estimated peak [bytes] above which ``--stream auto`` streams.
-STREAM_ABOVE = 2 * 2**30
 #: Measured peak of the in-memory fit per sample [bytes] (with a margin), by method.
 BYTES_PER_SAMPLE = {"rls": 400, "algebraic": 600}
 
@@ -114,9 +112,9 @@ def block_source(args, model, method: str):
 
 def _limit() -> int:
     """The in-memory fit's peak [bytes] above which ``--stream auto`` streams."""
-    from .._resources import available_memory
+    from .._resources import stream_limit
 
-    return min(STREAM_ABOVE, available_memory() // 4)
+    return stream_limit()
 
 
 def _surely_small(path, per_sample: int) -> bool:

@@ -51,13 +51,9 @@ __all__ = [
     "scale_gate",
     "in_memory_peak",
     "streams_better",
-    "STREAM_ABOVE",
     "STREAMED_SETTINGS",
 ]
 
-#: The in-memory fit's estimated peak [bytes] above which a fit streams by default
-#: (``identify --stream auto``, fleets' long logs), unless a quarter of the free memory is less.
-STREAM_ABOVE = 2 * 2**30
 #: The `IDIMEstimator` settings `fit_streamed` takes (the others concern IV or ``consistent``).
 STREAMED_SETTINGS = (
     "differentiation",
@@ -275,8 +271,8 @@ def in_memory_peak(paths, model) -> int:
 def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
     """Whether the files are better fitted block by block: ``(stream, peak, limit)`` [bytes].
 
-    True when `in_memory_peak` exceeds `STREAM_ABOVE` or a quarter of the available memory
-    shared by ``workers`` processes.
+    True when `in_memory_peak` exceeds `physid._resources.stream_limit` (2 GiB, or a quarter of
+    the available memory shared by ``workers`` processes when that is less).
 
     Parameters
     ----------
@@ -291,8 +287,8 @@ def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
     peak, limit : int
         The estimate and the limit it was compared with.
     """
-    from ..._resources import available_memory
+    from ..._resources import stream_limit
 
     peak = in_memory_peak(paths, model)
-    limit = min(STREAM_ABOVE, available_memory() // (4 * max(int(workers), 1)))
+    limit = stream_limit(workers)
     return peak > limit, peak, limit
