@@ -22,26 +22,6 @@ __all__ = ["block_source", "BYTES_PER_SAMPLE"]
 BYTES_PER_SAMPLE = {"rls": 400, "algebraic": 600}
 
 
-def add_stream_options(parser) -> None:
-    """``--stream`` and ``--block-samples``."""
-    group = parser.add_argument_group("long records")
-    group.add_argument(
-        "--stream",
-        choices=("auto", "on", "off"),
-        default="auto",
-        help="fit the record block by block in constant memory, with the same estimate as in "
-        "memory (rls; algebraic with --final bias-compensated): auto = when the in-memory fit "
-        "would need more than 2 GiB or a quarter of the available memory (default: auto)",
-    )
-    group.add_argument(
-        "--block-samples",
-        type=int,
-        default=65536,
-        metavar="N",
-        help="samples read at a time by a streamed fit (default: 65536)",
-    )
-
-
 def _why_not(args, method: str) -> str | None:
     """Why these settings cannot stream (in the command line's words), or None."""
     if method not in BYTES_PER_SAMPLE:

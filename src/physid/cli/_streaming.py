@@ -17,15 +17,22 @@ from ._common import progress
 __all__ = ["add_stream_options", "wants_stream", "open_sources"]
 
 
-def add_stream_options(group) -> None:
-    """``--stream`` and ``--block-samples`` in the verb's IDIM option group."""
+def add_stream_options(group, fits: str) -> None:
+    """``--stream`` and ``--block-samples`` in a verb's option group.
+
+    Parameters
+    ----------
+    group : argparse group or parser
+    fits : str
+        The fits that stream, for the help (e.g. ``"idim-ols and idim-wls"``).
+    """
     group.add_argument(
         "--stream",
         choices=("auto", "on", "off"),
         default="auto",
-        help="fit a long record block by block in bounded memory, with the same estimate as "
-        "in memory (idim-ols and idim-wls): auto = when the in-memory fit would need more than "
-        "2 GiB or a quarter of the free memory (default: auto)",
+        help=f"fit a long record block by block in bounded memory, with the same estimate as "
+        f"in memory ({fits}): auto = when the in-memory fit would need more than 2 GiB or a "
+        "quarter of the free memory (default: auto)",
     )
     group.add_argument(
         "--block-samples",

@@ -19,8 +19,9 @@ import sys
 
 from ..errors import InputError
 from ._common import assignments, cli_words, print_json, progress
-from ._estimate_stream import add_stream_options, block_source, fit_streamed
+from ._estimate_stream import block_source, fit_streamed
 from ._recordings import add_recording_options, read_recording
+from ._streaming import add_stream_options
 
 ORDER = 40
 
@@ -152,7 +153,9 @@ def register(subparsers) -> None:
         help="values of known coefficients overriding the model's",
     )
     add_recording_options(parser)
-    add_stream_options(parser)
+    add_stream_options(
+        parser.add_argument_group("long records"), "rls; algebraic with --final bias-compensated"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     parser.add_argument(
         "--save",

@@ -281,7 +281,7 @@ def _register_idim_options(p) -> None:
         "for 0.1 s or more; a number F in (0, 1) = where the filtered speed is below F times its "
         "rms; 0 keeps every equation (default: auto)",
     )
-    add_stream_options(g)
+    add_stream_options(g, "idim-ols and idim-wls")
 
 
 def run(args) -> int:
