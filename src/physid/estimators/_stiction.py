@@ -317,6 +317,27 @@ def dropped_summary_counts(counts, n_rows: int, rule, fix: str | None = None):
     return sentence, heavy
 
 
+def never_moving(moving) -> list[str]:
+    """A warning per joint that never moves (named, with the fix): the fits' one wording.
+
+    Parameters
+    ----------
+    moving : array_like of bool, shape (n_joints,)
+        Whether each joint leaves its noise band in some recording (`motionless_joints`).
+
+    Returns
+    -------
+    list of str
+    """
+    return [
+        f"joint {j + 1} never moves in the recording(s) (its position stays within its noise): "
+        "its own parameters are identified only through the other joints' motion, if at all, "
+        "and its torque equations carry no information on its friction; move it in the "
+        "experiment (physid design-excitation) or fix its parameters in the model."
+        for j in np.flatnonzero(~np.asarray(moving, dtype=bool))
+    ]
+
+
 def motionless_joints(q) -> np.ndarray:
     """Bool per joint: its measured position never leaves its noise band over the record.
 

@@ -23,6 +23,7 @@ from .._stiction import (
     dropped_summary,
     elevated_joints,
     motionless_joints,
+    never_moving,
 )
 from ..base import EstimatorMixin
 from ..consistent import consistent_estimate
@@ -34,6 +35,7 @@ from .rows import IDIMRows, idim_rows
 from .solve import (
     COND_WARN,
     ConditionWarning,
+    check_equation_count,
     check_excitation,
     condition_number,
     joint_sigma,
@@ -289,13 +291,7 @@ class IDIMEstimator(EstimatorMixin):
     def _check_rows(self, rows: IDIMRows, info: BaseInfo, notes: list[str], recs=()) -> None:
         """Enough equations, every column excited, conditioning (its warning also in notes)."""
         nj, p = int(self.model.n_joints), info.n_base
-        n_rows = rows.W.shape[0]
-        if n_rows * nj <= p:
-            raise SamplingError(
-                f"after filtering and decimate={rows.decimate} only {n_rows} rows × {nj} joints "
-                f"= {n_rows * nj} equations remain for {p} base parameters; use a smaller "
-                "decimate, a longer recording, or more recordings."
-            )
+        check_equation_count(rows.W.shape[0], nj, p, rows.decimate)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", ConditionWarning)
             try:
@@ -481,13 +477,7 @@ def _motionless(recs, nj: int) -> list[str]:
         names = [f"q{j + 1}" for j in range(nj)]
         if all(n in rec.names for n in names):
             moving |= ~motionless_joints(rec.select(names))
-    return [
-        f"joint {j + 1} never moves in the recording(s) (its position stays within its noise): "
-        "its own parameters are identified only through the other joints' motion, if at all, "
-        "and its torque equations carry no information on its friction; move it in the "
-        "experiment (physid design-excitation) or fix its parameters in the model."
-        for j in np.flatnonzero(~moving)
-    ]
+    return never_moving(moving)
 
 
 def _reversal_joints(rows: IDIMRows) -> tuple:

@@ -13,11 +13,12 @@ import warnings
 import numpy as np
 from scipy import linalg
 
-from ...errors import IdentifiabilityError
+from ...errors import IdentifiabilityError, SamplingError
 from .base_parameters import BaseInfo, joint_of
 
 __all__ = [
     "ConditionWarning",
+    "check_equation_count",
     "condition_number",
     "check_excitation",
     "scaled_lstsq",
@@ -62,6 +63,29 @@ def condition_number(W) -> float:
         return float("inf")
     s = np.linalg.svd(a / norms, compute_uv=False)
     return float(s[0] / s[-1]) if s[-1] > 0 else float("inf")
+
+
+def check_equation_count(n_rows: int, n_joints: int, n_base: int, decimate: int) -> None:
+    """Refuse rows that hold no more equations than base parameters.
+
+    Parameters
+    ----------
+    n_rows, n_joints, n_base : int
+        Decimated rows, joints (equations per row) and base parameters.
+    decimate : int
+        nd of the rows (named in the message).
+
+    Raises
+    ------
+    SamplingError
+        ``n_rows · n_joints ≤ n_base``, with what to change.
+    """
+    if n_rows * n_joints <= n_base:
+        raise SamplingError(
+            f"after filtering and decimate={decimate} only {n_rows} rows × {n_joints} joints "
+            f"= {n_rows * n_joints} equations remain for {n_base} base parameters; use a "
+            "smaller decimate, a longer recording, or more recordings."
+        )
 
 
 def check_excitation(W: np.ndarray, info: BaseInfo, where: str, *, warn: bool = True) -> float:

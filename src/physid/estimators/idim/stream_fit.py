@@ -16,11 +16,17 @@ import numpy as np
 from scipy import linalg
 
 from ...errors import IdentifiabilityError, SamplingError, arg
-from .._stiction import STICK_AUTO, dropped_summary_counts
+from .._stiction import STICK_AUTO, dropped_summary_counts, never_moving
 from .base_parameters import base_regressor_info, unit_of
 from .choose import pick
 from .result import IDIMResult
-from .solve import COND_WARN, ConditionWarning, check_excitation, condition_number
+from .solve import (
+    COND_WARN,
+    ConditionWarning,
+    check_equation_count,
+    check_excitation,
+    condition_number,
+)
 from .stream_moments import RowMoments, noise_correlation
 from .stream_plan import StreamPlan, motionless
 from .verdict import identification_verdict, iv_verdict, noise_floor, torque_verdict_sums
@@ -211,12 +217,7 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
 def _check_rows(plan, c, full, info, notes, nd) -> None:
     """`IDIMEstimator._check_rows` on the factors: equations, excitation, heavy drops."""
     nj, p = plan.n_joints, plan.n_base
-    if c.n_rows * nj <= p:
-        raise SamplingError(
-            f"after filtering and decimate={nd} only {c.n_rows} rows × {nj} joints = "
-            f"{c.n_rows * nj} equations remain for {p} base parameters; use a smaller "
-            "decimate, a longer recording, or more recordings."
-        )
+    check_equation_count(c.n_rows, nj, p, nd)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConditionWarning)
         try:
@@ -237,13 +238,7 @@ def _check_rows(plan, c, full, info, notes, nd) -> None:
     moving = np.zeros(nj, dtype=bool)
     for st in plan.sources:
         moving |= ~motionless(st)
-    heavy += [
-        f"joint {j + 1} never moves in the recording(s) (its position stays within its noise): "
-        "its own parameters are identified only through the other joints' motion, if at all, "
-        "and its torque equations carry no information on its friction; move it in the "
-        "experiment (physid design-excitation) or fix its parameters in the model."
-        for j in np.flatnonzero(~moving)
-    ]
+    heavy += never_moving(moving)
     from .estimator import StictionWarning
 
     for text in heavy:
