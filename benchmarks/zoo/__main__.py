@@ -6,6 +6,7 @@ Also runs as ``python benchmarks/zoo/__main__.py``. Progress goes to stderr, the
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -31,7 +32,11 @@ def main(argv=None) -> int:
     unknown = set(keys or ()) - set(cases.BUILDERS)
     if unknown:
         p.error(f"unknown case(s) {sorted(unknown)}; known: {list(cases.BUILDERS)}")
-    methods = tuple(m.strip() for m in args.methods.split(",") if m.strip()) or None
+    # a comma separates methods, and a method's settings too: a new method starts at a name
+    # followed by ":", "," or the end ("idim-ols:decimate=10,cutoff=4,idim-wls")
+    methods = tuple(
+        m.strip() for m in re.split(r",(?=[a-z][a-z-]*(?::|,|$))", args.methods) if m.strip()
+    ) or None
     outcomes, facts = compare.run(
         quick=args.quick,
         keys=keys,
