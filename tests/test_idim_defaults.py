@@ -177,6 +177,39 @@ def test_iv_that_is_stable_but_not_at_tol_is_not_a_failure():
     assert iv_verdict([0.5, 1e-5], 1e-4) == (True, "")
 
 
+def test_iv_whose_torques_no_longer_move_is_stable_at_the_data_resolution():
+    # relative changes stay above IV_STABLE (a poorly determined parameter wanders) ...
+    wandering = [0.85, 0.16, 0.11, 0.058, 0.11]
+    ok, note = iv_verdict(wandering, 1e-4)
+    assert not ok
+    # ... but the last three iterations moved the predicted torques by <= 3.5 % of the residual
+    ok, note = iv_verdict(wandering, 1e-4, [0.14, 0.12, 0.035, 0.006, 0.022])
+    assert ok and "3.5 % of the fit's residual" in note and "not a failure" in note
+    # one of the last three moved them by a fifth of the residual: not stable
+    ok, note = iv_verdict(wandering, 1e-4, [0.14, 0.12, 0.2, 0.006, 0.022])
+    assert not ok and "did not converge" in note
+
+
+def test_torque_changes_are_prediction_moves_over_the_residual():
+    from types import SimpleNamespace
+
+    from physid.estimators.idim.estimator import _torque_changes
+
+    rng = np.random.default_rng(3)
+    W = rng.normal(size=(40, 2, 3))
+    tau = rng.normal(size=(40, 2))
+    history = [rng.normal(size=3) for _ in range(4)]  # the OLS start, then 3 IV iterations
+    est = SimpleNamespace(changes=[0.5, 0.2, 0.1], history=history)
+    got = _torque_changes(est, SimpleNamespace(W=W, tau=tau))
+    A, y = W.reshape(-1, 3), tau.reshape(-1)
+    want = [
+        np.linalg.norm(A @ (b - a)) / np.linalg.norm(y - A @ b)
+        for a, b in zip(history[:-1], history[1:], strict=True)
+    ]
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert _torque_changes(SimpleNamespace(changes=[], history=history[:1]), None) == []
+
+
 def test_decimation_candidates_and_the_choice():
     assert decimate_candidates(0.1, 100_000, 10, 2) == [50, 25]
     assert decimate_candidates(0.1, 2_000, 10, 2) == [12]  # capped to keep 20 rows per parameter

@@ -387,7 +387,9 @@ class IDIMEstimator(EstimatorMixin):
         ok, sentence = self._torque_verdict(rows, est.beta, recs)
         success &= ok
         message += sentence
-        ok, sentence = iv_verdict(est.changes if self.method == "iv" else (), self.tol)
+        ok, sentence = iv_verdict(
+            est.changes if self.method == "iv" else (), self.tol, _torque_changes(est, rows)
+        )
         success &= ok
         message += sentence
         return success, message
@@ -440,6 +442,22 @@ class IDIMEstimator(EstimatorMixin):
             residuals=e,
             model=model,
         )
+
+
+def _torque_changes(est: _Estimate, rows: IDIMRows) -> list[float]:
+    """For each IV iteration, ``‖W (β_k − β_{k−1})‖ / ‖τ − W β_k‖`` on the fit's rows (empty
+    for OLS and WLS): how far it moved the predicted torques against the residual."""
+    n = len(est.changes)
+    if n == 0 or len(est.history) < n + 1:
+        return []
+    W = rows.W.reshape(-1, rows.W.shape[-1])
+    y = rows.tau.reshape(-1)
+    steps = est.history[-(n + 1) :]
+    out = []
+    for before, after in zip(steps[:-1], steps[1:], strict=True):  # per iteration (≤ max_iter)
+        resid = float(np.linalg.norm(y - W @ after))
+        out.append(float(np.linalg.norm(W @ (after - before))) / max(resid, 1e-300))
+    return out
 
 
 def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
