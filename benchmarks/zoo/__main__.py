@@ -34,9 +34,10 @@ def main(argv=None) -> int:
         p.error(f"unknown case(s) {sorted(unknown)}; known: {list(cases.BUILDERS)}")
     # a comma separates methods, and a method's settings too: a new method starts at a name
     # followed by ":", "," or the end ("idim-ols:decimate=10,cutoff=4,idim-wls")
-    methods = tuple(
-        m.strip() for m in re.split(r",(?=[a-z][a-z-]*(?::|,|$))", args.methods) if m.strip()
-    ) or None
+    methods = (
+        tuple(m.strip() for m in re.split(r",(?=[a-z][a-z-]*(?::|,|$))", args.methods) if m.strip())
+        or None
+    )
     outcomes, facts = compare.run(
         quick=args.quick,
         keys=keys,
