@@ -176,3 +176,16 @@ def test_block_samples_below_two_is_refused_before_anything_is_read(log, capsys)
     code, _, err = _identify(capsys, log, "--method", "idim-ols", "--block-samples", "1")
     assert code == 2 and "--block-samples must be an integer of at least 2" in err
     assert "streamed in blocks" not in err
+
+
+def test_stream_obstacle_names_python_arguments_to_python_callers():
+    from physid.errors import InputError
+    from physid.estimators.idim.stream import stream_obstacle
+
+    assert stream_obstacle("idim-wls", ["run.h5", "run.parquet"]) is None
+    why = stream_obstacle("idim-ols", ["run.h5"], stderr="hac")
+    assert str(InputError(why)).startswith("stderr='hac' estimates the residual's correlation")
+    assert InputError(why).render({"stderr": "--stderr"}).startswith("--stderr hac estimates")
+    assert str(InputError(stream_obstacle("idim-iv", []))).startswith("method='idim-iv' reads")
+    assert "detrend=True subtracts" in str(InputError(stream_obstacle("idim-ols", [], detrend=1)))
+    assert "cannot be read in blocks" in stream_obstacle("idim-ols", ["run.xlsx"])

@@ -181,16 +181,17 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options, work
 
 def _streamable(path, model, method, fit_options, load_options, workers=1) -> bool:
     """A log too large for an in-memory fit, whose fit and file can stream."""
-    from ..estimators.idim.stream import streams_better
-    from ..signals.io import BLOCK_FORMATS
-    from ..signals.io.variables import SUPPORTED_SUFFIXES
+    from ..estimators.idim.stream import stream_obstacle, streams_better
 
     fit_options, load_options = dict(fit_options or {}), dict(load_options or {})
-    if method not in ("idim-ols", "idim-wls") or load_options.get("resample"):
-        return False
-    if fit_options.get("stderr") == "hac" or fit_options.get("consistent"):
-        return False
-    if SUPPORTED_SUFFIXES.get(Path(path).suffix.lower()) not in BLOCK_FORMATS:
+    obstacle = stream_obstacle(
+        method,
+        [path],
+        stderr=fit_options.get("stderr", "filtered"),
+        consistent=bool(fit_options.get("consistent")),
+        resample=bool(load_options.get("resample")),
+    )
+    if obstacle is not None:
         return False
     try:
         return streams_better([path], model, workers=workers)[0]

@@ -44,39 +44,23 @@ def add_stream_options(group, fits: str) -> None:
 
 
 def _why_not(args, paths, method: str) -> str | None:
-    """Why these settings cannot stream (in the command line's words), or None."""
-    from ..signals.io import BLOCK_FORMATS
-    from ..signals.io.rosbag_reader import is_rosbag
-    from ..signals.io.variables import SUPPORTED_SUFFIXES
+    """Why these settings cannot stream (`stream_obstacle`, shown in the command line's
+    words), or None."""
+    from ..errors import InputError
+    from ..estimators.idim.stream import stream_obstacle
 
-    if method not in ("idim-ols", "idim-wls"):
-        return f"--method {method} reads the whole record (streamed: idim-ols, idim-wls)"
-    if getattr(args, "join", False):
-        return "--join joins whole files on their stamps"
-    if getattr(args, "detrend", None):
-        return "--detrend subtracts the mean of the whole record"
-    if getattr(args, "joints", None):
-        return "--joints holds the other joints at the logged positions of the whole record"
-    if getattr(args, "stderr", "filtered") == "hac":
-        return "--stderr hac estimates the residual's correlation from the whole residual"
-    if getattr(args, "consistent", False):
-        return "--consistent fits the consistent estimate on every row"
-    if getattr(args, "resample", False):
-        return "--resample interpolates the whole record"
-    if getattr(args, "torque", "measured") != "measured":
-        return "--torque pd rebuilds the torques of the whole record"
-    for p in paths:
-        if is_rosbag(p):
-            return f"{p} is a ROS bag, read whole"
-        from pathlib import Path
-
-        fmt = SUPPORTED_SUFFIXES.get(Path(p).suffix.lower())
-        if fmt not in BLOCK_FORMATS:
-            return (
-                f"{p} cannot be read in blocks (formats read in blocks: "
-                f"{', '.join(sorted(BLOCK_FORMATS))})"
-            )
-    return None
+    why = stream_obstacle(
+        method,
+        paths,
+        stderr=getattr(args, "stderr", "filtered"),
+        consistent=getattr(args, "consistent", False),
+        resample=getattr(args, "resample", False),
+        join=getattr(args, "join", False),
+        detrend=getattr(args, "detrend", None),
+        joints=getattr(args, "joints", None),
+        torque=getattr(args, "torque", "measured"),
+    )
+    return None if why is None else InputError(why).render(getattr(args, "argument_flags", None))
 
 
 def wants_stream(args, paths, model, method: str) -> bool:

@@ -51,6 +51,7 @@ __all__ = [
     "scale_gate",
     "in_memory_peak",
     "streams_better",
+    "stream_obstacle",
     "STREAMED_SETTINGS",
 ]
 
@@ -292,3 +293,83 @@ def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
     peak = in_memory_peak(paths, model)
     limit = stream_limit(workers)
     return peak > limit, peak, limit
+
+
+def stream_obstacle(
+    method: str,
+    paths,
+    *,
+    stderr: str = "filtered",
+    consistent: bool = False,
+    resample: bool = False,
+    join: bool = False,
+    detrend=None,
+    joints=None,
+    torque: str = "measured",
+) -> str | None:
+    """Why a fit of the files ``paths`` with these settings cannot stream, or None.
+
+    The one rule `physid identify --stream` and fleets (`physid.analysis.fleet`) follow: only
+    IDIM-OLS and IDIM-WLS stream, with settings that need no whole record, on files that can be
+    read in blocks.
+
+    Parameters
+    ----------
+    method : str
+        ``"idim-ols"``, ``"idim-wls"``, ``"idim-iv"``, ``"input-error"`` ...
+    paths : sequence of str or Path
+        The record files.
+    stderr, consistent : as `IDIMEstimator`
+    resample, join, detrend, joints, torque : as `physid.load_recording` and `physid identify`
+        (reading options that act on the whole record).
+
+    Returns
+    -------
+    str or None
+        The reason, its settings marked with `physid.errors.arg` (so that the command line
+        shows its flags), or None when the fit can stream.
+    """
+    from pathlib import Path
+
+    from ...errors import arg
+    from ...signals.io import BLOCK_FORMATS
+    from ...signals.io.rosbag_reader import is_rosbag
+    from ...signals.io.variables import SUPPORTED_SUFFIXES
+
+    if method not in ("idim-ols", "idim-wls"):
+        return (
+            f"{arg('method', repr(method), cli=method)} reads the whole record (streamed: "
+            "idim-ols, idim-wls)"
+        )
+    whole = [
+        (join, "join", "", "joins whole files on their stamps"),
+        (detrend, "detrend", "", "subtracts the mean of the whole record"),
+        (joints, "joints", None, "holds the other joints at the logged positions of the whole "
+         "record"),
+        (stderr == "hac", "stderr", ("'hac'", "hac"), "estimates the residual's correlation "
+         "from the whole residual"),
+        (consistent, "consistent", "", "fits the consistent estimate on every row"),
+        (resample, "resample", "", "interpolates the whole record"),
+        (torque != "measured", "torque", (repr(torque), torque), "rebuilds the torques of the "
+         "whole record"),
+    ]  # fmt: skip
+    for present, name, value, why in whole:
+        if present:
+            shown = (
+                arg(name)
+                if value is None
+                else arg(name, "True", cli="")
+                if value == ""
+                else arg(name, value[0], cli=value[1])
+            )
+            return f"{shown} {why}"
+    for p in paths:
+        if is_rosbag(p):
+            return f"{p} is a ROS bag, read whole"
+        fmt = SUPPORTED_SUFFIXES.get(Path(p).suffix.lower())
+        if fmt not in BLOCK_FORMATS:
+            return (
+                f"{p} cannot be read in blocks (formats read in blocks: "
+                f"{', '.join(sorted(BLOCK_FORMATS))})"
+            )
+    return None
