@@ -18,6 +18,8 @@ import functools
 import numpy as np
 from scipy import signal
 
+from ...filters.lifted import lifting_pays, sosfiltfilt_decimated
+
 __all__ = ["parallel_decimate", "decimation_edge", "decimated_noise_correlation", "parallel_filter"]
 
 #: Pass-band ripple of the parallel filter [dB]. Run forwards and backwards its gain varies by
@@ -96,13 +98,18 @@ def parallel_decimate(x, nd: int, *, block_columns: int = 256) -> tuple[np.ndarr
     # a column that is zero at every sample stays exactly zero (a 7-DOF base regressor has ~40 %
     # of them: joint j's equation holds no parameter of the links before it); filter the others
     live = np.flatnonzero(np.any(flat != 0.0, axis=0))
+    lift = lifting_pays(nd, n + 2 * padlen - edge)
     for start in range(0, live.size, block_columns):
         cols = live[start : start + block_columns]
         # time on the last, contiguous axis: scipy's sosfilt copies its input with time last,
         # which for axis=0 is a slow transposing copy (most of the cost); the filtering itself
         # is the same, sample by sample (bit-identical results)
         block = np.ascontiguousarray(flat[:, cols].T)
-        out[:, cols] = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)[:, kept].T
+        if lift:  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding
+            y = sosfiltfilt_decimated(sos, block, nd, edge, kept.size, padlen=padlen, lift=True)
+            out[:, cols] = y.T
+        else:
+            out[:, cols] = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)[:, kept].T
     return out.reshape((kept.size,) + arr.shape[1:]), kept
 
 
