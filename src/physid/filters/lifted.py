@@ -67,7 +67,7 @@ def _state_space(sos: np.ndarray):
     n = 2 * ns
     A, B, C = np.zeros((n, n)), np.zeros(n), np.zeros(n)
     D = 1.0
-    for s, (b0, b1, b2, a0, a1, a2) in enumerate(sos / sos[:, 3:4]):
+    for s, (b0, b1, b2, _a0, a1, a2) in enumerate(sos / sos[:, 3:4]):
         i = 2 * s
         # the section's input is the cascade so far: u_s = C_prev X + D_prev u
         A[i : i + 2, :i] = np.outer([b1 - a1 * b0, b2 - a2 * b0], C[:i])
@@ -115,7 +115,7 @@ def _matrices(sos_bytes: bytes, n_sections: int, nd: int):
 
 def _flat(state: np.ndarray) -> np.ndarray:
     """sosfilt's (n_sections, k, 2) state as (k, 2 n_sections)."""
-    return state.transpose(1, 0, 2).reshape(state.shape[1], -1)
+    return state.transpose(1, 0, 2).reshape(state.shape[1], 2 * state.shape[0])
 
 
 def _sos_state(flat: np.ndarray, ns: int) -> np.ndarray:
