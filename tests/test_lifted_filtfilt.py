@@ -130,7 +130,7 @@ def test_bad_input_is_refused_in_the_arguments_words():
     sos = _decimation_sos(20)
     with pytest.raises(InputError, match="padlen must be in"):
         sosfiltfilt_decimated(sos, np.ones((1, 10)), 20, padlen=10)
-    with pytest.raises(InputError, match="time last"):
+    with pytest.raises(InputError, match="must be 2-D"):
         sosfiltfilt_decimated(sos, np.ones(100), 20)
     with pytest.raises(InputError, match="nd must be a positive integer"):
         decimated_filtfilt(sos, np.ones((1, 100)), 0, 0, 1)

@@ -83,8 +83,8 @@ def _state_space(sos: np.ndarray):
 def _matrices(sos_bytes: bytes, n_sections: int, nd: int):
     """The lifted filter of ``sos`` for blocks of ``nd`` samples (see the module docstring).
 
-    Returns ``(M, Phi, P, Psi, hF, A, B, C, D)``: ``M`` (nd, 2 n_s + 2 n_s + 1) the columns
-    ``[Gᵀ | Qᵀ | r]`` the samples are multiplied by; the rest small.
+    Returns ``(MT, Phi, P, Psi, hF, A, B, C, D)``: ``MT`` (2 n_s + 2 n_s + 1, nd) the rows
+    ``[G; Q; r]`` that multiply every block of samples; the rest small.
     """
     sos = np.frombuffer(sos_bytes).reshape(n_sections, 6)
     A, B, C, D = _state_space(sos)
@@ -105,8 +105,8 @@ def _matrices(sos_bytes: bytes, n_sections: int, nd: int):
     r = np.correlate(h, h, "full")[nd - 1 :]  # r[l] = sum_k h[k] h[k-l]
     P = K.T @ F  # sum_k A^k B C A^k
     hF = h @ F
-    M = np.ascontiguousarray(np.concatenate([G.T, Q.T, r[:, None]], axis=1))
-    out = (M, pw[nd], P, C @ pw[nd - 1], hF, A, B, C, D)
+    MT = np.ascontiguousarray(np.concatenate([G, Q, r[None, :]], axis=0))
+    out = (MT, pw[nd], P, C @ pw[nd - 1], hF, A, B, C, D)
     for a in out:
         if isinstance(a, np.ndarray):
             a.flags.writeable = False
@@ -114,178 +114,196 @@ def _matrices(sos_bytes: bytes, n_sections: int, nd: int):
 
 
 def _flat(state: np.ndarray) -> np.ndarray:
-    """sosfilt's (n_sections, k, 2) state as (k, 2 n_sections)."""
-    return state.transpose(1, 0, 2).reshape(state.shape[1], 2 * state.shape[0])
+    """sosfilt's (n_sections, k, 2) state as (2 n_sections, k) (state index 2 s + j)."""
+    return state.transpose(0, 2, 1).reshape(2 * state.shape[0], state.shape[1])
 
 
-def _sos_state(flat: np.ndarray, ns: int) -> np.ndarray:
-    """(k, 2 n_sections) as sosfilt's (n_sections, k, 2)."""
-    return np.ascontiguousarray(flat.reshape(flat.shape[0], ns, 2).transpose(1, 0, 2))
+def _sos_state(flat: np.ndarray) -> np.ndarray:
+    """(2 n_sections, k) as sosfilt's (n_sections, k, 2)."""
+    return np.ascontiguousarray(flat.reshape(flat.shape[0] // 2, 2, flat.shape[1]).transpose(0, 2, 1))
 
 
-def _recursion(g: np.ndarray, PhiT: np.ndarray, x0: np.ndarray) -> np.ndarray:
-    """``X[0] = x0``, ``X[j+1] = X[j] PhiT + g[j]`` for ``g`` of shape (L, k, n): (L + 1, k, n).
+def _recursion(g: np.ndarray, Phi: np.ndarray, x0: np.ndarray) -> np.ndarray:
+    """``X[0] = x0``, ``X[j+1] = Phi X[j] + g[j]`` for ``g`` of shape (L, n, k): (L + 1, n, k).
 
-    A true recursion at the block rate (``L = n_samples / nd`` steps); grouping it into blocks
-    of steps with powers of ``PhiT`` lost up to 1e-8 relative (the states span ~18 decades).
+    A true recursion at the block rate (``L = n_samples / nd`` steps, each one (n, n) by (n, k)
+    product). Grouping it into blocks of steps with powers of ``Phi`` lost up to 1e-8 relative
+    (the states span ~18 decades and the powers of the non-normal ``Phi`` cancel).
     """
-    L, k, n = g.shape
-    out = np.empty((L + 1, k, n))
+    L, n, k = g.shape
+    out = np.empty((L + 1, n, k))
     out[0] = x0
     for j in range(L):
-        np.matmul(out[j], PhiT, out=out[j + 1])
+        np.matmul(Phi, out[j], out=out[j + 1])
         out[j + 1] += g[j]
     return out
 
 
-def _check(sos, x, nd, first, count):
+def _check(sos, x, nd, first, count, axis):
     from ..errors import InputError
 
     sos = np.ascontiguousarray(sos, dtype=float)
     if sos.ndim != 2 or sos.shape[1] != 6 or sos.shape[0] == 0:
         raise InputError(f"sos must have shape (n_sections, 6); got {sos.shape}.")
+    if axis not in (0, -1, 1):
+        raise InputError(f"axis must be 0 or -1 (the time axis of a 2-D x); got {axis!r}.")
     x = np.asarray(x, dtype=float)
     if x.ndim != 2:
-        raise InputError(f"x must have shape (k, n_samples), time last; got {x.shape}.")
+        raise InputError(f"x must be 2-D, (k, n_samples) or (n_samples, k); got {x.shape}.")
+    xt = x if axis == 0 else x.T  # (n_samples, k), a view
     if int(nd) < 1:
         raise InputError(f"nd must be a positive integer; got {nd}.")
     if int(first) < 0 or int(count) < 0:
         raise InputError(f"first and count must be >= 0; got first={first}, count={count}.")
-    if count and int(first) + (int(count) - 1) * int(nd) >= x.shape[1]:
+    if count and int(first) + (int(count) - 1) * int(nd) >= xt.shape[0]:
         raise InputError(
             f"the last row asked for, first + (count - 1)·nd = "
-            f"{int(first) + (int(count) - 1) * int(nd)}, lies past x's {x.shape[1]} samples."
+            f"{int(first) + (int(count) - 1) * int(nd)}, lies past x's {xt.shape[0]} samples."
         )
-    return sos, x
+    return sos, xt
 
 
-def decimated_filtfilt(sos, x, nd: int, first: int, count: int, *, forward_state=None, lift=None):
+def decimated_filtfilt(
+    sos, x, nd: int, first: int, count: int, *, axis=-1, forward_state=None, after=None, lift=None
+):
     """Forward-backward ``sosfilt`` of a stretch, only at samples ``first + j nd``.
 
-    The forward pass starts from ``forward_state`` at ``x[:, 0]``; the backward pass starts at
-    the stretch's last sample from the step state ``sosfilt_zi(sos) · f[-1]`` (what
-    `scipy.signal.sosfiltfilt` does at the end of its padded signal).
+    The forward pass starts from ``forward_state`` at the stretch's first sample and runs on
+    through ``after``; the backward pass starts at the last sample of ``after`` (of ``x`` when
+    None) from the step state ``sosfilt_zi(sos) · f[-1]``, as `scipy.signal.sosfiltfilt` does
+    at the end of its padded signal.
 
     Parameters
     ----------
     sos : ndarray, shape (n_sections, 6)
         The filter, in second-order sections (`scipy.signal` layout).
-    x : ndarray, shape (k, n_samples)
-        ``k`` signals, time on the last axis (any units; the output has the same).
+    x : ndarray, shape (k, n_samples) or (n_samples, k)
+        ``k`` signals (any units; the output has the same), time on ``axis``.
     nd : int
         Spacing of the rows wanted [samples].
     first : int
         The first row wanted (a sample index of ``x``).
     count : int
         Rows wanted: ``first, first + nd, …, first + (count − 1) nd`` (all inside ``x``).
+    axis : {-1, 0}
+        The time axis of ``x``, ``after`` and the output. Both are fast: the samples are read in
+        place, as blocks of ``nd`` (time on axis 0 is the faster of the two).
     forward_state : ndarray, shape (n_sections, k, 2), optional
-        The forward pass's state before ``x[:, 0]`` (``sosfilt``'s ``zi``); default
-        ``sosfilt_zi(sos) · x[:, 0]``.
+        The forward pass's state before the stretch's first sample (``sosfilt``'s ``zi``);
+        default ``sosfilt_zi(sos) · x[0]``.
+    after : ndarray, optional
+        Samples that follow ``x`` (the end padding), time on ``axis``; no row is taken there.
     lift : bool, optional
         Lift (True) or run ``sosfilt`` on every sample (False); default `lifting_pays`.
 
     Returns
     -------
-    y : ndarray, shape (k, count)
-        The filtered rows.
+    y : ndarray, shape (k, count) or (count, k)
+        The filtered rows, time on ``axis``.
     state : ndarray, shape (n_sections, k, 2) or None
-        The forward pass's state before sample ``first + count · nd`` (to continue the forward
-        pass on the samples that follow), or None when that sample lies past ``x``'s end.
+        The forward pass's state before sample ``first + count · nd`` of ``x`` (to continue the
+        forward pass on the samples that follow), or None when that lies past ``x``'s end.
 
     Notes
     -----
-    Lifted, the cost per sample and column is one product with a (nd, 4 n_sections + 1) matrix
-    (BLAS), plus two recursions over the ``n_samples / nd`` blocks. Peak memory beyond ``x``:
-    ``k · n_samples · (4 n_sections + 1) / nd`` floats for the product, ``k · n_samples ·
-    4 n_sections / nd`` for the block states, and the ``sosfilt`` passes over the samples before
-    ``first`` and after the last whole block. The matrices of ``(sos, nd)`` are cached.
+    Lifted, the cost per sample and column is one product with a (4 n_sections + 1, nd) matrix
+    (BLAS), plus two recursions over the ``n_samples / nd`` blocks (a Python loop of small
+    products). Memory beyond ``x``: ``k · n_samples · (8 n_sections + 1) / nd`` floats for the
+    product and the block states, and copies of the samples before ``first`` and after the last
+    whole block (for ``sosfilt``). The matrices of ``(sos, nd)`` are cached (16 pairs).
     """
     from scipy import signal
 
-    sos, x = _check(sos, x, nd, first, count)
+    sos, xt = _check(sos, x, nd, first, count, axis)
     nd, first, count = int(nd), int(first), int(count)
-    k, n = x.shape
+    n, k = xt.shape
     ns = sos.shape[0]
     zi = signal.sosfilt_zi(sos)[:, None, :]
-    z = zi * x[:, :1] if forward_state is None else np.asarray(forward_state, dtype=float)
+    z = zi * xt[0][:, None] if forward_state is None else np.asarray(forward_state, dtype=float)
     if z.shape != (ns, k, 2):
         raise ValueError(f"forward_state must have shape {(ns, k, 2)}; got {z.shape}")
     if first > 0:  # the head: the samples before the first row wanted
-        _, z = signal.sosfilt(sos, x[:, :first], axis=-1, zi=z)
+        _, z = signal.sosfilt(sos, xt[:first].T, axis=-1, zi=z)
     end = first + count * nd  # the forward state wanted before this sample
     if count == 0:
-        return np.empty((k, 0)), z if end <= n else None
+        y0 = np.empty((k, 0))
+        return (y0 if axis != 0 else y0.T), z if end <= n else None
     if lift is None:
         lift = lifting_pays(nd, n - first)
     # whole blocks, leaving at least one sample after them (the backward pass starts there)
     L = min(count, (n - 1 - first) // nd) if lift and nd > 1 else 0
     y = np.empty((k, count))
-    X0 = _flat(z)
     if L:
-        M, Phi, P, Psi, hF, *_ = _matrices(sos.tobytes(), ns, nd)
+        MT, Phi, P, Psi, hF = _matrices(sos.tobytes(), ns, nd)[:5]
         nx = 2 * ns
-        u = x[:, first : first + L * nd].reshape(k, L, nd)
-        Z = (u @ M).transpose(1, 0, 2)  # (L, k, 2 nx + 1): G u, Q u, r u per block
-        X = _recursion(Z[:, :, :nx], Phi.T, X0)  # X[m + nd] = A^nd X[m] + G u
-        z = _sos_state(X[L], ns)
+        blocks = xt[first : first + L * nd].reshape(L, nd, k)
+        Z = np.matmul(MT, blocks)  # (L, 2 nx + 1, k): G u, Q u, r u per block
+        X = _recursion(Z[:, :nx], Phi, _flat(z))  # X[m + nd] = A^nd X[m] + G u
+        z = _sos_state(X[L])
     # the tail: sosfilt forward from the last block's end, then backward from the end
     t0 = first + L * nd
-    if end <= n and end > t0:
-        f1, zend = signal.sosfilt(sos, x[:, t0:end], axis=-1, zi=z)
-        f2, _ = signal.sosfilt(sos, x[:, end:], axis=-1, zi=zend)
+    tail = xt[t0:].T
+    if after is not None:
+        tail = np.concatenate([tail, np.asarray(after, dtype=float).T if axis == 0 else after], 1)
+    if t0 < end <= n:  # split the forward pass where its state is wanted
+        f1, zend = signal.sosfilt(sos, tail[:, : end - t0], axis=-1, zi=z)
+        f2, _ = signal.sosfilt(sos, tail[:, end - t0 :], axis=-1, zi=zend)
         f = np.concatenate([f1, f2], axis=1)
     else:
-        f, _ = signal.sosfilt(sos, x[:, t0:], axis=-1, zi=z)
+        f, _ = signal.sosfilt(sos, tail, axis=-1, zi=z)
         zend = None if end > n else z
     back, zb = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=zi * f[:, -1:])
-    tail_rows = np.arange(L, count)
-    y[:, L:] = back[:, f.shape[1] - 1 - (tail_rows * nd + first - t0)]
+    rows = np.arange(L, count) * nd + first - t0
+    y[:, L:] = back[:, f.shape[1] - 1 - rows]
     if L:
-        R = _flat(zb)  # the backward state after sample t0, S[t0 - 1]
-        W = X[:L] @ P.T + Z[:, :, nx : 2 * nx]  # R_j = A^nd R_{j+1} + P X_j + Q u_j
-        R = _recursion(W[::-1], Phi.T, R)[::-1]  # R[j] = R_j, j = 0 .. L
-        # y_j = Psi R_{j+1} + hF X_j + r u_j
-        y[:, :L] = (R[1:] @ Psi + X[:L] @ hF + Z[:, :, 2 * nx]).T
-    return y, zend
+        # R_j = A^nd R_{j+1} + P X_j + Q u_j (R_j: the backward state after block j's first
+        # sample); R_L from the tail's backward pass
+        W = np.matmul(P, X[:L]) + Z[:, nx : 2 * nx]
+        R = _recursion(W[::-1], Phi, _flat(zb))[::-1]
+        y[:, :L] = (Psi @ R[1:] + hF @ X[:L] + Z[:, 2 * nx]).T  # y_j = Ψ R_{j+1} + hF X_j + r u
+    return (y.T if axis == 0 else y), zend
 
 
-def sosfiltfilt_decimated(sos, x, nd: int, first: int = 0, count=None, *, padlen=None, lift=None):
-    """``scipy.signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)[:, first::nd][:, :count]``,
-    computed only at those samples.
+def sosfiltfilt_decimated(
+    sos, x, nd: int, first: int = 0, count=None, *, axis=-1, padlen=None, lift=None
+):
+    """``scipy.signal.sosfiltfilt(sos, x, axis=axis, padlen=padlen)`` at samples ``first + j nd``
+    (``j < count``), computed only there.
 
     Parameters
     ----------
     sos : ndarray, shape (n_sections, 6)
         The filter, in second-order sections.
-    x : array_like, shape (k, n_samples)
-        ``k`` signals, time on the last axis.
+    x : array_like, shape (k, n_samples) or (n_samples, k)
+        ``k`` signals, time on ``axis``.
     nd : int
         Spacing of the rows kept [samples].
     first : int
         The first row kept.
     count : int, optional
         Rows kept (default: all to the end).
+    axis : {-1, 0}
+        The time axis of ``x`` and of the output.
     padlen : int, optional
-        Odd-extension length at each end, as `scipy.signal.sosfiltfilt` (default ``3 (2
-        n_sections + 1 − min(#b0 == 0, #a2 == 0))``, scipy's); must be below ``n_samples``.
+        Odd-extension length at each end, as `scipy.signal.sosfiltfilt` (default scipy's,
+        ``3 (2 n_sections + 1 − min(#b2 == 0, #a2 == 0))``); must be below ``n_samples``.
     lift : bool, optional
         See `decimated_filtfilt`.
 
     Returns
     -------
-    ndarray, shape (k, count)
+    ndarray, shape (k, count) or (count, k)
 
     Notes
     -----
-    Peak memory: the padded copy of ``x`` plus `decimated_filtfilt`'s.
+    Memory: `decimated_filtfilt`'s (``x`` is not copied; the padding is ``padlen`` samples).
     """
+    from scipy import signal
+
     from ..errors import InputError
 
-    x = np.asarray(x, dtype=float)
-    sos = np.ascontiguousarray(sos, dtype=float)
-    if x.ndim != 2:
-        raise InputError(f"x must have shape (k, n_samples), time last; got {x.shape}.")
-    n = x.shape[1]
+    sos, xt = _check(sos, x, nd, first, 0, axis)
+    n, k = xt.shape
     if padlen is None:
         ntaps = 2 * sos.shape[0] + 1
         ntaps -= min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum())
@@ -295,13 +313,19 @@ def sosfiltfilt_decimated(sos, x, nd: int, first: int = 0, count=None, *, padlen
         raise InputError(f"padlen must be in [0, n_samples) = [0, {n}); got {padlen}.")
     if count is None:
         count = max(0, -(-(n - int(first)) // int(nd)))
-    if padlen:
-        x = np.concatenate(
-            [2 * x[:, :1] - x[:, padlen:0:-1], x, 2 * x[:, -1:] - x[:, -2 : -padlen - 2 : -1]],
-            axis=1,
-        )
     if count and int(first) + (int(count) - 1) * int(nd) >= n:
-        raise InputError(f"rows past the record's {n} samples asked for (first={first}, "
-                         f"count={count}, nd={nd}).")  # fmt: skip
-    y, _ = decimated_filtfilt(sos, x, nd, int(first) + padlen, count, lift=lift)
+        raise InputError(
+            f"rows past the record's {n} samples asked for (first={first}, count={count}, "
+            f"nd={nd})."
+        )
+    zi = signal.sosfilt_zi(sos)[:, None, :]
+    z, after = zi * xt[0][:, None], None
+    if padlen:  # sosfiltfilt's odd extension: the start's forward pass, the end's samples
+        pad = (2 * xt[:1] - xt[padlen:0:-1]).T
+        _, z = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
+        after = 2 * xt[-1:] - xt[-2 : -padlen - 2 : -1]
+        after = after if axis == 0 else after.T
+    y, _ = decimated_filtfilt(
+        sos, x, nd, int(first), count, axis=axis, forward_state=z, after=after, lift=lift
+    )
     return y

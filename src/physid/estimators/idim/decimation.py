@@ -101,15 +101,19 @@ def parallel_decimate(x, nd: int, *, block_columns: int = 256) -> tuple[np.ndarr
     lift = lifting_pays(nd, n + 2 * padlen - edge)
     for start in range(0, live.size, block_columns):
         cols = live[start : start + block_columns]
+        if lift:  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding;
+            # it reads the samples in place, time on axis 0 (a slice when the columns are)
+            run = cols.size and cols[-1] - cols[0] + 1 == cols.size
+            block = flat[:, cols[0] : cols[-1] + 1] if run else flat[:, cols]
+            out[:, cols] = sosfiltfilt_decimated(
+                sos, block, nd, edge, kept.size, axis=0, padlen=padlen, lift=True
+            )
+            continue
         # time on the last, contiguous axis: scipy's sosfilt copies its input with time last,
         # which for axis=0 is a slow transposing copy (most of the cost); the filtering itself
         # is the same, sample by sample (bit-identical results)
         block = np.ascontiguousarray(flat[:, cols].T)
-        if lift:  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding
-            y = sosfiltfilt_decimated(sos, block, nd, edge, kept.size, padlen=padlen, lift=True)
-            out[:, cols] = y.T
-        else:
-            out[:, cols] = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)[:, kept].T
+        out[:, cols] = signal.sosfiltfilt(sos, block, axis=-1, padlen=padlen)[:, kept].T
     return out.reshape((kept.size,) + arr.shape[1:]), kept
 
 

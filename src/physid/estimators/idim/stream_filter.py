@@ -145,17 +145,19 @@ def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, pa
         The forward state before sample ``first + count · nd`` (None past ``c1``).
     """
     last = c1 == n_full
-    x = rows[pos - c0 : c1 - c0].T
-    parts, off = [x], 0
+    x = rows[pos - c0 : c1 - c0]  # time on axis 0, read in place
     if state is None and pos == 0 and padlen > 0:  # the start padding, as sosfiltfilt's
-        parts.insert(0, 2 * x[:, :1] - x[:, padlen:0:-1])
-        off = padlen
+        pad = (2 * x[:1] - x[padlen:0:-1]).T
+        zi = step_state(sos)
+        _, state = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
+    after = None
     if last and padlen > 0 and count:  # the end padding
-        end = rows[n_full - 1 - padlen - c0 : n_full - c0].T
-        parts.append(2 * end[:, -1:] - end[:, -2::-1])
-    e = np.ascontiguousarray(np.concatenate(parts, axis=1) if len(parts) > 1 else x)
-    lift = lifting_pays(nd, e.shape[1] - (first - pos + off))
-    y, z = decimated_filtfilt(sos, e, nd, first - pos + off, count, forward_state=state, lift=lift)
+        end = rows[n_full - 1 - padlen - c0 : n_full - c0]
+        after = 2 * end[-1:] - end[-2::-1]
+    lift = lifting_pays(nd, x.shape[0] - (first - pos))
+    y, z = decimated_filtfilt(
+        sos, x, nd, first - pos, count, axis=0, forward_state=state, after=after, lift=lift
+    )
     if z is not None and first + count * nd > c1:
         z = None
-    return y, z
+    return y.T, z
