@@ -81,10 +81,11 @@ def test_returned_state_continues_the_forward_pass():
 
 def test_parallel_decimate_lifted_equals_sosfiltfilt():
     nd = 40
-    x = np.random.default_rng(5).normal(size=(5000, 3, 2))
+    x = np.random.default_rng(5).normal(size=(5000, 4, 3))  # 11 live columns: lifted
     x[:, 1, 0] = 0.0
     y, kept = parallel_decimate(x, nd)
-    assert lifting_pays(nd, 5000) and not lifting_pays(LIFT_MIN_ND - 1, 5000)
+    assert lifting_pays(nd, 5000, 11) and not lifting_pays(LIFT_MIN_ND - 1, 5000, 11)
+    assert not lifting_pays(nd, 5000, 1) and not lifting_pays(nd, nd, 6)
     edge = decimation_edge(nd)
     ref = signal.sosfiltfilt(_decimation_sos(nd), x, axis=0, padlen=edge)[kept]
     assert np.array_equal(kept, np.arange(edge, 5000 - edge, nd))
@@ -138,3 +139,52 @@ def test_bad_input_is_refused_in_the_arguments_words():
         decimated_filtfilt(sos, np.ones((1, 100)), 20, 10, 5 + 1)
     with pytest.raises(InputError, match="sos must have shape"):
         decimated_filtfilt(sos[:, :5], np.ones((1, 100)), 20, 0, 1)
+
+
+def _closed_loop_record(model, duration):
+    from physid.simulate.closed_loop import simulate_closed_loop
+
+    t = np.arange(0.0, duration, 1e-3)
+    w0 = 2 * np.pi * np.array([0.2, 0.3, 0.5, 0.7])
+    ramp = np.clip(t, 0.0, 1.0)[:, None] ** 3
+    ref = ramp * (0.8 * np.sin(np.outer(t, w0)) + 0.3 * np.sin(np.outer(t, 2.3 * w0) + 1))
+    kp, kd = (3800.0, 40000.0, 10000.0, 500.0), (159.5, 120.0, 50.0, 2.0)
+    return simulate_closed_loop(model, kp=kp, kd=kd, reference=ref, t=t, noise_std=1e-4, rng=1)
+
+
+@pytest.mark.parametrize(("nd", "block"), [(20, 1000), (7, 777)])
+def test_streamed_fit_lifted_equals_in_memory(monkeypatch, nd, block):
+    """Lifting forced everywhere (any nd, any number of columns): the streamed fit equals the
+    in-memory fit, and both equal the fit with sosfiltfilt everywhere."""
+    import warnings
+
+    import physid
+    import physid.filters.lifted as lifted
+    from physid.estimators.idim import IDIMEstimator, fit_streamed
+
+    model = physid.load_model("manipulator")
+    rec = _closed_loop_record(model, 8.0)
+
+    def fits():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            mem = IDIMEstimator(model, decimate=nd).fit(rec).result_
+            st = fit_streamed(model, rec, decimate=nd, block_samples=block, progress=False)
+        return mem, st
+
+    calls = []  # the block-rate recursions run: the lifted path is the one tested
+    recursion = lifted._recursion
+    monkeypatch.setattr(lifted, "_recursion", lambda *a: calls.append(1) or recursion(*a))
+    monkeypatch.setattr(lifted, "LIFT_MIN_WORK", 10**9)
+    plain, _ = fits()
+    assert not calls
+    monkeypatch.setattr(lifted, "LIFT_MIN_ND", 2)
+    monkeypatch.setattr(lifted, "LIFT_MIN_WORK", 1)
+    mem, st = fits()
+    assert len(calls) > 8  # the in-memory fit and several windows
+    b0, b1, b2 = plain.beta_vector(), mem.beta_vector(), st.beta_vector()
+    assert mem.n_rows == st.n_rows == plain.n_rows
+    np.testing.assert_allclose(b1, b0, rtol=1e-10, atol=0)
+    np.testing.assert_allclose(b2, b1, rtol=1e-10, atol=0)
+    s1, s2 = np.array(list(mem.stderr.values())), np.array(list(st.stderr.values()))
+    np.testing.assert_allclose(s2, s1, rtol=1e-8, atol=0)

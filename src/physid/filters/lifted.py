@@ -33,17 +33,26 @@ import functools
 
 import numpy as np
 
-__all__ = ["LIFT_MIN_ND", "lifting_pays", "decimated_filtfilt", "sosfiltfilt_decimated"]
+__all__ = [
+    "LIFT_MIN_ND",
+    "LIFT_MIN_WORK",
+    "lifting_pays",
+    "decimated_filtfilt",
+    "sosfiltfilt_decimated",
+]
 
-#: Smallest decimation factor at which the lifted filter is faster than two ``sosfilt`` passes.
-#: Measured, one thread, the 8th-order filter of the IDIM decimation, 64 columns of 2e5 samples:
-#: the lifted / sosfiltfilt time is 6.0 at nd = 6, 1.3 at nd = 10, 0.7 at nd = 20, 0.34 at
-#: nd = 50 and 0.24 at nd = 327 (below ~16 the two block-rate recursions, a Python loop of
-#: ``n / nd`` small products each, cost more than the per-sample passes they replace).
-LIFT_MIN_ND = 16
+#: Smallest decimation factor at which the lifted filter can be faster than two ``sosfilt``
+#: passes, and the smallest ``nd × columns``: the two block-rate recursions cost ~5 µs a block
+#: whatever the number of columns, the per-sample product ~(4 n_sections + 1)·2/nd flops. Measured
+#: (one thread, the 8th-order filter of the IDIM decimation, 2e5 samples, time on axis 0), lifted
+#: / sosfiltfilt time: 190 columns 1.33 (nd 4), 0.90 (6), 0.68 (8), 0.47 (12), 0.38 (16);
+#: 16 columns 3.5 (6), 2.1 (10), 1.23 (16).
+LIFT_MIN_ND = 6
+#: See `LIFT_MIN_ND`.
+LIFT_MIN_WORK = 400
 
 
-def lifting_pays(nd: int, n_samples: int) -> bool:
+def lifting_pays(nd: int, n_samples: int, n_columns: int) -> bool:
     """Whether `decimated_filtfilt` lifts (True) or runs ``sosfilt`` on every sample (False).
 
     Parameters
@@ -52,13 +61,17 @@ def lifting_pays(nd: int, n_samples: int) -> bool:
         Decimation factor [samples].
     n_samples : int
         Samples of the stretch filtered.
+    n_columns : int
+        Signals filtered together.
 
     Returns
     -------
     bool
-        ``nd ≥ LIFT_MIN_ND`` and the stretch holds at least two blocks.
+        ``nd ≥ LIFT_MIN_ND``, ``nd · n_columns ≥ LIFT_MIN_WORK`` and the stretch holds at least
+        two blocks.
     """
-    return int(nd) >= LIFT_MIN_ND and int(n_samples) >= 2 * int(nd)
+    nd = int(nd)
+    return nd >= LIFT_MIN_ND and nd * int(n_columns) >= LIFT_MIN_WORK and n_samples >= 2 * nd
 
 
 def _state_space(sos: np.ndarray):
@@ -120,7 +133,9 @@ def _flat(state: np.ndarray) -> np.ndarray:
 
 def _sos_state(flat: np.ndarray) -> np.ndarray:
     """(2 n_sections, k) as sosfilt's (n_sections, k, 2)."""
-    return np.ascontiguousarray(flat.reshape(flat.shape[0] // 2, 2, flat.shape[1]).transpose(0, 2, 1))
+    return np.ascontiguousarray(
+        flat.reshape(flat.shape[0] // 2, 2, flat.shape[1]).transpose(0, 2, 1)
+    )
 
 
 def _recursion(g: np.ndarray, Phi: np.ndarray, x0: np.ndarray) -> np.ndarray:
@@ -229,7 +244,7 @@ def decimated_filtfilt(
         y0 = np.empty((k, 0))
         return (y0 if axis != 0 else y0.T), z if end <= n else None
     if lift is None:
-        lift = lifting_pays(nd, n - first)
+        lift = lifting_pays(nd, n - first, k)
     # whole blocks, leaving at least one sample after them (the backward pass starts there)
     L = min(count, (n - 1 - first) // nd) if lift and nd > 1 else 0
     y = np.empty((k, count))
@@ -315,8 +330,7 @@ def sosfiltfilt_decimated(
         count = max(0, -(-(n - int(first)) // int(nd)))
     if count and int(first) + (int(count) - 1) * int(nd) >= n:
         raise InputError(
-            f"rows past the record's {n} samples asked for (first={first}, count={count}, "
-            f"nd={nd})."
+            f"rows past the record's {n} samples asked for (first={first}, count={count}, nd={nd})."
         )
     zi = signal.sosfilt_zi(sos)[:, None, :]
     z, after = zi * xt[0][:, None], None

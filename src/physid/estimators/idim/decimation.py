@@ -98,10 +98,11 @@ def parallel_decimate(x, nd: int, *, block_columns: int = 256) -> tuple[np.ndarr
     # a column that is zero at every sample stays exactly zero (a 7-DOF base regressor has ~40 %
     # of them: joint j's equation holds no parameter of the links before it); filter the others
     live = np.flatnonzero(np.any(flat != 0.0, axis=0))
-    lift = lifting_pays(nd, n + 2 * padlen - edge)
     for start in range(0, live.size, block_columns):
         cols = live[start : start + block_columns]
-        if lift:  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding;
+        if lifting_pays(
+            nd, n - edge, cols.size
+        ):  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding;
             # it reads the samples in place, time on axis 0 (a slice when the columns are)
             run = cols.size and cols[-1] - cols[0] + 1 == cols.size
             block = flat[:, cols[0] : cols[-1] + 1] if run else flat[:, cols]

@@ -154,7 +154,7 @@ def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, pa
     if last and padlen > 0 and count:  # the end padding
         end = rows[n_full - 1 - padlen - c0 : n_full - c0]
         after = 2 * end[-1:] - end[-2::-1]
-    lift = lifting_pays(nd, x.shape[0] - (first - pos))
+    lift = lifting_pays(nd, x.shape[0] - (first - pos), x.shape[1])
     y, z = decimated_filtfilt(
         sos, x, nd, first - pos, count, axis=0, forward_state=state, after=after, lift=lift
     )
