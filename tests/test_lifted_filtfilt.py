@@ -152,7 +152,7 @@ def _closed_loop_record(model, duration):
     return simulate_closed_loop(model, kp=kp, kd=kd, reference=ref, t=t, noise_std=1e-4, rng=1)
 
 
-@pytest.mark.parametrize(("nd", "block"), [(20, 1000), (7, 777)])
+@pytest.mark.parametrize(("nd", "block"), [(20, 1000), (7, 777), (50, 2000)])  # 50: in place
 def test_streamed_fit_lifted_equals_in_memory(monkeypatch, nd, block):
     """Lifting forced everywhere (any nd, any number of columns): the streamed fit equals the
     in-memory fit, and both equal the fit with sosfiltfilt everywhere."""

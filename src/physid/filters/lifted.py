@@ -223,9 +223,10 @@ def decimated_filtfilt(
     -----
     Lifted, the cost per sample and column is one product with a (4 n_sections + 1, nd) matrix
     (BLAS), plus two recursions over the ``n_samples / nd`` blocks (a Python loop of small
-    products). Memory beyond ``x``: ``k · n_samples · (8 n_sections + 1) / nd`` floats for the
-    product and the block states, and copies of the samples before ``first`` and after the last
-    whole block (for ``sosfilt``). The matrices of ``(sos, nd)`` are cached (16 pairs).
+    products). Peak memory beyond ``x``: ``k · n_samples · (6 n_sections + 1) / nd`` floats (the
+    product, then the block states of one pass; 25/nd of ``x`` for 4 sections) and copies of the
+    samples before ``first`` and after the last whole block (for ``sosfilt``). The matrices of
+    ``(sos, nd)`` are cached (16 pairs).
     """
     from scipy import signal
 
@@ -245,9 +246,12 @@ def decimated_filtfilt(
         return (y0 if axis != 0 else y0.T), z if end <= n else None
     if lift is None:
         lift = lifting_pays(nd, n - first, k)
-    # whole blocks, leaving at least one sample after them (the backward pass starts there)
-    L = min(count, (n - 1 - first) // nd) if lift and nd > 1 else 0
+    # whole blocks, leaving at least one sample after them (the backward pass starts there),
+    # past the last row wanted too: the backward pass's run-in is lifted as well
+    L = (n - 1 - first) // nd if lift and nd > 1 else 0
+    J = min(count, L)  # rows from the lifted blocks; the others from the tail
     y = np.empty((k, count))
+    zend = None
     if L:
         MT, Phi, P, Psi, hF = _matrices(sos.tobytes(), ns, nd)[:5]
         nx = 2 * ns
@@ -255,6 +259,13 @@ def decimated_filtfilt(
         Z = np.matmul(MT, blocks)  # (L, 2 nx + 1, k): G u, Q u, r u per block
         X = _recursion(Z[:, :nx], Phi, _flat(z))  # X[m + nd] = A^nd X[m] + G u
         z = _sos_state(X[L])
+        if count <= L:
+            zend = _sos_state(X[count])
+        for i in range(0, L, 1024):  # in place, a slice at a time (bounded temporaries)
+            sl = slice(i, min(i + 1024, L))
+            Z[sl, nx : 2 * nx] += np.matmul(P, X[sl])  # W_j = P X_j + Q u_j
+            Z[sl, 2 * nx] += np.matmul(hF, X[sl])  # the part of y_j known going forward
+        del X
     # the tail: sosfilt forward from the last block's end, then backward from the end
     t0 = first + L * nd
     tail = xt[t0:].T
@@ -266,16 +277,15 @@ def decimated_filtfilt(
         f = np.concatenate([f1, f2], axis=1)
     else:
         f, _ = signal.sosfilt(sos, tail, axis=-1, zi=z)
-        zend = None if end > n else z
     back, zb = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=zi * f[:, -1:])
-    rows = np.arange(L, count) * nd + first - t0
-    y[:, L:] = back[:, f.shape[1] - 1 - rows]
+    rows = np.arange(J, count) * nd + first - t0
+    y[:, J:] = back[:, f.shape[1] - 1 - rows]
     if L:
         # R_j = A^nd R_{j+1} + P X_j + Q u_j (R_j: the backward state after block j's first
         # sample); R_L from the tail's backward pass
-        W = np.matmul(P, X[:L]) + Z[:, nx : 2 * nx]
-        R = _recursion(W[::-1], Phi, _flat(zb))[::-1]
-        y[:, :L] = (Psi @ R[1:] + hF @ X[:L] + Z[:, 2 * nx]).T  # y_j = Ψ R_{j+1} + hF X_j + r u
+        R = _recursion(Z[::-1, nx : 2 * nx], Phi, _flat(zb))[::-1]
+        # y_j = Ψ R_{j+1} + hF X_j + r u_j
+        y[:, :J] = (Psi @ R[1 : J + 1] + Z[:J, 2 * nx]).T
     return (y.T if axis == 0 else y), zend
 
 

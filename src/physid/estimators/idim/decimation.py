@@ -9,6 +9,11 @@ ripple, run forwards and backwards, as `scipy.signal.decimate` does with 0.05 dB
 torque ripple, noise and the state filter's residual; decimation keeps the rows that carry
 independent information. Because the same linear time-invariant filter is applied to every column
 of W and to τ, ``τ = W β`` still holds exactly after it.
+
+Only the kept rows are computed: from nd = `physid.filters.lifted.LIFT_MIN_ND` on (and enough
+columns to pay for it) the forward-backward filter is lifted to the block rate
+(`physid.filters.lifted.sosfiltfilt_decimated`), the same rows as ``sosfiltfilt`` to rounding;
+the streamed fit uses the same kernel under the same rule (`stream_filter.decimated_window`).
 """
 
 from __future__ import annotations

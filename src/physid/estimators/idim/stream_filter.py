@@ -17,6 +17,11 @@ whole record's too. Elsewhere the backward pass starts at the window's end ``c1`
 ``z_i · f_{c1−1}`` instead of the state the record's later samples would give; the difference is a
 free response of the filter, which decays over the right margin (`stream_plan.decay_length`).
 No left margin is needed at all.
+
+`decimated_window` is what the streamed fit runs: the same, with only the decimated rows computed
+(`physid.filters.lifted.decimated_filtfilt`, under the rule of the in-memory
+`decimation.parallel_decimate`) and only the forward *state* carried, at the window's next
+decimated row (the right margin's forward pass is computed again by the next window).
 """
 
 from __future__ import annotations

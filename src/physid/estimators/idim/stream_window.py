@@ -28,6 +28,7 @@ import time
 import numpy as np
 from scipy import signal
 
+from ...filters.lifted import lifting_pays
 from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dilate, sticking_mask
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
@@ -53,6 +54,9 @@ COLUMNS = 96
 #: reaches at 1e-8. 1e-12 keeps two decades of threshold before that onset and a 20× margin
 #: below the tests' 1e-10, with a margin of ~95·nd samples (1e-17: ~135·nd).
 PARALLEL_DECAY = 1e-12
+#: From this nd on the lifted parallel filter reads every column of a window in place: its
+#: temporaries (~25/nd of the window's rows) are then below the copy of the live columns it saves.
+IN_PLACE_ND = 40
 
 
 class Margins:
@@ -262,6 +266,10 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
     # a column is filtered once it has held a non-zero value (its forward pass never returns
     # to exactly zero); one that has not is zero after the filter
     live = np.union1d(np.flatnonzero(nonzero), was)
+    # lifted from IN_PLACE_ND on: every column read in place, no copy (a zero one stays zero)
+    in_place = nd >= IN_PLACE_ND and lifting_pays(nd, c1 - b, live.size)
+    if in_place:
+        live = np.arange(stacked.shape[1])
     where = np.searchsorted(live, was)  # where the carried columns sit among the live ones
     nxt = edge + max(0, -(-(b - edge) // nd)) * nd  # the first decimated row from b on
     dec = np.zeros((s.size, stacked.shape[1]))
@@ -272,18 +280,20 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
         states[nd] = (live, pos, None if z is None else new_z)
         return dec
     stop = s[0] if s.size else nxt  # the forward state is wanted at stop + s.size · nd
+    # the samples read: from the state's on (and the end padding's when the record ends here)
+    r0 = max(c0, min(pos, n_full - 1 - padlen) if c1 == n_full else pos)
     new_z = np.zeros((sos.shape[0], live.size, 2))
-    for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
-        chunk = slice(i, i + COLUMNS)
+    step = max(live.size, 1) if in_place else COLUMNS
+    for i in range(0, live.size, step):  # columns in chunks: bounded temporaries
+        chunk = slice(i, i + step)
         cols = live[chunk]
         state = None
         if a > 0:  # the carried state of these columns (zero for those not filtered before)
             state = np.zeros((sos.shape[0], cols.size, 2))
             inside = (where >= i) & (where < i + cols.size)
             state[:, where[inside] - i] = z[:, inside]
-        y, zc = decimated_window(
-            sos, stacked[:, cols], c0, c1, pos, stop, s.size, nd, state, n_full, padlen
-        )
+        rows = stacked[r0 - c0 : c1 - c0] if in_place else stacked[r0 - c0 : c1 - c0, cols]
+        y, zc = decimated_window(sos, rows, r0, c1, pos, stop, s.size, nd, state, n_full, padlen)
         dec[:, cols] = y.T
         if zc is not None:
             new_z[:, chunk] = zc
