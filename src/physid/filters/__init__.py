@@ -6,7 +6,8 @@ every filter reports its delay, valid range, frequency response and white-noise 
 `filter_derivatives` returns the low-passed signal and both derivatives, aligned on the same
 output times. `state_variable_filter` (in ``state_variable.py``) is the causal Butterworth
 state-variable filter of the recursive estimator, batch and streaming. `filter_band_check` (in ``band.py``) measures whether a motion fits a filter's flat
-pass band.
+pass band. `sosfiltfilt_decimated` (in ``lifted.py``) is `scipy.signal.sosfiltfilt` computed only
+at every nd-th sample (the IDIM parallel filter).
 """
 
 from .band import (
@@ -31,6 +32,13 @@ from .differential import (
     filter_derivatives,
     harris_window,
     ideal_impulse_response,
+)
+from .lifted import (
+    LIFT_MIN_ND,
+    LIFT_MIN_WORK,
+    decimated_filtfilt,
+    lifting_pays,
+    sosfiltfilt_decimated,
 )
 from .state_variable import (
     SVF_TRANSIENT_TOL,
@@ -59,6 +67,11 @@ __all__ = [
     "filter_derivatives",
     "harris_window",
     "ideal_impulse_response",
+    "LIFT_MIN_ND",
+    "LIFT_MIN_WORK",
+    "decimated_filtfilt",
+    "lifting_pays",
+    "sosfiltfilt_decimated",
     "SVF_TRANSIENT_TOL",
     "state_variable_filter",
     "StreamingStateVariableFilter",

@@ -9,6 +9,11 @@ ripple, run forwards and backwards, as `scipy.signal.decimate` does with 0.05 dB
 torque ripple, noise and the state filter's residual; decimation keeps the rows that carry
 independent information. Because the same linear time-invariant filter is applied to every column
 of W and to τ, ``τ = W β`` still holds exactly after it.
+
+Only the kept rows are computed: from nd = `physid.filters.lifted.LIFT_MIN_ND` on (and enough
+columns to pay for it) the forward-backward filter is lifted to the block rate
+(`physid.filters.lifted.sosfiltfilt_decimated`), the same rows as ``sosfiltfilt`` to rounding;
+the streamed fit uses the same kernel under the same rule (`stream_filter.decimated_window`).
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ import functools
 
 import numpy as np
 from scipy import signal
+
+from ...filters.lifted import lifting_pays, sosfiltfilt_decimated
 
 __all__ = ["parallel_decimate", "decimation_edge", "decimated_noise_correlation", "parallel_filter"]
 
@@ -98,6 +105,16 @@ def parallel_decimate(x, nd: int, *, block_columns: int = 256) -> tuple[np.ndarr
     live = np.flatnonzero(np.any(flat != 0.0, axis=0))
     for start in range(0, live.size, block_columns):
         cols = live[start : start + block_columns]
+        if lifting_pays(
+            nd, n - edge, cols.size
+        ):  # only at the rows kept (`physid.filters.lifted`): the same rows to rounding;
+            # it reads the samples in place, time on axis 0 (a slice when the columns are)
+            run = cols.size and cols[-1] - cols[0] + 1 == cols.size
+            block = flat[:, cols[0] : cols[-1] + 1] if run else flat[:, cols]
+            out[:, cols] = sosfiltfilt_decimated(
+                sos, block, nd, edge, kept.size, axis=0, padlen=padlen, lift=True
+            )
+            continue
         # time on the last, contiguous axis: scipy's sosfilt copies its input with time last,
         # which for axis=0 is a slow transposing copy (most of the cost); the filtering itself
         # is the same, sample by sample (bit-identical results)

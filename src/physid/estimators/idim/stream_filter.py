@@ -17,6 +17,11 @@ whole record's too. Elsewhere the backward pass starts at the window's end ``c1`
 ``z_i · f_{c1−1}`` instead of the state the record's later samples would give; the difference is a
 free response of the filter, which decays over the right margin (`stream_plan.decay_length`).
 No left margin is needed at all.
+
+`decimated_window` is what the streamed fit runs: the same, with only the decimated rows computed
+(`physid.filters.lifted.decimated_filtfilt`, under the rule of the in-memory
+`decimation.parallel_decimate`) and only the forward *state* carried, at the window's next
+decimated row (the right margin's forward pass is computed again by the next window).
 """
 
 from __future__ import annotations
@@ -26,7 +31,9 @@ import functools
 import numpy as np
 from scipy import signal
 
-__all__ = ["filtfilt_window", "step_state"]
+from ...filters.lifted import decimated_filtfilt, lifting_pays
+
+__all__ = ["filtfilt_window", "step_state", "decimated_window"]
 
 
 @functools.lru_cache(maxsize=32)
@@ -109,3 +116,53 @@ def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last:
         _, z = signal.sosfilt(sos, f_pad[:, ::-1], axis=-1, zi=zi * f_pad[:, -1:])
     back, _ = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=z)
     return back[:, f.shape[1] - 1 - np.asarray(take)], carry
+
+
+def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen):
+    """Rows ``first + j nd`` (j < ``count``) of ``sosfiltfilt(sos, record, padlen=padlen)``
+    from a stretch of the record, with `physid.filters.lifted.decimated_filtfilt` (lifted when
+    `lifting_pays`, as `decimation.parallel_decimate`).
+
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+    rows : ndarray, shape (c1 - c0 or more, k)
+        Samples ``c0 ..`` of ``k`` signals, time on axis 0.
+    c0, c1 : int
+        The record's samples held (``c0 ≤ pos``); the backward pass starts at ``c1 − 1`` (the
+        end padding's first when ``c1`` is the record's end ``n_full``, which then needs
+        ``c0 ≤ n_full − 1 − padlen``).
+    pos : int
+        The sample the carried forward state is at (0 with ``state`` None: the record's start,
+        through the start padding, which needs ``c0 = 0``).
+    first, count, nd : int
+        The rows wanted (``pos ≤ first``); with ``count = 0`` only the state is advanced to
+        ``first``.
+    state : ndarray, shape (n_sections, k, 2) or None
+        The forward state before sample ``pos``.
+    n_full, padlen : int
+        The record's length and the whole-record call's ``padlen``.
+
+    Returns
+    -------
+    y : ndarray, shape (k, count)
+    state : ndarray, shape (n_sections, k, 2) or None
+        The forward state before sample ``first + count · nd`` (None past ``c1``).
+    """
+    last = c1 == n_full
+    x = rows[pos - c0 : c1 - c0]  # time on axis 0, read in place
+    if state is None and pos == 0 and padlen > 0:  # the start padding, as sosfiltfilt's
+        pad = (2 * x[:1] - x[padlen:0:-1]).T
+        zi = step_state(sos)
+        _, state = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
+    after = None
+    if last and padlen > 0 and count:  # the end padding
+        end = rows[n_full - 1 - padlen - c0 : n_full - c0]
+        after = 2 * end[-1:] - end[-2::-1]
+    lift = lifting_pays(nd, x.shape[0] - (first - pos), x.shape[1])
+    y, z = decimated_filtfilt(
+        sos, x, nd, first - pos, count, axis=0, forward_state=state, after=after, lift=lift
+    )
+    if z is not None and first + count * nd > c1:
+        z = None
+    return y.T, z

@@ -5,8 +5,9 @@ samples ``[a, b)`` at a time, from the raw samples around it with margins:
 
 * the physid FIR state filter needs its half-width M of raw samples on each side (exact);
 * the parallel Chebyshev filter (zero phase, every candidate nd) needs no left margin: its
-  forward pass continues from the state the previous window left at ``a``
-  (`stream_filter.filtfilt_window`, bit for bit the whole record's), and only its backward
+  forward pass continues from the state the previous window left at its first decimated row
+  (`stream_filter.decimated_window`, the same kernel and rule as the in-memory
+  `decimation.parallel_decimate`), and only its backward
   pass starts inside the record, at the end of a right margin over which its free response
   decays below `PARALLEL_DECAY` of the impulse response's peak (`stream_plan.decay_length`);
 * the Butterworth state filter (zero phase) needs the length after which its impulse response
@@ -27,17 +28,20 @@ import time
 import numpy as np
 from scipy import signal
 
+from ...filters.lifted import lifting_pays
 from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dilate, sticking_mask
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
-from .stream_filter import filtfilt_window
+from .stream_filter import decimated_window
 from .stream_plan import StreamPlan, decay_length, still_windows
 
 __all__ = ["Margins", "margins", "RawReader", "windows", "window_rows", "COLUMNS", "PARALLEL_DECAY"]
 
-#: Columns of the full-rate rows run through the parallel filter at a time.
-COLUMNS = 32
+#: Columns of the full-rate rows run through the parallel filter at a time (the lifted filter's
+#: block-rate recursions cost the same per step for 1 or 96 columns: chunks this wide keep them
+#: few; the time-last copy of a chunk is the window's samples × 96 floats).
+COLUMNS = 96
 #: The parallel filter's right margin: where its impulse response stays below this (relative).
 #: Only the backward pass starts inside the record, from ``z_i · f`` at the margin's end; the
 #: free response it leaves at the owned range is ~100× this threshold relative to the signal
@@ -50,6 +54,9 @@ COLUMNS = 32
 #: reaches at 1e-8. 1e-12 keeps two decades of threshold before that onset and a 20× margin
 #: below the tests' 1e-10, with a margin of ~95·nd samples (1e-17: ~135·nd).
 PARALLEL_DECAY = 1e-12
+#: From this nd on the lifted parallel filter reads every column of a window in place: its
+#: temporaries (~25/nd of the window's rows) are then below the copy of the live columns it saves.
+IN_PLACE_ND = 40
 
 
 class Margins:
@@ -246,41 +253,51 @@ def window_rows(
 
 def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, right: int):
     """The parallel filter of ``stacked`` (full-rate rows ``[c0, c1)``) at the samples ``s`` of
-    the owned range: `filtfilt_window` per chunk of live columns over ``[a, b + right)``, the
-    forward pass carried in ``states[nd]`` from one window to the next (``(live, ahead, z)``:
-    the columns filtered so far, their forward pass from the owned range's end, its state)."""
+    the owned range: `stream_filter.decimated_window` per chunk of live columns, the forward
+    state carried in ``states[nd]`` from one window to the next (``(live, pos, z)``: the columns
+    filtered so far, the sample the state is at, the state (n_sections, live.size, 2))."""
     a, b, c0, c1 = win[:4]
     c1 = min(c1, b + right)  # a smaller nd's transient is shorter than the window's margin
-    sos, padlen = _decimation_sos(nd), min(n_full - 1, decimation_edge(nd))
-    last = c1 == n_full
-    p0 = max(min(a, n_full - 1 - padlen), 0) if last else a  # the end padding's samples
+    sos, edge = _decimation_sos(nd), decimation_edge(nd)
+    padlen = min(n_full - 1, edge)
     if a > 0 and nd not in states:
         raise ValueError("the parallel filter's state of the previous window is missing")
-    was, ahead, z = states.get(nd, (np.zeros(0, dtype=np.intp), None, None))
+    was, pos, z = states.get(nd, (np.zeros(0, dtype=np.intp), 0, None))
     # a column is filtered once it has held a non-zero value (its forward pass never returns
     # to exactly zero); one that has not is zero after the filter
     live = np.union1d(np.flatnonzero(nonzero), was)
-    pos = np.searchsorted(live, was)  # where the carried columns sit among the live ones
-    h = 0 if ahead is None else ahead.shape[1]
-    new_ahead = np.zeros((live.size, c1 - b))
-    new_z = np.zeros((sos.shape[0], live.size, 2))
+    # lifted from IN_PLACE_ND on: every column read in place, no copy (a zero one stays zero)
+    in_place = nd >= IN_PLACE_ND and lifting_pays(nd, c1 - b, live.size)
+    if in_place:
+        live = np.arange(stacked.shape[1])
+    where = np.searchsorted(live, was)  # where the carried columns sit among the live ones
+    nxt = edge + max(0, -(-(b - edge) // nd)) * nd  # the first decimated row from b on
     dec = np.zeros((s.size, stacked.shape[1]))
-    for i in range(0, live.size, COLUMNS):  # columns in chunks: bounded temporaries
-        chunk = slice(i, i + COLUMNS)
+    if s.size == 0 and nxt <= pos:  # nothing to compute, the state stays where it is
+        new_z = np.zeros((sos.shape[0], live.size, 2))
+        if z is not None:
+            new_z[:, where] = z
+        states[nd] = (live, pos, None if z is None else new_z)
+        return dec
+    stop = s[0] if s.size else nxt  # the forward state is wanted at stop + s.size · nd
+    # the samples read: from the state's on (and the end padding's when the record ends here)
+    r0 = max(c0, min(pos, n_full - 1 - padlen) if c1 == n_full else pos)
+    new_z = np.zeros((sos.shape[0], live.size, 2))
+    step = max(live.size, 1) if in_place else COLUMNS
+    for i in range(0, live.size, step):  # columns in chunks: bounded temporaries
+        chunk = slice(i, i + step)
         cols = live[chunk]
-        carry = None
-        if a > 0:  # the carried pass of these columns (zero for those not filtered before)
-            carry = np.zeros((cols.size, h)), np.zeros((sos.shape[0], cols.size, 2))
-            inside = (pos >= i) & (pos < i + cols.size)
-            carry[0][pos[inside] - i] = ahead[inside]
-            carry[1][:, pos[inside] - i] = z[:, inside]
-        # time on the last, contiguous axis: sosfilt's fast layout
-        block = np.ascontiguousarray(stacked[p0 - c0 : c1 - c0, cols].T)
-        y, (new_ahead[chunk], new_z[:, chunk]) = filtfilt_window(
-            sos, block, a - p0, b - p0, s - a, carry, first=a == 0, last=last, padlen=padlen
-        )
+        state = None
+        if a > 0:  # the carried state of these columns (zero for those not filtered before)
+            state = np.zeros((sos.shape[0], cols.size, 2))
+            inside = (where >= i) & (where < i + cols.size)
+            state[:, where[inside] - i] = z[:, inside]
+        rows = stacked[r0 - c0 : c1 - c0] if in_place else stacked[r0 - c0 : c1 - c0, cols]
+        y, zc = decimated_window(sos, rows, r0, c1, pos, stop, s.size, nd, state, n_full, padlen)
         dec[:, cols] = y.T
-    states[nd] = (live, new_ahead, new_z)
+        if zc is not None:
+            new_z[:, chunk] = zc
+    states[nd] = (live, stop + s.size * nd, new_z)
     return dec
 
 
