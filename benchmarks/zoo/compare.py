@@ -41,6 +41,7 @@ import numpy as np
 
 import physid
 from physid.estimators import make
+from physid.signals.joint_side import joint_side
 
 from . import cases as zoo_cases
 from .recipe import Recipe, parameter_error, relative_error, well_excited
@@ -142,7 +143,7 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
     facts = {"title": case.title, "note": case.note, "skipped": case.skipped}
     if case.skipped:
         return [], facts
-    recipe = Recipe(case.urdf, armature=case.armature)
+    recipe = Recipe(case.urdf, armature=case.armature, offset=case.offset)
     cut = 5.0 * case.bandwidth_hz
     facts.update(
         recipe_cutoff_hz=cut,
@@ -172,7 +173,7 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             )[0]
     out.append(rec_out)
     log(f"  recipe: held-out {rec_out.heldout:.4g}, {rec_out.seconds:.1f} s")
-    pf = Recipe(case.urdf, armature=case.armature, parallel=True)
+    pf = Recipe(case.urdf, armature=case.armature, offset=case.offset, parallel=True)
     pf_out, pf_fit = _recipe_outcome(case, pf, cut, "recipe+pf")
     if truth_base is not None:
         pf_out.param_error = parameter_error(pf_fit.beta, truth_base, well)
@@ -182,9 +183,13 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
 
     # -- physid
     model = physid.load_model(case.physid_model)
+    # a log of motor-side channels (qm, im) goes through the model's transmission, as
+    # `physid identify` does it; the recipe reads the joint-side record
+    train = joint_side(model, case.physid_train) if case.physid_train is not None else case.train
+    test = joint_side(model, case.physid_test) if case.physid_test is not None else case.test
     for method in methods:
         o = Outcome(case.key, method)
-        if method == "idim-iv" and "r1" not in case.train:
+        if method == "idim-iv" and "r1" not in train:
             o.error = "n/a: the log has no reference r1..rn and no PD gains (IV simulates the loop)"
             out.append(o)
             continue
@@ -193,12 +198,12 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 name, settings = parse_method(method)
-                res = make(name, model, **settings).fit(case.train).result_
+                res = make(name, model, **settings).fit(train).result_
             o.seconds = time.perf_counter() - t0
             o.warnings = sorted({_first_line(str(w.message)) for w in caught})
             o.success, o.message = bool(res.success), _first_line(res.message)
             o.cutoff = f"{res.cutoff / (2 * np.pi * case.train.dt):.3g} Hz, decimate {res.decimate}"
-            pred = res.predict(case.test, measured=True)
+            pred = res.predict(test, measured=True)
             nj = recipe.nj
             P = np.asarray(pred.select([f"tau{j + 1}" for j in range(nj)]))
             M = np.asarray(pred.select([f"tau{j + 1}_measured" for j in range(nj)]))
@@ -233,7 +238,7 @@ def _cli_check(case, outcome) -> str:
     """Run ``physid identify`` (default method) on the record; say whether it agrees."""
     with tempfile.TemporaryDirectory(prefix="physid-zoo-") as tmp:
         path = Path(tmp) / f"{case.key}_train.csv"
-        case.train.save(str(path))
+        (case.physid_train if case.physid_train is not None else case.train).save(str(path))
         env = dict(os.environ)
         src = str(zoo_cases.ROOT / "src")
         env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
