@@ -71,6 +71,7 @@ class Outcome:
     warnings: list = field(default_factory=list)
     cutoff: str = ""
     note: str = ""
+    heldout_moving: float = math.nan  # where the case says the robot truly moves (info)
 
     @property
     def default(self) -> bool:
@@ -102,6 +103,16 @@ def _target_at(case, recipe_cut, recipe, t_rows):
     return np.column_stack([np.interp(t_rows, case.test.t, ref[:, j]) for j in range(ref.shape[1])])
 
 
+def _moving_error(case, t_rows, pred, target) -> float:
+    """‖τ̂−τ‖/‖τ‖ on the rows at samples where ``case.info["test_moving"]`` is true (the
+    held-out samples where the robot truly moves: at rest the holding friction is unknown)."""
+    moving = case.info.get("test_moving")
+    if moving is None:
+        return math.nan
+    k = np.clip(np.round((t_rows - case.test.t[0]) / case.test.dt).astype(int), 0, moving.size - 1)
+    return relative_error(pred[moving[k]], target[moving[k]])[0]
+
+
 def _physid_in_recipe_base(model, result, recipe):
     """physid's base estimate as the recipe's base parameters (and the mapping's residual)."""
     names = list(model.regressor_names)
@@ -120,7 +131,8 @@ def _recipe_outcome(case, recipe, cut, label):
     rfit = recipe.fit(case.train, cut)
     secs = time.perf_counter() - t0
     t_rows, tau_hat, tau_f = recipe.predict(rfit, case.test)
-    err, per = relative_error(tau_hat, _target_at(case, cut, recipe, t_rows))
+    target = _target_at(case, cut, recipe, t_rows)
+    err, per = relative_error(tau_hat, target)
     own, _ = relative_error(tau_hat, tau_f)
     note = f"{rfit.n_rows} rows, decimate {rfit.decimate}, cond {rfit.condition_number:.3g}"
     o = Outcome(
@@ -134,6 +146,7 @@ def _recipe_outcome(case, recipe, cut, label):
         n_base=recipe.n_base,
         note=note,
     )
+    o.heldout_moving = _moving_error(case, t_rows, tau_hat, target)
     return o, rfit
 
 
@@ -207,7 +220,9 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             nj = recipe.nj
             P = np.asarray(pred.select([f"tau{j + 1}" for j in range(nj)]))
             M = np.asarray(pred.select([f"tau{j + 1}_measured" for j in range(nj)]))
-            o.heldout, per = relative_error(P, _target_at(case, cut, recipe, pred.t))
+            target = _target_at(case, cut, recipe, pred.t)
+            o.heldout, per = relative_error(P, target)
+            o.heldout_moving = _moving_error(case, pred.t, P, target)
             o.per_joint = per.tolist()
             o.heldout_own = relative_error(P, M)[0]
             if truth_base is not None:
@@ -357,6 +372,7 @@ def bench_rows(outcomes, facts) -> list[dict]:
             "seconds": o.seconds,
             "recipe_seconds": rec.seconds,
             "filter": o.cutoff,
+            "heldout_moving": o.heldout_moving,
         }
         rows.append(row)
     if "recipe_noise_free_param_error" in facts and facts.get("frictionless"):
@@ -437,6 +453,12 @@ def markdown(all_outcomes, all_facts) -> str:
                 )
             if facts.get("note"):
                 parts.append(facts["note"])
+            moving = [(o.method, o.heldout_moving) for o in outcomes]
+            if any(math.isfinite(e) for _, e in moving):
+                parts.append(
+                    "held-out error where the robot truly moves: "
+                    + ", ".join(f"{m} {_f(e)}" for m, e in moving if math.isfinite(e))
+                )
             if facts.get("cli"):
                 parts.append(facts["cli"])
             for o in outcomes:
