@@ -115,12 +115,12 @@ def test_linear_drive_closed_loop_rests_are_exact_and_energy_balances():
             xs.append(xn)
             vs.append(vn)
         vs, dx = np.array(vs), np.diff(xs)
-        # Simpson-like: the trapezoid of v² on the fine grid, Coulomb on each signed stretch
+        # the trapezoid of v² on the fine grid, Coulomb on each signed stretch
         diss += d.viscous * np.sum(0.5 * (vs[1:] ** 2 + vs[:-1] ** 2)) * h / fine
         diss += np.sum(np.where(dx > 0, d.coulomb_pos * dx, d.coulomb_neg * dx))
     work = np.sum(force[:-1] * np.diff(x))
     dke = 0.5 * d.mass * (v[-1] ** 2 - v[0] ** 2)
-    assert abs(work - dke - diss) < 1e-4 * work
+    assert abs(work - dke - diss) < 1e-7 * work  # 3e-10 measured
 
 
 def test_recipe_recovers_linear_drive_on_moving_rows_of_noise_free_record():
@@ -168,3 +168,45 @@ def test_recipe_recovers_two_link_truth_from_exact_states(arm_urdf):
     assert big.sum() == 9  # mcz1, mcz2 are 0: the centres of mass lie on the links
     np.testing.assert_allclose(beta[big], truth[big], rtol=0.01)
     np.testing.assert_allclose(beta[~big], 0.0, atol=1e-4)  # kg·m
+
+
+@pytest.fixture(scope="module")
+def two_link_case():
+    return cases.case_two_link_motor(train_s=10.0, test_s=1.0)
+
+
+def test_two_link_motor_log_through_physid_transmission_is_the_recipes_joint_record(
+    two_link_case,
+):
+    """physid's `[transmission]` (q = θm/N, τ = N kt i) turns the motor-side log into the
+    joint-side record the recipe reads."""
+    import physid
+    from physid.signals.joint_side import joint_side
+
+    c = two_link_case
+    rec = joint_side(physid.load_model(c.physid_model), c.physid_train)
+    for name in ("q1", "q2", "tau1", "tau2"):
+        np.testing.assert_allclose(rec[name], c.train[name], rtol=1e-12, atol=1e-15)
+    assert np.abs(np.asarray(c.train["tau1"])).max() > 5.0  # N·m: a loaded shoulder
+
+
+def test_recipe_recovers_two_link_truth_from_noise_free_record_away_from_stribeck(
+    two_link_case,
+):
+    """The recipe's pipeline (Butterworth, central differences) on the noise-free record, its
+    equations kept where |q̇^f| > 2 vs (outside the Stribeck hump, which the Coulomb + viscous
+    columns do not model): every base parameter within 1 % but the link-2 inertia terms, which
+    this Fourier reference excites less (within 3 %)."""
+    c = two_link_case
+    rc = Recipe(c.urdf, armature=True)
+    rows = rc.rows(c.train_clean, 10.0)
+    keep = np.abs(rows.qd) > 2 * max(TwoLink().vs)
+    beta = np.linalg.lstsq(rows.W[keep], rows.tau[keep], rcond=None)[0]
+    truth = rc.truth(c.truth)
+    names = rc.base_names
+    weak = [names.index(n) for n in ("Iyy2", "Ia2")]
+    zero = [names.index(n) for n in ("mcz1", "mcz2")]
+    rest = [k for k in range(len(names)) if k not in weak + zero]
+    np.testing.assert_allclose(beta[rest], truth[rest], rtol=0.01)
+    np.testing.assert_allclose(beta[weak], truth[weak], rtol=0.03)
+    np.testing.assert_allclose(beta[zero], 0.0, atol=2e-3)  # kg·m

@@ -683,8 +683,9 @@ def _arm2_records(seed, duration, rng):
     return motor, joint, clean, kn * cur
 
 
-def case_two_link_motor() -> Case:
-    """(g) 2-link arm logged as motor angles and currents through gears, Stribeck friction."""
+def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
+    """(g) 2-link arm logged as motor angles and currents through gears, Stribeck friction
+    (``train_s``, ``test_s``: the records' durations [s]; shorter ones for tests)."""
     rng = np.random.default_rng(71)
     urdf = ARM2.urdf(_scratch() / "two_link.urdf")
     n = ARM2.ratio
@@ -693,8 +694,8 @@ def case_two_link_motor() -> Case:
     )
     drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
     model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
-    ptrain, train, clean, _ = _arm2_records(72, 20.0, rng)
-    ptest, test, _, tau = _arm2_records(73, 10.0, rng)
+    ptrain, train, clean, _ = _arm2_records(72, train_s, rng)
+    ptest, test, _, tau = _arm2_records(73, test_s, rng)
     pm = pin.buildModelFromUrdf(str(urdf))
     return Case(
         key="g",
