@@ -3,8 +3,9 @@
 Cases (benchmarks/zoo/cases.py, README.md there): a 6-DOF arm simulated by pinocchio (no
 friction; viscous + Coulomb friction with point-to-point moves and rests; a slow 0.05 Hz sweep at
 250 Hz with encoder quantisation), the same arm in MuJoCo (joint frictionloss, damping,
-armature; skipped when mujoco is not installed), and two real logs (Franka Panda, KUKA LWR4+)
-read from ../shared/data/real-robots when that folder exists.
+armature; skipped when mujoco is not installed), two real logs (Franka Panda, KUKA LWR4+)
+read from ../shared/data/real-robots when that folder exists, a linear drive that sticks and a
+geared 2-link arm logged as motor currents.
 
 Rows: per case and physid method, the held-out torque error ‖τ̂ − τ‖/‖τ‖ against the recipe
 (benchmarks/zoo/recipe.py: Butterworth filtfilt at 5× the trajectory bandwidth, central

@@ -25,6 +25,26 @@ Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never
 (d) A slow sweep: the arm of (b), a 5-harmonic Fourier reference with a 0.05 Hz fundamental
     (20 s period), logged at 250 Hz with positions quantised by a 2^16 counts/turn encoder (no
     other position noise), 5 % torque noise.
+(f) A linear drive like the EMPS benchmark (Janot, Gautier, Brunot, "Data set and reference
+    models of EMPS", 2019): a 95 kg carriage on a horizontal prismatic axis, viscous 200 N·s/m,
+    asymmetric Coulomb friction (+20 N for motion in +x, −17 N in −x: Coulomb 18.5 N and an
+    offset 1.5 N), simulated by `drives.LinearDrive` (exact integration between the controller's
+    samples, the carriage truly sticks at rest while the force lies in [−17, 20] N); PD position
+    loop at 1 kHz on a 1 µm encoder (its velocity a backward difference), point-to-point
+    minimum-jerk moves with rests of 0.3–1.2 s; the force is logged as the controller's voltage
+    (16-bit over ±10 V, σ 0.01 V) times the drive gain 35.15 N/V, the product the benchmark
+    writes as ``tau1`` (as users of EMPS do); 25 s, held out 15 s of other moves.
+    Recipe and physid both get a constant (offset) column besides viscous and Coulomb.
+(g) A 2-link arm in a vertical plane written here (`drives.TwoLink`: equations of motion by
+    hand, checked against pinocchio's inverse dynamics to 1e-9 in ``tests/test_zoo_cases.py``),
+    gears of ratio 100 with rotor inertia, Stribeck friction per joint
+    (Fc + (Fs − Fc) exp(−(q̇/vs)²)) tanh(q̇/1e-3) + Fv q̇, PD loop at 5 kHz on 2^14 counts/turn
+    motor encoders, RK4 at 10 kHz; logged at 5 kHz as motor angles ``qm1, qm2`` and motor
+    currents ``im1, im2`` (12-bit over ±5 A, σ 5 mA, kt 0.05 N·m/A). physid reads that log
+    through the ``[transmission]`` table of its sidecar (gear ratios, torque constants), as
+    ``physid identify log.csv --model arm.toml`` would; the recipe gets q = θm/100 and
+    τ = 100·kt·i. Fourier reference (10 s period, 5 harmonics), 20 s, held out 10 s.
+    Its truth's Coulomb column is Fc: the Stribeck hump is in no estimator's model.
 (aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
 
 Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
@@ -63,6 +83,8 @@ import numpy as np
 import pinocchio as pin
 
 import physid
+
+from .drives import LinearDrive, TwoLink
 
 ROOT = Path(__file__).resolve().parents[2]
 ARM6_URDF = ROOT / "src" / "physid" / "models" / "data" / "arm6.urdf"
@@ -114,6 +136,7 @@ class Truth:
     armature: np.ndarray
     viscous: np.ndarray
     coulomb: np.ndarray
+    offset: np.ndarray | None = None  # Fc sign q̇ + offset: asymmetric Coulomb friction
 
 
 @dataclass
@@ -129,6 +152,9 @@ class Case:
     truth: Truth | None = None
     bandwidth_hz: float = 1.0  # of the trajectory, as a practitioner knows it
     armature: bool = False  # the recipe adds a rotor-inertia column per joint
+    offset: bool = False  # the recipe adds a constant column per joint (asymmetric Coulomb)
+    physid_train: physid.Recording | None = None  # motor-side log physid reads (else train)
+    physid_test: physid.Recording | None = None
     skipped: str = ""  # why the case could not be built
     note: str = ""
     info: dict = field(default_factory=dict)
@@ -543,6 +569,156 @@ def case_kuka() -> Case:
     )
 
 
+# ----------------------------------------------------------------------------- drives
+_FOLDER: list = []
+
+
+def _scratch() -> Path:
+    """One temporary folder per process for the URDFs and sidecars the new cases write."""
+    if not _FOLDER:
+        _FOLDER.append(Path(tempfile.mkdtemp(prefix="physid-zoo-")))
+    return _FOLDER[0]
+
+
+def _sidecar(urdf: Path, joints: dict, tail: str = "") -> str:
+    """A sidecar TOML next to ``urdf`` that sets ``joints`` = {name: {key: value}}."""
+    lines = [f'name = "{urdf.stem}_model"', f'extends = "{urdf.as_posix()}"', ""]
+    for name, keys in joints.items():
+        lines += [f"[joints.{name}]"] + [f"{k} = {v}" for k, v in keys.items()] + [""]
+    path = urdf.with_name(f"{urdf.stem}_model.toml")
+    path.write_text("\n".join(lines) + tail, encoding="utf-8")
+    return str(path)
+
+
+DRIVE = LinearDrive()
+DRIVE_KP, DRIVE_KD = 9.0e4, 4.0e3  # N/m, N·s/m: ~5 Hz position bandwidth for 95 kg
+DRIVE_GAIN = 35.15  # N/V
+DRIVE_ENCODER = 1e-6  # m
+DRIVE_SIGMA_U, DRIVE_ADC_U = 0.01, 20.0 / 2**16  # V
+
+
+def _drive_record(seed, duration, rng):
+    """(measured, noise-free) recordings of the linear drive on a point-to-point reference."""
+    h = 1e-3
+    t = np.arange(int(round(duration / h))) * h
+    r = p2p_reference(
+        t,
+        np.array([0.1]),
+        np.random.default_rng(seed),
+        position=0.08,
+        velocity=0.25,
+        rest=(0.3, 1.2),
+    )[:, 0]
+    x, _, xq, u = DRIVE.simulate(r, h, DRIVE_KP, DRIVE_KD, DRIVE_ENCODER, DRIVE_GAIN)
+    u_log = np.round((u + DRIVE_SIGMA_U * rng.standard_normal(u.shape)) / DRIVE_ADC_U)
+    meta = {"kp": [DRIVE_KP], "kd": [DRIVE_KD], "source": "linear drive, exact stick-slip"}
+    units = {"q": "m", "tau": "N", "r": "m"}
+
+    def rec(q, force):
+        cols = {"q": q[:, None], "tau": force[:, None], "r": r[:, None]}
+        return physid.Recording.from_columns(t, cols, units, meta)
+
+    return rec(xq, DRIVE_GAIN * DRIVE_ADC_U * u_log), rec(x, DRIVE_GAIN * u), DRIVE_GAIN * u
+
+
+def case_linear_drive() -> Case:
+    """(f) EMPS-like linear drive: prismatic, asymmetric Coulomb, sticking, force = gain × V."""
+    rng = np.random.default_rng(61)
+    urdf = DRIVE.urdf(_scratch() / "linear_drive.urdf")
+    model = _sidecar(urdf, {"axis": {"viscous": 0.0, "coulomb": 0.0, "torque_offset": 0.0}})
+    train, clean, _ = _drive_record(62, 25.0, rng)
+    test, test_clean, force = _drive_record(63, 15.0, rng)
+    x = np.asarray(test_clean.select(["q1"]))[:, 0]
+    truth = Truth(
+        np.array([pin.buildModelFromUrdf(str(urdf)).inertias[1].toDynamicParameters()]),
+        np.zeros(1),
+        np.array([DRIVE.viscous]),
+        np.array([DRIVE.coulomb]),
+        np.array([DRIVE.offset]),
+    )
+    return Case(
+        key="f",
+        title="linear drive (EMPS-like), prismatic, asymmetric Coulomb, sticks, 1 kHz, force = "
+        "35.15 N/V × voltage",
+        urdf=urdf,
+        physid_model=model,
+        train=train,
+        test=test,
+        test_tau_true=force[:, None],
+        train_clean=clean,
+        truth=truth,
+        bandwidth_hz=2.0,  # the ≥ 1 s minimum-jerk moves, as in (b)
+        offset=True,
+        info={"test_moving": np.r_[False, np.diff(x) != 0]},  # the carriage truly moves
+        note=f"encoder {DRIVE_ENCODER:g} m; Fc+ {DRIVE.coulomb_pos:g} N, Fc− "
+        f"{DRIVE.coulomb_neg:g} N (Coulomb {DRIVE.coulomb:g} N, offset {DRIVE.offset:g} N)",
+    )
+
+
+ARM2 = TwoLink()
+ARM2_KP, ARM2_KD = np.array([300.0, 100.0]), np.array([30.0, 8.0])
+ARM2_COUNTS = 2**14  # per motor turn
+ARM2_SIGMA_I, ARM2_ADC_I = 0.005, 10.0 / 2**12  # A
+ARM2_Q0 = np.array([0.3, 0.6])
+
+
+def _arm2_records(seed, duration, rng):
+    """(motor-side log, joint-side log, noise-free joint-side record, τ) of the 2-link arm."""
+    h = 2e-4
+    t = np.arange(int(round(duration / h))) * h
+    r = fourier_reference(t, ARM2_Q0, np.random.default_rng(seed), period=10.0)
+    q, _, theta, cur = ARM2.simulate(r, h, ARM2_KP, ARM2_KD, ARM2_COUNTS)
+    i_log = np.round((cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I)
+    i_log = i_log * ARM2_ADC_I
+    kn = ARM2.ratio * ARM2.kt
+    meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": "2-link arm, RK4"}
+    motor = physid.Recording.from_columns(
+        t, {"qm": theta, "im": i_log, "r": r}, {"qm": "rad", "im": "A", "r": "rad"}, meta
+    )
+    units = {"q": "rad", "tau": "N·m", "r": "rad"}
+    joint = physid.Recording.from_columns(
+        t, {"q": theta / ARM2.ratio, "tau": kn * i_log, "r": r}, units, meta
+    )
+    clean = physid.Recording.from_columns(t, {"q": q, "tau": kn * cur, "r": r}, units, meta)
+    return motor, joint, clean, kn * cur
+
+
+def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
+    """(g) 2-link arm logged as motor angles and currents through gears, Stribeck friction
+    (``train_s``, ``test_s``: the records' durations [s]; shorter ones for tests)."""
+    rng = np.random.default_rng(71)
+    urdf = ARM2.urdf(_scratch() / "two_link.urdf")
+    n = ARM2.ratio
+    tail = (
+        f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{ARM2.kt}, {ARM2.kt}]\n"
+    )
+    drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
+    model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
+    ptrain, train, clean, _ = _arm2_records(72, train_s, rng)
+    ptest, test, _, tau = _arm2_records(73, test_s, rng)
+    pm = pin.buildModelFromUrdf(str(urdf))
+    return Case(
+        key="g",
+        title="2-link arm, motor currents through gears (100:1), Stribeck, 5 kHz",
+        urdf=urdf,
+        physid_model=model,
+        train=train,
+        test=test,
+        test_tau_true=tau,
+        train_clean=clean,
+        truth=truth_of(pm, ARM2.armature, np.asarray(ARM2.fv), np.asarray(ARM2.fc)),
+        bandwidth_hz=0.5,  # 5 harmonics of a 10 s period
+        armature=True,
+        physid_train=ptrain,
+        physid_test=ptest,
+        note="Stribeck friction (static "
+        + "/".join(f"{x:g}" for x in ARM2.fs)
+        + " N·m, Coulomb "
+        + "/".join(f"{x:g}" for x in ARM2.fc)
+        + " N·m) modelled by every estimator as Coulomb + viscous; physid reads qm, im",
+    )
+
+
 BUILDERS = {
     "a": case_a,
     "b": case_b,
@@ -550,6 +726,8 @@ BUILDERS = {
     "d": case_d,
     "e1": case_panda,
     "e2": case_kuka,
+    "f": case_linear_drive,
+    "g": case_two_link_motor,
 }
 
 

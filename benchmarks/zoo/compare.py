@@ -41,6 +41,7 @@ import numpy as np
 
 import physid
 from physid.estimators import make
+from physid.signals.joint_side import joint_side
 
 from . import cases as zoo_cases
 from .recipe import Recipe, parameter_error, relative_error, well_excited
@@ -70,6 +71,7 @@ class Outcome:
     warnings: list = field(default_factory=list)
     cutoff: str = ""
     note: str = ""
+    heldout_moving: float = math.nan  # where the case says the robot truly moves (info)
 
     @property
     def default(self) -> bool:
@@ -101,6 +103,16 @@ def _target_at(case, recipe_cut, recipe, t_rows):
     return np.column_stack([np.interp(t_rows, case.test.t, ref[:, j]) for j in range(ref.shape[1])])
 
 
+def _moving_error(case, t_rows, pred, target) -> float:
+    """‖τ̂−τ‖/‖τ‖ on the rows at samples where ``case.info["test_moving"]`` is true (the
+    held-out samples where the robot truly moves: at rest the holding friction is unknown)."""
+    moving = case.info.get("test_moving")
+    if moving is None:
+        return math.nan
+    k = np.clip(np.round((t_rows - case.test.t[0]) / case.test.dt).astype(int), 0, moving.size - 1)
+    return relative_error(pred[moving[k]], target[moving[k]])[0]
+
+
 def _physid_in_recipe_base(model, result, recipe):
     """physid's base estimate as the recipe's base parameters (and the mapping's residual)."""
     names = list(model.regressor_names)
@@ -119,7 +131,8 @@ def _recipe_outcome(case, recipe, cut, label):
     rfit = recipe.fit(case.train, cut)
     secs = time.perf_counter() - t0
     t_rows, tau_hat, tau_f = recipe.predict(rfit, case.test)
-    err, per = relative_error(tau_hat, _target_at(case, cut, recipe, t_rows))
+    target = _target_at(case, cut, recipe, t_rows)
+    err, per = relative_error(tau_hat, target)
     own, _ = relative_error(tau_hat, tau_f)
     note = f"{rfit.n_rows} rows, decimate {rfit.decimate}, cond {rfit.condition_number:.3g}"
     o = Outcome(
@@ -133,6 +146,7 @@ def _recipe_outcome(case, recipe, cut, label):
         n_base=recipe.n_base,
         note=note,
     )
+    o.heldout_moving = _moving_error(case, t_rows, tau_hat, target)
     return o, rfit
 
 
@@ -142,7 +156,7 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
     facts = {"title": case.title, "note": case.note, "skipped": case.skipped}
     if case.skipped:
         return [], facts
-    recipe = Recipe(case.urdf, armature=case.armature)
+    recipe = Recipe(case.urdf, armature=case.armature, offset=case.offset)
     cut = 5.0 * case.bandwidth_hz
     facts.update(
         recipe_cutoff_hz=cut,
@@ -172,7 +186,7 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             )[0]
     out.append(rec_out)
     log(f"  recipe: held-out {rec_out.heldout:.4g}, {rec_out.seconds:.1f} s")
-    pf = Recipe(case.urdf, armature=case.armature, parallel=True)
+    pf = Recipe(case.urdf, armature=case.armature, offset=case.offset, parallel=True)
     pf_out, pf_fit = _recipe_outcome(case, pf, cut, "recipe+pf")
     if truth_base is not None:
         pf_out.param_error = parameter_error(pf_fit.beta, truth_base, well)
@@ -182,9 +196,13 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
 
     # -- physid
     model = physid.load_model(case.physid_model)
+    # a log of motor-side channels (qm, im) goes through the model's transmission, as
+    # `physid identify` does it; the recipe reads the joint-side record
+    train = joint_side(model, case.physid_train) if case.physid_train is not None else case.train
+    test = joint_side(model, case.physid_test) if case.physid_test is not None else case.test
     for method in methods:
         o = Outcome(case.key, method)
-        if method == "idim-iv" and "r1" not in case.train:
+        if method == "idim-iv" and "r1" not in train:
             o.error = "n/a: the log has no reference r1..rn and no PD gains (IV simulates the loop)"
             out.append(o)
             continue
@@ -193,16 +211,18 @@ def run_case(case, methods=METHODS, *, cli=False, log=None) -> tuple[list[Outcom
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 name, settings = parse_method(method)
-                res = make(name, model, **settings).fit(case.train).result_
+                res = make(name, model, **settings).fit(train).result_
             o.seconds = time.perf_counter() - t0
             o.warnings = sorted({_first_line(str(w.message)) for w in caught})
             o.success, o.message = bool(res.success), _first_line(res.message)
             o.cutoff = f"{res.cutoff / (2 * np.pi * case.train.dt):.3g} Hz, decimate {res.decimate}"
-            pred = res.predict(case.test, measured=True)
+            pred = res.predict(test, measured=True)
             nj = recipe.nj
             P = np.asarray(pred.select([f"tau{j + 1}" for j in range(nj)]))
             M = np.asarray(pred.select([f"tau{j + 1}_measured" for j in range(nj)]))
-            o.heldout, per = relative_error(P, _target_at(case, cut, recipe, pred.t))
+            target = _target_at(case, cut, recipe, pred.t)
+            o.heldout, per = relative_error(P, target)
+            o.heldout_moving = _moving_error(case, pred.t, P, target)
             o.per_joint = per.tolist()
             o.heldout_own = relative_error(P, M)[0]
             if truth_base is not None:
@@ -233,7 +253,7 @@ def _cli_check(case, outcome) -> str:
     """Run ``physid identify`` (default method) on the record; say whether it agrees."""
     with tempfile.TemporaryDirectory(prefix="physid-zoo-") as tmp:
         path = Path(tmp) / f"{case.key}_train.csv"
-        case.train.save(str(path))
+        (case.physid_train if case.physid_train is not None else case.train).save(str(path))
         env = dict(os.environ)
         src = str(zoo_cases.ROOT / "src")
         env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
@@ -352,6 +372,7 @@ def bench_rows(outcomes, facts) -> list[dict]:
             "seconds": o.seconds,
             "recipe_seconds": rec.seconds,
             "filter": o.cutoff,
+            "heldout_moving": o.heldout_moving,
         }
         rows.append(row)
     if "recipe_noise_free_param_error" in facts and facts.get("frictionless"):
@@ -432,6 +453,12 @@ def markdown(all_outcomes, all_facts) -> str:
                 )
             if facts.get("note"):
                 parts.append(facts["note"])
+            moving = [(o.method, o.heldout_moving) for o in outcomes]
+            if any(math.isfinite(e) for _, e in moving):
+                parts.append(
+                    "held-out error where the robot truly moves: "
+                    + ", ".join(f"{m} {_f(e)}" for m, e in moving if math.isfinite(e))
+                )
             if facts.get("cli"):
                 parts.append(facts["cli"])
             for o in outcomes:

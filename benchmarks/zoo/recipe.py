@@ -10,7 +10,9 @@ What practitioners do (Gautier, Swevers, Gaz et al.; the usual tutorial pipeline
    (a Nyquist of 2.5× the cut-off; q and τ are already low-passed, so nothing aliases);
 4. the regressor: ``pinocchio.computeJointTorqueRegressor`` (10 standard parameters per link in
    pinocchio's order) plus, per joint, the rotor inertia ``Ia`` (q̈_j, where the case has it),
-   viscous ``Fv`` (q̇_j) and Coulomb ``Fc`` (sign q̇_j) columns, as physid's models have them;
+   viscous ``Fv`` (q̇_j) and Coulomb ``Fc`` (sign q̇_j) columns, as physid's models have them,
+   and where the case's friction is asymmetric (Fc+ ≠ −Fc−) a constant ``OF`` (1) per joint:
+   Fc sign q̇ + OF equals Fc+ for q̇ > 0 and Fc− for q̇ < 0;
 5. base columns: QR with column pivoting of that regressor stacked over 300 random states; the
    dependent columns regroup into the base ones, β_base = β[base] + K β[dep], K = R11⁻¹ R12;
 6. ordinary least squares (``np.linalg.lstsq``) on the stacked rows; standard errors
@@ -60,14 +62,15 @@ class RecipeFit:
 class Recipe:
     """The recipe for one robot (URDF), with or without a rotor-inertia column per joint."""
 
-    def __init__(self, urdf, *, armature=False, parallel=False, n_random=300, seed=0):
+    def __init__(self, urdf, *, armature=False, offset=False, parallel=False, n_random=300, seed=0):
         self.parallel = parallel
+        self.offset = offset
         self.model = pin.buildModelFromUrdf(str(urdf))
         self.data = self.model.createData()
         self.nj = nj = self.model.nv
         self.armature = armature
         names = [f"{p}{j + 1}" for j in range(nj) for p in STANDARD]
-        drive = (["Ia"] if armature else []) + ["Fv", "Fc"]
+        drive = (["Ia"] if armature else []) + ["Fv", "Fc"] + (["OF"] if offset else [])
         names += [f"{d}{j + 1}" for d in drive for j in range(nj)]
         self.column_names = tuple(names)
         rng = np.random.default_rng(seed)
@@ -110,6 +113,8 @@ class Recipe:
             c += nj
         Y[:, :, c : c + nj] = qd[:, None, :] * eye
         Y[:, :, c + nj : c + 2 * nj] = np.sign(qd)[:, None, :] * eye
+        if self.offset:
+            Y[:, :, c + 2 * nj : c + 3 * nj] = eye
         return Y
 
     def base_regressor(self, q, qd, qdd) -> np.ndarray:
@@ -121,6 +126,8 @@ class Recipe:
         if self.armature:
             beta += list(truth.armature)
         beta += list(truth.viscous) + list(truth.coulomb)
+        if self.offset:
+            beta += list(truth.offset if truth.offset is not None else np.zeros(self.nj))
         beta = np.asarray(beta)
         return beta[self.base] + self.K @ beta[self.dependent]
 
