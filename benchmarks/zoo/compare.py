@@ -17,7 +17,7 @@ Per case and method:
 * physid's ``success`` and message, the wall time of the fit.
 
 physid's default is what ``physid identify`` picks for a URDF model: IDIM-OLS with every option
-at its default (``cutoff="auto"``, ``decimate="auto"``, ``stick_threshold=0.05``, physid's FIR
+at its default (``cutoff="auto"``, ``decimate="auto"``, ``stick_threshold="auto"``, physid's FIR
 differentiation). With ``cli=True`` the default is also run through the ``physid identify``
 command on the same record and its method, success and message compared.
 """
