@@ -11,13 +11,7 @@ Two rules:
   sustained interval (`STILL_SECONDS`). A smooth motion that merely passes through zero speed
   at a reversal is not sticking and keeps its equations; a record without rests keeps them all.
   The mask is widened only by the main lobes of the state filter and of the parallel filter
-  (`contamination_reach`), the samples a sticking interval itself contaminates. Two more kinds
-  of equation are *candidates* (`reversal_samples`): those next to a speed reversal, where the
-  filters smear the friction step, and those at low speed (|q̇| below `SLOW_FRACTION` of the
-  joint's rms speed), where a friction law the model does not have (a Stribeck hump, a
-  pre-sliding regime) departs from Fc·sign(q̇) + Fv·q̇. A first fit's residual decides: a
-  joint whose candidates fit twice worse than its other equations loses them
-  (`elevated_joints`); one whose friction is as modelled keeps them.
+  (`contamination_reach`), the samples a sticking interval itself contaminates.
 - a number F in (0, 1) (`stuck_samples`, the rule of earlier versions): every sample where the
   *filtered* speed is below F times its rms, widened by the parallel filter's full length.
 
@@ -47,14 +41,6 @@ STILL_MIN_SAMPLES = 5
 NOISE_BAND = 8.0
 #: A joint that loses more than this share of its equations is named in a warning.
 HEAVY_SHARE = 0.5
-#: Equations where a dry-friction joint moves slower than this fraction of its rms speed
-#: (`coarse_speed_rms`) are candidates, dropped when the residual shows friction the model
-#: does not explain there (`reversal_samples`, `elevated_joints`). Measured on data physid did
-#: not make (benchmarks/zoo, well-excited base parameters against the truth): a geared arm with
-#: a Stribeck hump 7.8 % → 0.26 %, an arm with smoothed Coulomb friction and rests 19 % → 5.1 %,
-#: MuJoCo's sticking joints 11.7 % → 10.1 %, a linear drive 0.34 % → 0.22 %; a frictionless arm
-#: unchanged (nothing stands out), the slow sweep 3.3 % → 3.2 %.
-SLOW_FRACTION = 0.2
 
 _COULOMB = re.compile(r"(Fc|Fcp|Fcn)(\d+)")
 
@@ -153,7 +139,7 @@ def sticking_samples(q, dt: float, coulomb) -> np.ndarray:
         return np.zeros((n, nj), dtype=bool)
     sigma, quantum = position_noise(q)
     scale = np.max(np.abs(q), axis=0) + 1.0
-    h = coarse_step(n, dt)  # a coarse step: the noise barely counts
+    h = max(1, min(int(round(0.05 / dt)), n // 4))  # a coarse step: the noise barely counts
     acc = (q[2 * h :] - 2.0 * q[h:-h] + q[: -2 * h]) / (h * dt) ** 2
     band, widths = sticking_windows(sigma, quantum, scale, np.mean(acc**2, axis=0), dt)
     return sticking_mask(q, coulomb, band, widths)
@@ -236,68 +222,18 @@ def stuck_samples(qd, coulomb, threshold: float, reach: int) -> np.ndarray:
     return dilate(near, reach)
 
 
-def reversal_samples(qd, coulomb, reach: int, speed_rms=None) -> np.ndarray:
-    """Samples × joints within ``reach`` of a sign change of a dry-friction joint's speed, or
-    (with ``speed_rms``) of a sample where it is slower than `SLOW_FRACTION` · ``speed_rms``.
+def reversal_samples(qd, coulomb, reach: int) -> np.ndarray:
+    """Samples × joints within ``reach`` of a sign change of a dry-friction joint's speed.
 
     At a reversal the Coulomb torque jumps by 2·Fc; the filters smear that step over their main
-    lobes, so the equations there may be wrong although the joint never sticks. At low speed a
-    friction law the model lacks (Stribeck) departs from Fc·sign(q̇). They are only candidates:
-    `elevated_joints` decides from the residual whether to drop them.
-
-    Parameters
-    ----------
-    qd : ndarray, shape (n_samples, n_joints) [rad/s]
-        The filtered speeds.
-    coulomb : ndarray of bool, shape (n_joints,)
-    reach : int
-        Samples the mask is widened by on each side.
-    speed_rms : ndarray, shape (n_joints,), optional
-        Each joint's rms speed over its whole record [rad/s] (`coarse_speed_rms`).
-
-    Returns
-    -------
-    ndarray of bool, shape (n_samples, n_joints)
+    lobes, so the equations there may be wrong although the joint never sticks. They are only
+    candidates: `elevated_joints` decides from the residual whether to drop them.
     """
     qd = np.asarray(qd, dtype=float)
-    coulomb = np.asarray(coulomb, dtype=bool)
-    near = np.zeros(qd.shape, dtype=bool)
-    near[1:] = np.signbit(qd[1:]) != np.signbit(qd[:-1])
-    if speed_rms is not None:
-        near |= np.abs(qd) < SLOW_FRACTION * np.asarray(speed_rms, dtype=float)[None, :]
-    near &= coulomb[None, :]
-    return dilate(near, reach)
-
-
-def coarse_speed_rms(q, dt: float) -> np.ndarray:
-    """rms speed of each joint over a record [rad/s], from a central difference over 0.1 s
-    (so that position noise barely counts): what `SLOW_FRACTION` is a fraction of.
-
-    Parameters
-    ----------
-    q : ndarray, shape (n_samples, n_joints) [rad]
-        The measured positions.
-    dt : float [s]
-
-    Returns
-    -------
-    ndarray, shape (n_joints,)
-        ``√mean(((q[k+2h] − q[k]) / (2 h dt))²)``, ``h = round(0.05 s / dt)`` (at most n/4); the
-        streamed fit's survey accumulates the same sum block by block.
-    """
-    q = np.asarray(q, dtype=float)
-    n = q.shape[0]
-    h = coarse_step(n, dt)
-    if n <= 2 * h:
-        return np.zeros(q.shape[1])
-    v = (q[2 * h :] - q[: -2 * h]) / (2 * h * dt)
-    return np.sqrt(np.mean(v * v, axis=0))
-
-
-def coarse_step(n: int, dt: float) -> int:
-    """The coarse step h [samples] of `sticking_samples`' acceleration and `coarse_speed_rms`:
-    0.05 s, at least 1, at most a quarter of the record."""
-    return max(1, min(int(round(0.05 / dt)), n // 4))
+    flip = np.zeros(qd.shape, dtype=bool)
+    flip[1:] = np.signbit(qd[1:]) != np.signbit(qd[:-1])
+    flip &= np.asarray(coulomb, dtype=bool)[None, :]
+    return dilate(flip, reach)
 
 
 def elevated_joints(e, candidate, kept, ratio: float = 2.0, min_rows: int = 10) -> np.ndarray:
@@ -361,9 +297,8 @@ def dropped_summary_counts(counts, n_rows: int, rule, fix: str | None = None):
     share = counts / float(n_rows)
     how = (
         "where the joint sticks (its measured position within its noise for a sustained "
-        "interval: the holding friction is unknown) or, where the residual shows friction the "
-        f"model does not explain, next to a speed reversal or below {SLOW_FRACTION:g}× its rms "
-        "speed"
+        "interval: the holding friction is unknown) or next to a speed reversal whose friction "
+        "step the residual shows"
         if rule == STICK_AUTO
         else f"near rest (at |q̇| < {float(rule):g}·rms)"
     )

@@ -461,8 +461,7 @@ def _torque_changes(est: _Estimate, rows: IDIMRows) -> list[float]:
 
 
 def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
-    """Drop the equations near speed reversals or at low speed (`reversal_samples`) of the
-    joints whose residual shows friction the model does not explain there.
+    """Drop the equations near speed reversals of the joints whose residual shows the step.
 
     A first OLS fit on the rows kept; for each joint with dry friction whose reversal
     equations leave an rms residual twice the others' (`elevated_joints`), those equations

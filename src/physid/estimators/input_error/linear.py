@@ -36,7 +36,6 @@ from ...models.identifiability import (
 )
 from .._stiction import (
     STICK_AUTO,
-    coarse_speed_rms,
     contamination_reach,
     coulomb_joints,
     dilate,
@@ -125,12 +124,11 @@ def _stuck_mask(model, f: _Filtered):
 
 
 def _drop_reversals(model, f: _Filtered, w, tau_f, stuck):
-    """Also drop the equations next to speed reversals or at low speed (`reversal_samples`)
-    where a first fit's residual shows friction the model does not explain
-    (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place."""
+    """Also drop the equations next to speed reversals where a first fit's residual shows the
+    friction step (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place."""
     coulomb = coulomb_joints(model)
     reach = min(int(f.half_width), contamination_reach(float(f.cutoff), 1))
-    candidate = reversal_samples(f.qdf, coulomb, reach, coarse_speed_rms(f.q, f.dt)) & ~stuck
+    candidate = reversal_samples(f.qdf, coulomb, reach) & ~stuck
     if not candidate.any():
         return stuck
     p = w.shape[-1]
