@@ -182,31 +182,40 @@ def test_iv_whose_torques_no_longer_move_is_stable_at_the_data_resolution():
     wandering = [0.85, 0.16, 0.11, 0.058, 0.11]
     ok, note = iv_verdict(wandering, 1e-4)
     assert not ok
-    # ... but the last three iterations moved the predicted torques by <= 3.5 % of the residual
-    ok, note = iv_verdict(wandering, 1e-4, [0.14, 0.12, 0.035, 0.006, 0.022])
-    assert ok and "3.5 % of the fit's residual" in note and "not a failure" in note
-    # one of the last three moved them by a fifth of the residual: not stable
-    ok, note = iv_verdict(wandering, 1e-4, [0.14, 0.12, 0.2, 0.006, 0.022])
+    # ... but the last three iterations moved the prediction by <= 0.26 of its own noise spread
+    ok, note = iv_verdict(wandering, 1e-4, [1.75, 0.22, 0.26, 0.13, 0.11])
+    assert ok and "at most 0.26× the spread" in note and "not a failure" in note
+    # one of the last three moved it by twice that spread: not stable
+    ok, note = iv_verdict(wandering, 1e-4, [1.75, 0.22, 2.0, 0.13, 0.11])
     assert not ok and "did not converge" in note
 
 
-def test_torque_changes_are_prediction_moves_over_the_residual():
+def test_torque_changes_are_prediction_moves_in_units_of_the_estimates_spread():
     from types import SimpleNamespace
 
     from physid.estimators.idim.estimator import _torque_changes
 
     rng = np.random.default_rng(3)
     W = rng.normal(size=(40, 2, 3))
-    tau = rng.normal(size=(40, 2))
-    history = [rng.normal(size=3) for _ in range(4)]  # the OLS start, then 3 IV iterations
-    est = SimpleNamespace(changes=[0.5, 0.2, 0.1], history=history)
-    got = _torque_changes(est, SimpleNamespace(W=W, tau=tau))
-    A, y = W.reshape(-1, 3), tau.reshape(-1)
+    sigma = np.array([0.5, 2.0])
+    history = [rng.normal(size=3) for _ in range(4)]  # the WLS start, then 3 IV iterations
+    est = SimpleNamespace(changes=[0.5, 0.2, 0.1], history=history, beta=history[-1], sigma=sigma)
+    got = _torque_changes(est, SimpleNamespace(W=W))
     want = [
-        np.linalg.norm(A @ (b - a)) / np.linalg.norm(y - A @ b)
+        np.linalg.norm((W @ (b - a)) / sigma) / np.sqrt(3)
         for a, b in zip(history[:-1], history[1:], strict=True)
     ]
     np.testing.assert_allclose(got, want, rtol=1e-12)
+    # W δβ of unit-noise rows: an estimate's own spread moves the prediction by about √p
+    A = rng.normal(size=(4000, 3))
+    draws = [np.linalg.lstsq(A, rng.normal(size=4000), rcond=None)[0] for _ in range(200)]
+    spread = np.mean([np.linalg.norm(A @ d) / np.sqrt(3) for d in draws])
+    assert 0.8 < spread < 1.1
+    # IV diverged and kept an earlier iterate: no exemption from the changes
+    diverged = SimpleNamespace(
+        changes=[0.5, 0.2, 0.1], history=history, beta=history[1], sigma=sigma
+    )
+    assert _torque_changes(diverged, SimpleNamespace(W=W)) == []
     assert _torque_changes(SimpleNamespace(changes=[], history=history[:1]), None) == []
 
 

@@ -9,6 +9,7 @@ message -> optional consistent estimate (`physid.estimators.consistent`) -> `.re
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -445,19 +446,23 @@ class IDIMEstimator(EstimatorMixin):
 
 
 def _torque_changes(est: _Estimate, rows: IDIMRows) -> list[float]:
-    """For each IV iteration, ``‖W (β_k − β_{k−1})‖ / ‖τ − W β_k‖`` on the fit's rows (empty
-    for OLS and WLS): how far it moved the predicted torques against the residual."""
+    """For each IV iteration, ``‖(W (β_k − β_{k−1}))_j / σ̂_j‖ / √p`` on the fit's rows: how far
+    it moved the predicted torques, in units of the spread the estimate's own noise gives them
+    (``σ̂_j`` the residual std of joint j; an estimate from rows of unit noise moves its
+    prediction by about √p). Empty for OLS and WLS, and when IV diverged and kept an earlier
+    iterate (then no change is a sign of stability)."""
     n = len(est.changes)
-    if n == 0 or len(est.history) < n + 1:
+    if n == 0 or len(est.history) < n + 1 or not np.array_equal(est.beta, est.history[-1]):
         return []
-    W = rows.W.reshape(-1, rows.W.shape[-1])
-    y = rows.tau.reshape(-1)
+    p = rows.W.shape[-1]
+    sigma = np.asarray(est.sigma, dtype=float)
+    scale = 1.0 / np.where(sigma > 0, sigma, np.inf)
+    Ww = (rows.W * scale[None, :, None]).reshape(-1, p)
     steps = est.history[-(n + 1) :]
-    out = []
-    for before, after in zip(steps[:-1], steps[1:], strict=True):  # per iteration (≤ max_iter)
-        resid = float(np.linalg.norm(y - W @ after))
-        out.append(float(np.linalg.norm(W @ (after - before))) / max(resid, 1e-300))
-    return out
+    return [  # per iteration (at most max_iter)
+        float(np.linalg.norm(Ww @ (after - before))) / math.sqrt(p)
+        for before, after in zip(steps[:-1], steps[1:], strict=True)
+    ]
 
 
 def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:

@@ -38,9 +38,10 @@ NOISE_MARGIN = 3.0
 #: IV whose last three relative changes are below this is stable: not converging to ``tol`` is
 #: noted, not a failure.
 IV_STABLE = 0.05
-#: IV whose last three iterations moved the predicted torques by less than this fraction of the
-#: fit's residual is stable at the resolution of the data (see `iv_verdict`).
-IV_RESOLVED = 0.1
+#: IV whose last three iterations each moved the predicted torques by less than this many times
+#: the spread the estimate's own noise gives them is stable at the resolution of the data (see
+#: `iv_verdict`).
+IV_RESOLVED = 1.0
 #: A joint whose residual rms is below this fraction of the largest joint's torque rms is too
 #: small to fail on its own (the overall limit still holds): a wrist joint's torque next to a
 #: shoulder's.
@@ -217,8 +218,9 @@ def iv_verdict(changes, tol: float, torque_changes=None):
         Relative change of the estimate at each IV iteration.
     tol : float
     torque_changes : sequence of float, optional
-        For each iteration, ``‖W (β_k − β_{k−1})‖ / ‖τ − W β_k‖``: how much it moved the
-        predicted torques, relative to the fit's residual on the same rows.
+        For each iteration, ``‖(W (β_k − β_{k−1}))_j / σ̂_j‖ / √p``: how much it moved the
+        predicted torques, in units of the spread the estimate's own noise gives them (about 1
+        for an estimate of p parameters from rows of unit noise). Not given when IV diverged.
 
     Returns
     -------
@@ -232,9 +234,10 @@ def iv_verdict(changes, tol: float, torque_changes=None):
     -----
     The relative change weighs every base parameter alike, so a poorly determined one that
     wanders keeps it high while the torques the estimate predicts no longer move (IDIM-IV on a
-    slow sweep with Coulomb friction: relative changes 0.04–0.11, torque changes 0.6–3.5 % of
-    the residual). Changes of the prediction far below the residual are below what the data
-    can tell apart: the estimate is stable at the data's resolution, which is not a failure.
+    slow sweep with Coulomb friction simulated by pinocchio: relative changes 0.04–0.11).
+    Changes of the prediction within the spread the estimate's own noise gives it are below
+    what the data can tell apart (it does not grow with the record's length, as the residual
+    does): the estimate is stable at the data's resolution, which is not a failure.
     """
     if not changes or changes[-1] <= tol:
         return True, ""
@@ -251,9 +254,9 @@ def iv_verdict(changes, tol: float, torque_changes=None):
         return True, (
             f" IV stopped after {len(changes)} iterations with a last relative change of "
             f"{last:.2g} (> tol {tol:g}): poorly determined parameters still move, but the last "
-            f"three iterations moved the predicted torques by at most "
-            f"{100 * max(moved[-3:]):.2g} % of the fit's residual (below {100 * IV_RESOLVED:g} %):"
-            " the estimate is stable at the resolution of the data, so this is not a failure."
+            f"three iterations moved the predicted torques by at most {max(moved[-3:]):.2g}× the "
+            "spread the estimate's own noise gives them: the estimate is stable at the "
+            "resolution of the data, so this is not a failure."
         )
     return False, (
         f" IV did not converge in {len(changes)} iterations (last relative change "
