@@ -68,6 +68,18 @@ def test_short_record_single_column_and_no_column():
     assert _rel(sosfiltfilt_decimated(sos, x, nd, 3, lift=True), ref) < 1e-13
 
 
+@pytest.mark.parametrize("lift", [True, False])
+def test_rows_that_end_at_the_records_last_sample(lift):
+    # no padding and the last block ending exactly at the record's end: the forward state
+    # wanted is the record's final one
+    sos = _decimation_sos(10)
+    x = np.random.default_rng(5).normal(size=(3, 1000))
+    got = sosfiltfilt_decimated(sos, x, 10, padlen=0, lift=lift)
+    assert _rel(got, signal.sosfiltfilt(sos, x, padlen=0)[:, ::10]) < 1e-12
+    y, state = decimated_filtfilt(sos, x.T, 10, 100, 90, axis=0, lift=lift)
+    assert y.shape == (90, 3) and state is not None
+
+
 def test_returned_state_continues_the_forward_pass():
     nd, n = 25, 3000
     sos = _decimation_sos(nd)

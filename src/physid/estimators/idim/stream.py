@@ -344,8 +344,8 @@ def stream_obstacle(
     whole = [
         (join, "join", "", "joins whole files on their stamps"),
         (detrend, "detrend", "", "subtracts the mean of the whole record"),
-        (joints, "joints", None, "holds the other joints at the logged positions of the whole "
-         "record"),
+        (joints, "joints", None, "(a subtree of the model) holds the other joints at the "
+         "logged positions of the whole record"),
         (stderr == "hac", "stderr", ("'hac'", "hac"), "estimates the residual's correlation "
          "from the whole residual"),
         (consistent, "consistent", "", "fits the consistent estimate on every row"),
