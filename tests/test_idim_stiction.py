@@ -88,7 +88,7 @@ def test_input_error_base_fit_drops_stuck_equations_too(case):
     # measured 1.1e-3 dropping where the joint sticks and next to the reversals whose friction
     # step the residual shows (the earlier speed rule: below 1e-3; every equation kept: 1.1e-2)
     assert np.max(np.abs(est - truth) / np.abs(truth)) < 2e-3
-    notes = [w for w in res.warnings if "joint equations dropped where the joint sticks" in w]
+    notes = [w for w in res.warnings if "joint equations dropped: " in w and "sticks" in w]
     assert len(notes) == 1
     dropped, total = (int(x) for x in notes[0].split(" joint")[0].split(" of "))
     assert 0 < dropped < 0.5 * total  # the main lobe, not the whole filter length

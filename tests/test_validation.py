@@ -244,7 +244,7 @@ def pendulum():
 def test_idim_cross_test_drops_the_near_rest_rows_the_fit_dropped(pendulum, tmp_path):
     model, fit_rec, _, res = pendulum
     assert fit_rec.metadata["coulomb"]["stick_time"][0] > 0.05  # [s]: the joint sticks
-    assert "joint equations dropped where the joint sticks" in res.message
+    assert "joint equations dropped: " in res.message and "where the joint sticks" in res.message
     assert res.stick_threshold == "auto"
     path = save_result(res, tmp_path / "idim.json", model=str(DATA / "pendulum1.toml"))
     for result in (res, path):  # the result object and its file (which records the threshold)
@@ -253,12 +253,13 @@ def test_idim_cross_test_drops_the_near_rest_rows_the_fit_dropped(pendulum, tmp_
         assert rep.relative_error["overall"] == pytest.approx(
             res.relative_error["overall"], rel=1e-6
         )
-        # 1.8e-3 with the equations where the joint sticks or next to a reversal whose friction
-        # step the residual shows dropped (8 %); 2.1e-4 when 44 % were dropped near rest
+        # with the equations where the joint sticks, or next to a reversal or at low speed where
+        # the residual shows friction the model lacks, dropped (25 %); 2.1e-4 when 44 % were
+        # dropped near rest
         assert rep.relative_error["overall"] < 3e-3
         note = next(n for n in rep.notes if "joint equations dropped" in n)
         assert "sticking shown by the measured position" in note
-        assert "the fit's" in note and "(c) uses the" in note
+        assert "the fit's" in note and "(c) tests those equations with the others" in note
         assert rep.failures == ()  # the joint keeps rows
 
 

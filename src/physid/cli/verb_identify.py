@@ -278,8 +278,10 @@ def _register_idim_options(p) -> None:
         metavar="F",
         help="which equations of a joint with dry friction to drop (stiction: the holding "
         "friction is unknown there): auto = where the measured position stays within its noise "
-        "for 0.1 s or more; a number F in (0, 1) = where the filtered speed is below F times its "
-        "rms; 0 keeps every equation (default: auto)",
+        "for a sustained interval, and next to speed reversals or below 0.2x the rms speed "
+        "where a first fit's residual shows friction the model lacks; a number F in (0, 1) = "
+        "where the filtered speed is below F times its rms; 0 keeps every equation (default: "
+        "auto)",
     )
     add_stream_options(g, "idim-ols and idim-wls")
 

@@ -47,6 +47,7 @@ from ...estimators.results import jsonable
 from .inverse import _chain_inverse as _chain_inverse
 from .inverse import (
     _idim_inverse,
+    _idim_rows,
     _linear_inverse,
     _position_noise_draws,
     _rowless_joints,
@@ -285,6 +286,11 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     if stuck is not None and np.any(stuck):
         shown_f[stuck], shown_hat[stuck] = np.nan, np.nan
     series["inverse"] = (t_f, {nm: (shown_f[:, j], shown_hat[:, j]) for j, nm in enumerate(names)})
+    if rows is not None and loaded.data.get("reversal_joints"):
+        # (c) judges the record's equations, not the fit's choice: the equations the fit
+        # dropped only because its residual stood out (next to reversals, at low speed) are
+        # tested with the others; those of a stuck joint stay out (no torque to explain)
+        t_f, tau_f, tau_hat, stuck = _sticking_rows(loaded, recording)
     index = np.arange(tau_f.shape[0])  # (c)'s rows in the decimated sequence
     kept = np.ones(tau_f.shape, dtype=bool) if stuck is None else ~stuck
     if stuck is not None:  # (c): the rows where every joint's equation is kept
@@ -320,6 +326,13 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
                 position_noise=_position_noise_draws(loaded, recording, rows, index, kept),
             )
     return rel, fits, out_rel, residual
+
+
+def _sticking_rows(loaded, recording):
+    """(t, τ_f, τ̂, stuck) of an IDIM result with only the sticking equations dropped."""
+    threshold, _ = _idim_threshold(loaded)
+    rows, beta = _idim_rows(loaded, recording, stick_threshold=threshold)
+    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
 
 
 def _options_note(loaded: LoadedResult) -> str | None:

@@ -205,12 +205,18 @@ def _stick_note(loaded, stuck) -> str:
     )
     if stuck is None or not stuck.any():
         return f"(a) stiction rule ({rule}, {source}): no joint equation dropped"
-    free = int(np.count_nonzero(~np.any(stuck, axis=1)))
+    joints = [int(j) for j in (loaded.data.get("reversal_joints") or ())]
+    residual = (
+        f", and for joint(s) {', '.join(map(str, joints))} next to speed reversals or at low "
+        "speed, where the fit's residual showed friction the model does not explain ((c) tests "
+        "those equations with the others)"
+        if joints
+        else ""
+    )
     return (
         f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped, as in the fit: "
         f"joints with dry friction where {rule} (stiction rule: {source}), where stiction "
-        "makes the friction torque unknown; (c) uses the "
-        f"{free} rows where no equation is dropped"
+        f"makes the friction torque unknown{residual}"
     )
 
 

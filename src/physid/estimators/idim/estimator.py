@@ -229,6 +229,7 @@ class IDIMEstimator(EstimatorMixin):
         notes: list[str] = []
         self._check_rows(rows, info, notes, recs)
         rows = _drop_reversals(rows)
+        self._warn_heavy(rows, notes, recs)
         est = self._solve(recs, rows, info, loops, notes)
         e = rows.tau - rows.W @ est.beta
         cov, lag, reason = covariance(
@@ -300,14 +301,18 @@ class IDIMEstimator(EstimatorMixin):
             except IdentifiabilityError as exc:
                 self._blame_stiction_rule(recs, rows, info, exc)
                 raise
-        _, heavy = dropped_summary(rows.stuck, self.stick_threshold)
-        heavy = heavy + _motionless(recs, nj)
-        for text in heavy:
-            warnings.warn(text, StictionWarning, stacklevel=3)
-            notes.append(text)
         for w in caught:
             notes.append(str(w.message))
             warnings.warn(w.message, w.category, stacklevel=3)
+
+    def _warn_heavy(self, rows: IDIMRows, notes: list[str], recs=()) -> None:
+        """A warning (also in notes) per joint that lost most of its equations, counting every
+        drop (the residual's next to reversals and at low speed too), and per joint that never
+        moves."""
+        _, heavy = dropped_summary(rows.stuck, self.stick_threshold, candidates=rows.reversal)
+        for text in heavy + _motionless(recs, int(self.model.n_joints)):
+            warnings.warn(text, StictionWarning, stacklevel=3)
+            notes.append(text)
 
     def _blame_stiction_rule(self, recs, rows: IDIMRows, info: BaseInfo, exc) -> None:
         """Raise a clearer error when the stiction rule, not the record, left too little.
@@ -384,7 +389,7 @@ class IDIMEstimator(EstimatorMixin):
             f"condition number {cond:.4g} (column-scaled{weighted})."
         )
         message += rows.choice
-        message += dropped_summary(rows.stuck, self.stick_threshold)[0]
+        message += dropped_summary(rows.stuck, self.stick_threshold, candidates=rows.reversal)[0]
         ok, sentence = self._torque_verdict(rows, est.beta, recs)
         success &= ok
         message += sentence
@@ -466,7 +471,8 @@ def _torque_changes(est: _Estimate, rows: IDIMRows) -> list[float]:
 
 
 def _drop_reversals(rows: IDIMRows, joints=None) -> IDIMRows:
-    """Drop the equations near speed reversals of the joints whose residual shows the step.
+    """Drop the equations near speed reversals or at low speed (`reversal_samples`) of the
+    joints whose residual shows friction the model does not explain there.
 
     A first OLS fit on the rows kept; for each joint with dry friction whose reversal
     equations leave an rms residual twice the others' (`elevated_joints`), those equations

@@ -85,8 +85,9 @@ class IDIMResult(ResultMixin):
     stick_threshold : "auto", float or None
         The fit's ``stick_threshold`` (`validate` drops the same equations).
     reversal_joints : tuple of int
-        Joints (1-based) whose equations next to a speed reversal the fit dropped because the
-        residual showed the friction step there (``stick_threshold="auto"``).
+        Joints (1-based) whose equations next to a speed reversal or at low speed the fit
+        dropped because the residual showed friction the model does not explain there
+        (``stick_threshold="auto"``; `physid.estimators._stiction.reversal_samples`).
     """
 
     names: tuple[str, ...]

@@ -25,6 +25,7 @@ from ...errors import InputError, SamplingError, ShapeError, arg
 from .._stiction import (
     STICK_AUTO,
     check_stick_threshold,
+    coarse_speed_rms,
     contamination_reach,
     coulomb_joints,
     dilate,
@@ -217,7 +218,8 @@ def _recording_rows(full, q, dt, nd, stick, cutoff, nj, p):
         if rule == STICK_AUTO:  # sticking shown by the measured positions, on every sample
             reach = contamination_reach(cutoff, nd)
             stuck = dilate(sticking_samples(q, dt, coulomb), reach)[idx[kept]]
-            reversal = reversal_samples(qdf, coulomb, reach)[kept] & ~stuck
+            speed = coarse_speed_rms(q, dt)
+            reversal = reversal_samples(qdf, coulomb, reach, speed)[kept] & ~stuck
         else:
             stuck = stuck_samples(qdf, coulomb, rule, decimation_edge(nd))[kept]
         drop_equations(Wk, tauk, stuck)  # joint j's equation at that row: no weight

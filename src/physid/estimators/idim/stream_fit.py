@@ -151,6 +151,7 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
                 dropped = joints & (kept_rev > 0)
                 full = cand
     n_stuck = c.n_stuck + np.where(dropped, c.kept[:, 1].sum(0), 0)
+    _warn_heavy(plan, c, n_stuck, notes)
     kept = c.kept.sum(axis=(0, 1)) - np.where(dropped, c.kept[:, 1].sum(0), 0)
     est = _estimates(plan, full, kept)
     cov, lag = _covariance(plan, c, full, dropped, est, nd)
@@ -215,7 +216,7 @@ def fit_moments(model, plan: StreamPlan, moments: RowMoments) -> IDIMResult:
 
 
 def _check_rows(plan, c, full, info, notes, nd) -> None:
-    """`IDIMEstimator._check_rows` on the factors: equations, excitation, heavy drops."""
+    """`IDIMEstimator._check_rows` on the factors: equations, excitation."""
     nj, p = plan.n_joints, plan.n_base
     check_equation_count(c.n_rows, nj, p, nd)
     with warnings.catch_warnings(record=True) as caught:
@@ -233,9 +234,16 @@ def _check_rows(plan, c, full, info, notes, nd) -> None:
                     f"them with {arg('stick_threshold', '0', cli='0')}."
                 ) from exc
             raise
-    rule = plan.settings["stick_threshold"]
-    _, heavy = dropped_summary_counts(c.n_stuck, c.n_rows, rule)
-    moving = np.zeros(nj, dtype=bool)
+    for w in caught:
+        notes.append(str(w.message))
+        warnings.warn(w.message, w.category, stacklevel=4)
+
+
+def _warn_heavy(plan, c, n_stuck, notes) -> None:
+    """`IDIMEstimator._warn_heavy` on the counts: a joint that lost most of its equations (all
+    drops counted, the residual's too), a joint that never moves."""
+    _, heavy = dropped_summary_counts(n_stuck, c.n_rows, plan.settings["stick_threshold"])
+    moving = np.zeros(plan.n_joints, dtype=bool)
     for st in plan.sources:
         moving |= ~motionless(st)
     heavy += never_moving(moving)
@@ -244,9 +252,6 @@ def _check_rows(plan, c, full, info, notes, nd) -> None:
     for text in heavy:
         warnings.warn(text, StictionWarning, stacklevel=4)
         notes.append(text)
-    for w in caught:
-        notes.append(str(w.message))
-        warnings.warn(w.message, w.category, stacklevel=4)
 
 
 def _estimates(plan, full, kept):
@@ -329,7 +334,10 @@ def _verdict(plan, c, est, sums, cond, nd, why, n_stuck):
         f"condition number {cond:.4g} (column-scaled{weighted})."
     )
     message += why
-    message += dropped_summary_counts(n_stuck, c.n_rows, plan.settings["stick_threshold"])[0]
+    by_residual = n_stuck - c.n_stuck
+    message += dropped_summary_counts(
+        n_stuck, c.n_rows, plan.settings["stick_threshold"], by_residual=by_residual
+    )[0]
     sigma = np.max(np.array([s.tau_sigma for s in plan.sources]), axis=0)
     floor = noise_floor(sigma, nd)
     # rows with |τ| + |e| > 0: every equation kept (a dropped one is zero on both sides)

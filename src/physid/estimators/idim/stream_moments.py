@@ -2,8 +2,8 @@
 
 Per candidate decimation nd, per cross-validation fold (`physid.estimators.idim.choose`'s folds:
 contiguous fifths of each record), per class of equation (near a speed reversal of a joint with
-dry friction, or not: the fit may drop the former after a first solve) and per joint j, the
-upper-triangular factor ``R`` of the augmented rows ``[W_j | τ_j]`` (a streaming QR:
+dry friction or at low speed, or not: the fit may drop the former after a first solve) and per
+joint j, the upper-triangular factor ``R`` of the augmented rows ``[W_j | τ_j]`` (a streaming QR:
 ``R ← qr([R; new rows])``; ``Rᵀ R`` is their Gram, and least squares from ``R`` keeps the
 conditioning of a QR of the rows). For ``stderr="filtered"`` also the lagged products
 ``Σ_t W_tᵀ (Σ_{l=1..8} ρ_l W_{t−l})`` within a record (the banded noise correlation of the

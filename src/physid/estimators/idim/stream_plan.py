@@ -33,6 +33,7 @@ from .._stiction import (
     STILL_MIN_SAMPLES,
     STILL_SECONDS,
     check_stick_threshold,
+    coarse_step,
     coulomb_joints,
     sticking_windows,
 )
@@ -66,6 +67,7 @@ class SourceStats:
     q_scale: np.ndarray  # max |q| + 1 [rad]
     q_range: np.ndarray  # max q − min q [rad]
     mean_acc2: np.ndarray  # mean square coarse acceleration [rad²/s⁴]
+    mean_vel2: np.ndarray  # mean square coarse speed [rad²/s²] (`coarse_speed_rms`)
     tau_sigma: np.ndarray  # robust torque noise [N·m]
 
 
@@ -285,11 +287,11 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
             f"source {k + 1} ({_label(source, k)}) has {n} samples at period {dt!r} s; a "
             "streamed fit needs a uniformly sampled record of at least 8 samples."
         )
-    h = max(1, min(int(round(0.05 / dt)), n // 4))
+    h = coarse_step(n, dt)
     carry = None
     sig_q, sig_t, nonzero = [], [], [[] for _ in range(nj)]
     qmin, qmax, qabs = np.full(nj, np.inf), np.full(nj, -np.inf), np.zeros(nj)
-    step_min, acc2 = np.full(nj, np.inf), np.zeros(nj)
+    step_min, acc2, vel2 = np.full(nj, np.inf), np.zeros(nj), np.zeros(nj)
     welch = None
     for blk in source.blocks(block, chans):
         x = np.asarray(blk.select(chans), dtype=float)
@@ -322,6 +324,8 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
         if y2.shape[0] > 2 * h:
             acc = (y2[2 * h :] - 2.0 * y2[h:-h] + y2[: -2 * h]) / (h * dt) ** 2
             acc2 += np.sum(acc**2, axis=0)
+            vel = (y2[2 * h :] - y2[: -2 * h]) / (2 * h * dt)
+            vel2 += np.sum(vel * vel, axis=0)
         carry = y[-max(2 * h, 3) :]
     quantum = np.zeros(nj)
     for j in range(nj):  # per joint
@@ -339,6 +343,7 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
         q_scale=qabs + 1.0,
         q_range=qmax - qmin,
         mean_acc2=acc2 / max(n - 2 * h, 1),
+        mean_vel2=vel2 / max(n - 2 * h, 1),
         tau_sigma=np.median(np.array(sig_t), axis=0),
     )
     return stats, welch

@@ -29,7 +29,14 @@ import numpy as np
 from scipy import signal
 
 from ...filters.lifted import lifting_pays
-from .._stiction import STICK_AUTO, STILL_MIN_SAMPLES, contamination_reach, dilate, sticking_mask
+from .._stiction import (
+    STICK_AUTO,
+    STILL_MIN_SAMPLES,
+    contamination_reach,
+    dilate,
+    reversal_samples,
+    sticking_mask,
+)
 from .base_parameters import base_regressor
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
@@ -349,10 +356,8 @@ def _masks(plan: StreamPlan, k: int, nd: int, s, stick_raw, qdf, c0: int, r0: in
     if plan.stick == STICK_AUTO:
         reach = contamination_reach(plan.cutoff, nd)
         stuck = dilate(stick_raw, reach)[s + off - r0]
-        flip = np.zeros(qdf.shape, dtype=bool)
-        flip[1:] = np.signbit(qdf[1:]) != np.signbit(qdf[:-1])
-        flip &= plan.coulomb[None, :]
-        rev = dilate(flip, reach)[s - c0] & ~stuck
+        speed = np.sqrt(plan.sources[k].mean_vel2)  # the whole record's, from the survey
+        rev = reversal_samples(qdf, plan.coulomb, reach, speed)[s - c0] & ~stuck
         return stuck, rev
     rms = np.asarray(plan.qd_rms)[k]
     near = (np.abs(qdf) < float(plan.stick) * np.where(rms > 0, rms, 1.0)) & plan.coulomb[None, :]

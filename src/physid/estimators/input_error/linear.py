@@ -36,6 +36,7 @@ from ...models.identifiability import (
 )
 from .._stiction import (
     STICK_AUTO,
+    coarse_speed_rms,
     contamination_reach,
     coulomb_joints,
     dilate,
@@ -124,22 +125,24 @@ def _stuck_mask(model, f: _Filtered):
 
 
 def _drop_reversals(model, f: _Filtered, w, tau_f, stuck):
-    """Also drop the equations next to speed reversals where a first fit's residual shows the
-    friction step (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place."""
+    """Also drop the equations next to speed reversals or at low speed (`reversal_samples`)
+    where a first fit's residual shows friction the model does not explain
+    (`physid.estimators._stiction.elevated_joints`); ``w``, ``tau_f`` in place. Returns the
+    equations dropped and the candidates of the residual test."""
     coulomb = coulomb_joints(model)
     reach = min(int(f.half_width), contamination_reach(float(f.cutoff), 1))
-    candidate = reversal_samples(f.qdf, coulomb, reach) & ~stuck
+    candidate = reversal_samples(f.qdf, coulomb, reach, coarse_speed_rms(f.q, f.dt)) & ~stuck
     if not candidate.any():
-        return stuck
+        return stuck, candidate
     p = w.shape[-1]
     beta = scaled_lstsq(w.reshape(-1, p), tau_f.ravel())
     kept = np.any(w != 0.0, axis=2)
     joints = elevated_joints(tau_f - w @ beta, candidate, kept)
     extra = candidate & joints[None, :]
     if not extra.any():
-        return stuck
+        return stuck, candidate
     drop_equations(w, tau_f, extra)
-    return stuck | extra
+    return stuck | extra, candidate
 
 
 class _LinearSolve:
@@ -221,9 +224,12 @@ def solve_base(est, problem: _Problem) -> _Solution:
     tau_f = f.tau_f
     if stuck is not None:
         w, tau_f = drop_equations(w, tau_f.copy(), stuck)
-        stuck = _drop_reversals(model, f, w, tau_f, stuck)
+        stuck, candidates = _drop_reversals(model, f, w, tau_f, stuck)
         sentence, heavy = dropped_summary(
-            stuck, STICK_AUTO, "fit IDIM with stick_threshold=0, or drop the joint's Coulomb term"
+            stuck,
+            STICK_AUTO,
+            "fit IDIM with stick_threshold=0, or drop the joint's Coulomb term",
+            candidates=candidates,
         )
         if sentence:
             problem.notes.append(sentence.strip())
