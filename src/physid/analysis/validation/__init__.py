@@ -279,7 +279,7 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
         "valid samples only"
     )
     if _is_idim(loaded):
-        notes.append(_stick_note(loaded, stuck))
+        notes.append(_stick_note(loaded, stuck, rows.reversal))
         series["failures"] = _rowless_joints(stuck, names)
     # the plots show every row, a dropped equation as a gap (NaN), never as a torque of 0 N·m
     shown_f, shown_hat = np.array(tau_f, dtype=float), np.array(tau_hat, dtype=float)

@@ -117,8 +117,8 @@ def _idim_rows(loaded, recording, **settings):
         **chosen,
     )
     joints = d.get("reversal_joints") or ()
-    if "stick_threshold" in settings:  # the caller applies the fit's masks itself
-        joints = ()
+    if "stick_threshold" in settings:  # a threshold given: the sticking masks alone (the
+        joints = ()  # position-noise draws' rows, test (c)'s rows), no residual-driven drops
     if joints and rows.reversal is not None:  # the reversal equations the fit dropped
         from ...estimators.idim.estimator import _drop_reversals
 
@@ -190,8 +190,9 @@ def _rowless_joints(stuck, names) -> list[str]:
     ]
 
 
-def _stick_note(loaded, stuck) -> str:
-    """What (a) and (c) dropped near rest, with the fit's ``stick_threshold``."""
+def _stick_note(loaded, stuck, candidates=None) -> str:
+    """What (a) and (c) dropped near rest, with the fit's ``stick_threshold``: the sticking
+    equations and (among ``candidates``) those the fit's residual test dropped, counted apart."""
     threshold, recorded = _idim_threshold(loaded)
     rule = (
         "sticking shown by the measured position"
@@ -205,18 +206,23 @@ def _stick_note(loaded, stuck) -> str:
     )
     if stuck is None or not stuck.any():
         return f"(a) stiction rule ({rule}, {source}): no joint equation dropped"
-    joints = [int(j) for j in (loaded.data.get("reversal_joints") or ())]
-    residual = (
-        f", and for joint(s) {', '.join(map(str, joints))} next to speed reversals or at low "
-        "speed, where the fit's residual showed friction the model does not explain ((c) tests "
-        "those equations with the others)"
-        if joints
-        else ""
-    )
+    by_residual = 0 if candidates is None else int(np.count_nonzero(stuck & candidates))
+    sticking = int(stuck.sum()) - by_residual
+    kinds = []
+    if sticking:
+        kinds.append(
+            f"{sticking} of joints with dry friction where {rule} (stiction rule: {source}), "
+            "where stiction makes the friction torque unknown"
+        )
+    if by_residual:
+        joints = ", ".join(str(int(j)) for j in (loaded.data.get("reversal_joints") or ()))
+        kinds.append(
+            f"{by_residual} of joint(s) {joints} next to speed reversals or at low speed, where "
+            "the fit's residual stood out ((c) tests those equations with the others)"
+        )
     return (
         f"(a) {int(stuck.sum())} of {stuck.size} joint equations dropped, as in the fit: "
-        f"joints with dry friction where {rule} (stiction rule: {source}), where stiction "
-        f"makes the friction torque unknown{residual}"
+        + "; ".join(kinds)
     )
 
 

@@ -242,7 +242,9 @@ def _check_rows(plan, c, full, info, notes, nd) -> None:
 def _warn_heavy(plan, c, n_stuck, notes) -> None:
     """`IDIMEstimator._warn_heavy` on the counts: a joint that lost most of its equations (all
     drops counted, the residual's too), a joint that never moves."""
-    _, heavy = dropped_summary_counts(n_stuck, c.n_rows, plan.settings["stick_threshold"])
+    _, heavy = dropped_summary_counts(
+        n_stuck, c.n_rows, plan.settings["stick_threshold"], by_residual=n_stuck - c.n_stuck
+    )
     moving = np.zeros(plan.n_joints, dtype=bool)
     for st in plan.sources:
         moving |= ~motionless(st)
