@@ -39,6 +39,14 @@ def _library():
     lib.mass_batch.restype = None
     lib.regressor_batch.argtypes = [_P, _P, _P, ctypes.c_long, _P, _P, _P, _P]
     lib.regressor_batch.restype = None
+    lib.regressor_columns_batch.argtypes = [
+        *(_P, _P, _P, _P),
+        ctypes.c_long,
+        ctypes.c_long,
+        *(_P, _P, _P, _P),
+        ctypes.c_long,
+    ]
+    lib.regressor_columns_batch.restype = ctypes.c_int
     lib.forward_one.argtypes = [_P, _P, _P, _P, _P]
     lib.forward_one.restype = ctypes.c_int
     lib.pd_rhs.argtypes = [_P, _P]
@@ -150,6 +158,54 @@ class ChainKernel:
             QDD.ctypes.data,
             out.ctypes.data,
         )
+        return out
+
+    def regressor_columns(self, Q, QD, QDD, columns, out) -> np.ndarray:
+        """The regressor's ``columns`` written into ``out`` (N, n, len(columns)), a view whose
+        rows may be spaced wider (a wider array's leading columns): the gather done in C, a
+        sample at a time, without Y (N, n, n_parameters) in memory.
+
+        Parameters
+        ----------
+        Q, QD, QDD : ndarray, shape (N, n) [rad, rad/s, rad/s²]
+        columns : sequence of int
+            Columns of the drive-and-link regressor (those of `regressor`).
+        out : ndarray, shape (N, n, len(columns)), float64
+            Its last two axes contiguous (strides 8·len(columns) and 8 bytes); its rows at any
+            stride (a multiple of 8 bytes).
+
+        Returns
+        -------
+        ndarray
+            ``out``.
+        """
+        buf = model_buffer(self.chain, self.chain.nominal_vector())
+        Q, QD, QDD = (np.ascontiguousarray(x, dtype=float) for x in (Q, QD, QDD))
+        cols = np.ascontiguousarray(columns, dtype=np.int64)
+        k = cols.size
+        if (
+            out.dtype != np.float64
+            or out.shape != (Q.shape[0], self.n, k)
+            or out.strides[1:] != (8 * k, 8)
+            or out.strides[0] % 8
+            or (cols.size and (cols.min() < 0 or cols.max() >= self.n * self.chain.per_joint))
+        ):
+            raise ValueError("regressor_columns: out or columns do not fit the chain")
+        status = self._lib.regressor_columns_batch(
+            buf.ctypes.data,
+            self._A.ctypes.data,
+            self._mask.ctypes.data,
+            cols.ctypes.data,
+            k,
+            Q.shape[0],
+            Q.ctypes.data,
+            QD.ctypes.data,
+            QDD.ctypes.data,
+            out.ctypes.data,
+            out.strides[0] // 8,
+        )
+        if status != 0:
+            raise MemoryError("regressor_columns: no memory for one sample's regressor")
         return out
 
     def mass_and_bias(self, beta, coulomb_smoothing: float = 0.0):

@@ -396,6 +396,38 @@ class RigidBodyModel(ChainModel):
         out[:, :, nb:] = self._chain.transmission.columns(QD, QDD)
         return out
 
+    def regressor_columns(self, q, qd, qdd, columns, out) -> np.ndarray:
+        """``Y(q, q̇, q̈)[:, :, columns]`` written into ``out`` without the whole Y in memory.
+
+        Parameters
+        ----------
+        q, qd, qdd : ndarray, shape (n_samples, n_joints) [rad, rad/s, rad/s²]
+        columns : sequence of int
+            Regressor columns (of `parameter_names`).
+        out : ndarray, shape (n_samples, n_joints, len(columns)), float64
+            Written in place; its rows may be spaced wider than their values (a view of a
+            wider array's leading columns).
+
+        Returns
+        -------
+        ndarray
+            ``out`` [N·m per unit of each parameter].
+        """
+        k = self._core_kernel()
+        if (
+            k is not None
+            and not self._chain.motor_names
+            and out.strides[1:]
+            == (
+                8 * out.shape[2],
+                8,
+            )
+        ):
+            n, (Q, QD, QDD) = self._arrays((q, "q"), (qd, "qd"), (qdd, "qdd"))
+            return k.regressor_columns(Q, QD, QDD, columns, out)
+        out[...] = np.asarray(self.regressor(q, qd, qdd))[:, :, np.asarray(columns, dtype=int)]
+        return out
+
     def parameter_jacobian(self, q, qd, qdd, params=None) -> np.ndarray:
         """∂τ/∂θ = Y(q, q̇, q̈), shape (n_samples, n_joints, n_parameters).
 

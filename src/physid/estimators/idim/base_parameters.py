@@ -101,7 +101,7 @@ def base_regressor_info(model) -> BaseInfo:
     )
 
 
-def base_regressor(model, columns, q, qd, qdd, *, block: int = 8192) -> np.ndarray:
+def base_regressor(model, columns, q, qd, qdd, *, block: int = 8192, out=None) -> np.ndarray:
     """W = Y(q, q̇, q̈)[:, :, columns], evaluated in blocks of samples.
 
     Parameters
@@ -113,19 +113,38 @@ def base_regressor(model, columns, q, qd, qdd, *, block: int = 8192) -> np.ndarr
     q, qd, qdd : ndarray, shape (n, n_joints) [rad, rad/s, rad/s²]
     block : int
         Samples per evaluation of the full regressor.
+    out : ndarray, shape (n, n_joints, len(columns)), optional
+        Written in place (its rows may be a wider array's: a view of its leading columns).
 
     Returns
     -------
     ndarray, shape (n, n_joints, len(columns)) [N·m per unit of each base parameter]
-        Peak memory: this array plus one block of the full regressor (block, n_joints, n_cols).
+        Peak memory: this array plus one block of the full regressor (block, n_joints, n_cols);
+        a model with `regressor_columns` (the compiled rigid chain) needs no such block.
     """
     columns = np.asarray(columns, dtype=int)
     n = q.shape[0]
-    out = np.empty((n, q.shape[1], columns.size))
+    if out is None:
+        out = np.empty((n, q.shape[1], columns.size))
+    direct = getattr(model, "regressor_columns", None)
     for s in range(0, n, block):
         sl = slice(s, s + block)
-        out[sl] = np.asarray(model.regressor(q[sl], qd[sl], qdd[sl]), dtype=float)[:, :, columns]
+        if direct is not None:  # the columns gathered in C, sample by sample
+            direct(q[sl], qd[sl], qdd[sl], columns, out[sl])
+        else:
+            full = np.asarray(model.regressor(q[sl], qd[sl], qdd[sl]), dtype=float)
+            out[sl] = full[:, :, columns]
     return out
+
+
+def write_in_place(dest, n_joints: int, p: int, fill) -> None:
+    """``fill(out)`` with ``out`` the rows ``dest`` (m, n_joints·p) seen as (m, n_joints, p):
+    written in place when that view shares ``dest``'s memory (the usual case, also for a wider
+    array's leading columns), else through a copy assigned back."""
+    out = dest.reshape(dest.shape[0], n_joints, p)
+    fill(out)
+    if not np.shares_memory(out, dest):
+        dest[...] = out.reshape(dest.shape[0], -1)
 
 
 # ---------------------------------------------------------------------- units

@@ -34,7 +34,7 @@ from .._stiction import (
     sticking_samples,
     stuck_samples,
 )
-from .base_parameters import BaseInfo, base_regressor, base_regressor_info
+from .base_parameters import BaseInfo, base_regressor, base_regressor_info, write_in_place
 from .choose import cross_validated_error, decimate_candidates, pick
 from .decimation import decimation_edge, parallel_decimate
 from .filtering import DIFFERENTIATIONS, auto_cutoff, default_half_width, states
@@ -188,8 +188,15 @@ def _full_rate(model, info, k, q, tau, dt, filters, nds):
     """One recording's state filter and base regressor at every sample: ``(idx, stacked,
     qdf, m_used)``, ``stacked`` = [W | τ] (n, n_joints·p + n_joints)."""
     idx, qf, qdf, qddf, m_used = states(q, dt, *filters)
-    W = base_regressor(model, info.columns, qf, qdf, qddf)
-    stacked = np.concatenate([W.reshape(W.shape[0], -1), tau[idx]], axis=1)
+    nj, p = qf.shape[1], info.n_base
+    stacked = np.empty((qf.shape[0], nj * p + nj))  # [W | τ], W written in place
+    write_in_place(
+        stacked[:, : nj * p],
+        nj,
+        p,
+        lambda out: base_regressor(model, info.columns, qf, qdf, qddf, out=out),
+    )
+    stacked[:, nj * p :] = tau[idx]
     nd = max(nds)
     if stacked.shape[0] <= 2 * decimation_edge(nd) + 1:
         raise SamplingError(

@@ -37,7 +37,7 @@ from .._stiction import (
     reversal_samples,
     sticking_mask,
 )
-from .base_parameters import base_regressor
+from .base_parameters import base_regressor, write_in_place
 from .decimation import _decimation_sos, decimation_edge
 from .filtering import consistent_bank
 from .stream_filter import decimated_window
@@ -228,8 +228,11 @@ def window_rows(
     tic = _tick(timings, "state filter", tic)
     for i in range(0, c1 - start, 8192):  # blocks of samples: one full regressor block at a time
         sl = slice(i, i + 8192)
-        W = base_regressor(model, columns, qf[sl], qdf_new[sl], qddf[sl], block=8192)
-        stacked[start - c0 + i : start - c0 + i + W.shape[0], : nj * p] = W.reshape(W.shape[0], -1)
+        dest = stacked[start - c0 + i : start - c0 + i + qf[sl].shape[0], : nj * p]
+        # the regressor written into the window's rows in place (their leading columns)
+        write_in_place(dest, nj, p, lambda out, sl=sl: base_regressor(
+            model, columns, qf[sl], qdf_new[sl], qddf[sl], block=8192, out=out
+        ))  # fmt: skip
     stacked[:, nj * p :] = tau[c0 + off - r0 : c1 + off - r0]
     if cache is not None:
         cache["rows"] = (c0, c1)

@@ -10,6 +10,7 @@
  * one-sided indicators [q̇ > 0], [q̇ < 0] become (1 ± tanh(q̇ / v_s)) / 2.
  * Built once with cc -O2 and loaded with ctypes (physid.models.ckernel). */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define JS 36
@@ -219,89 +220,126 @@ void mass_batch(const double *model, long N, const double *Q, double *M) {
     for (s = 0; s < N; s++) mass_one(model, Q + s * n, M + s * n * n);
 }
 
-/* Regressor rows of N samples: Y (N, n, n*P), P = 10 + n_drive; A (n, 10, 10) link→joint maps;
- * mask (8) marks the drive terms present (their columns follow the 10 standard ones). */
-void regressor_batch(const double *model, const double *A, const double *mask, long N,
-                     const double *Q, const double *QD, const double *QDD, double *Y) {
-    int n = (int)model[0], P = 10, d, i, k, c, r;
-    long s;
-    int present[8], ident[MAXJ];
-    for (d = 0; d < 8; d++) { present[d] = mask[d] != 0.0; P += present[d]; }
+/* The regressor row block of one sample: Ys (n, n*P) zeroed and filled; P = 10 + the drive
+ * terms present, ident[k] marks link→joint maps that are the identity. */
+static void regressor_one(const double *model, const double *A, const int *present,
+                          const int *ident, int n, int P, const double *q, const double *qd,
+                          const double *qdd, double *Ys) {
+    int d, i, k, c, r;
+    kin_t K;
+    double YJ[10];
+    kinematics(model, q, qd, qdd, 1, &K);
+    memset(Ys, 0, sizeof(double) * (size_t)n * n * P);
+    for (k = 0; k < n; k++) {
+        const double *w = K.w[k], *dw = K.dw[k], *acc = K.acc[k];
+        double F[3][10], Nn[3][10];
+        memset(F, 0, sizeof F);
+        memset(Nn, 0, sizeof Nn);
+        for (c = 0; c < 3; c++) F[c][0] = acc[c];
+        for (c = 0; c < 3; c++) {
+            double e[3] = {0, 0, 0}, t1[3], t2[3], t3[3];
+            e[c] = 1.0;
+            cross(dw, e, t1);
+            cross(w, e, t2);
+            cross(w, t2, t2);
+            cross(e, acc, t3);
+            for (r = 0; r < 3; r++) { F[r][1 + c] = t1[r] + t2[r]; Nn[r][1 + c] = t3[r]; }
+        }
+        {   /* I dw + w × (I w), I v = L(v) [XX XY XZ YY YZ ZZ] */
+            double Ld[3][6] = {{dw[0], dw[1], dw[2], 0, 0, 0}, {0, dw[0], 0, dw[1], dw[2], 0}, {0, 0, dw[0], 0, dw[1], dw[2]}};
+            double Lw[3][6] = {{w[0], w[1], w[2], 0, 0, 0}, {0, w[0], 0, w[1], w[2], 0}, {0, 0, w[0], 0, w[1], w[2]}};
+            for (c = 0; c < 6; c++) {
+                double col[3] = {Lw[0][c], Lw[1][c], Lw[2][c]}, t[3];
+                cross(w, col, t);
+                for (r = 0; r < 3; r++) Nn[r][4 + c] = Ld[r][c] + t[r];
+            }
+        }
+        for (i = k; i >= 0; i = (int)model[4 + i * JS + 35]) {
+            const double *J = model + 4 + i * JS, *a = J + 13;
+            double (*S)[10] = J[0] == 0.0 ? Nn : F;
+            for (c = 0; c < 10; c++) YJ[c] = a[0] * S[0][c] + a[1] * S[1][c] + a[2] * S[2][c];
+            {   /* link-frame parameters: row of Y_J times A_k (skipped when A_k = I) */
+                const double *Ak = A + k * 100;
+                double *row = Ys + (long)i * n * P + k * P;
+                if (ident[k]) { memcpy(row, YJ, sizeof YJ); }
+                else for (c = 0; c < 10; c++) {
+                    double acc2 = 0;
+                    for (r = 0; r < 10; r++) acc2 += YJ[r] * Ak[r * 10 + c];
+                    row[c] = acc2;
+                }
+            }
+            if (model[4 + i * JS + 35] >= 0) {  /* to the parent frame; F is zero beyond
+                                                  column 3 (m, m·c) */
+                const double *R = K.R[i], *p = K.p[i];
+                for (c = 0; c < 10; c++) {
+                    double nn[3] = {Nn[0][c], Nn[1][c], Nn[2][c]};
+                    mv(R, nn, nn);
+                    if (c < 4) {
+                        double f[3] = {F[0][c], F[1][c], F[2][c]}, t[3];
+                        mv(R, f, f);
+                        cross(p, f, t);
+                        for (r = 0; r < 3; r++) { F[r][c] = f[r]; nn[r] += t[r]; }
+                    }
+                    for (r = 0; r < 3; r++) Nn[r][c] = nn[r];
+                }
+            }
+        }
+    }
+    for (i = 0; i < n; i++) {
+        double v = qd[i], acc3 = qdd[i], col[8];
+        col[0] = acc3; col[1] = v; col[2] = sgn(v); col[3] = v > 0 ? v : 0.0;
+        col[4] = v < 0 ? v : 0.0; col[5] = v > 0; col[6] = -(double)(v < 0); col[7] = 1.0;
+        for (d = 0, c = 10; d < 8; d++)
+            if (present[d]) Ys[(long)i * n * P + i * P + c++] = col[d];
+    }
+}
+
+static void regressor_setup(const double *A, const double *mask, int n, int *present,
+                            int *ident, int *P) {
+    int d, k, r;
+    *P = 10;
+    for (d = 0; d < 8; d++) { present[d] = mask[d] != 0.0; *P += present[d]; }
     for (k = 0; k < n; k++) {
         ident[k] = 1;
         for (r = 0; r < 100; r++)
             if (A[k * 100 + r] != (r % 11 == 0 ? 1.0 : 0.0)) { ident[k] = 0; break; }
     }
+}
+
+/* Regressor rows of N samples: Y (N, n, n*P), P = 10 + n_drive; A (n, 10, 10) link→joint maps;
+ * mask (8) marks the drive terms present (their columns follow the 10 standard ones). */
+void regressor_batch(const double *model, const double *A, const double *mask, long N,
+                     const double *Q, const double *QD, const double *QDD, double *Y) {
+    int n = (int)model[0], P, present[8], ident[MAXJ];
+    long s;
+    regressor_setup(A, mask, n, present, ident, &P);
+    for (s = 0; s < N; s++)
+        regressor_one(model, A, present, ident, n, P, Q + s * n, QD + s * n, QDD + s * n,
+                      Y + s * (long)n * n * P);
+}
+
+/* The columns ``cols`` (ncols of the n*P) of the regressor rows of N samples, written to W:
+ * sample s, joint i, column k at W[s * stride + i * ncols + k] (stride >= n * ncols), so that
+ * a caller's wider array of rows takes them in place. Returns -1 when scratch memory fails. */
+int regressor_columns_batch(const double *model, const double *A, const double *mask,
+                            const long *cols, long ncols, long N, const double *Q,
+                            const double *QD, const double *QDD, double *W, long stride) {
+    int n = (int)model[0], P, present[8], ident[MAXJ], i;
+    long s, k;
+    double *Ys;
+    regressor_setup(A, mask, n, present, ident, &P);
+    Ys = (double *)malloc(sizeof(double) * (size_t)n * n * P);
+    if (Ys == NULL) return -1;
     for (s = 0; s < N; s++) {
-        const double *q = Q + s * n, *qd = QD + s * n, *qdd = QDD + s * n;
-        double *Ys = Y + s * (long)n * n * P;
-        kin_t K;
-        double YJ[10];
-        kinematics(model, q, qd, qdd, 1, &K);
-        memset(Ys, 0, sizeof(double) * (size_t)n * n * P);
-        for (k = 0; k < n; k++) {
-            const double *w = K.w[k], *dw = K.dw[k], *acc = K.acc[k];
-            double F[3][10], Nn[3][10];
-            memset(F, 0, sizeof F);
-            memset(Nn, 0, sizeof Nn);
-            for (c = 0; c < 3; c++) F[c][0] = acc[c];
-            for (c = 0; c < 3; c++) {
-                double e[3] = {0, 0, 0}, t1[3], t2[3], t3[3];
-                e[c] = 1.0;
-                cross(dw, e, t1);
-                cross(w, e, t2);
-                cross(w, t2, t2);
-                cross(e, acc, t3);
-                for (r = 0; r < 3; r++) { F[r][1 + c] = t1[r] + t2[r]; Nn[r][1 + c] = t3[r]; }
-            }
-            {   /* I dw + w × (I w), I v = L(v) [XX XY XZ YY YZ ZZ] */
-                double Ld[3][6] = {{dw[0], dw[1], dw[2], 0, 0, 0}, {0, dw[0], 0, dw[1], dw[2], 0}, {0, 0, dw[0], 0, dw[1], dw[2]}};
-                double Lw[3][6] = {{w[0], w[1], w[2], 0, 0, 0}, {0, w[0], 0, w[1], w[2], 0}, {0, 0, w[0], 0, w[1], w[2]}};
-                for (c = 0; c < 6; c++) {
-                    double col[3] = {Lw[0][c], Lw[1][c], Lw[2][c]}, t[3];
-                    cross(w, col, t);
-                    for (r = 0; r < 3; r++) Nn[r][4 + c] = Ld[r][c] + t[r];
-                }
-            }
-            for (i = k; i >= 0; i = (int)model[4 + i * JS + 35]) {
-                const double *J = model + 4 + i * JS, *a = J + 13;
-                double (*S)[10] = J[0] == 0.0 ? Nn : F;
-                for (c = 0; c < 10; c++) YJ[c] = a[0] * S[0][c] + a[1] * S[1][c] + a[2] * S[2][c];
-                {   /* link-frame parameters: row of Y_J times A_k (skipped when A_k = I) */
-                    const double *Ak = A + k * 100;
-                    double *row = Ys + (long)i * n * P + k * P;
-                    if (ident[k]) { memcpy(row, YJ, sizeof YJ); }
-                    else for (c = 0; c < 10; c++) {
-                        double acc2 = 0;
-                        for (r = 0; r < 10; r++) acc2 += YJ[r] * Ak[r * 10 + c];
-                        row[c] = acc2;
-                    }
-                }
-                if (model[4 + i * JS + 35] >= 0) {  /* to the parent frame; F is zero beyond
-                                                      column 3 (m, m·c) */
-                    const double *R = K.R[i], *p = K.p[i];
-                    for (c = 0; c < 10; c++) {
-                        double nn[3] = {Nn[0][c], Nn[1][c], Nn[2][c]};
-                        mv(R, nn, nn);
-                        if (c < 4) {
-                            double f[3] = {F[0][c], F[1][c], F[2][c]}, t[3];
-                            mv(R, f, f);
-                            cross(p, f, t);
-                            for (r = 0; r < 3; r++) { F[r][c] = f[r]; nn[r] += t[r]; }
-                        }
-                        for (r = 0; r < 3; r++) Nn[r][c] = nn[r];
-                    }
-                }
-            }
-        }
+        double *row = W + s * stride;
+        regressor_one(model, A, present, ident, n, P, Q + s * n, QD + s * n, QDD + s * n, Ys);
         for (i = 0; i < n; i++) {
-            double v = qd[i], acc3 = qdd[i], col[8];
-            col[0] = acc3; col[1] = v; col[2] = sgn(v); col[3] = v > 0 ? v : 0.0;
-            col[4] = v < 0 ? v : 0.0; col[5] = v > 0; col[6] = -(double)(v < 0); col[7] = 1.0;
-            for (d = 0, c = 10; d < 8; d++)
-                if (present[d]) Ys[(long)i * n * P + i * P + c++] = col[d];
+            const double *src = Ys + (long)i * n * P;
+            for (k = 0; k < ncols; k++) row[i * ncols + k] = src[cols[k]];
         }
     }
+    free(Ys);
+    return 0;
 }
 
 /* PD closed loop ẏ = [q̇, M⁻¹(Kp (r − q) − Kd q̇ − h)], reference: cubic spline or r_now.
