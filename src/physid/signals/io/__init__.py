@@ -62,11 +62,11 @@ from ..writers import write_recording
 from .assemble import _assemble
 from .block_readers import BLOCK_FORMATS, FileBlocks, in_memory_bytes, open_blocks
 from .csv_reader import _read_csv
-from .files import _check_readable, _format_of, _rate_of
+from .files import _check_csv_only, _check_readable, _format_of, _reading_options
 from .hdf5_reader import _read_hdf5
 from .mat_reader import _read_mat
 from .npz_reader import _read_npz
-from .options import _check_csv_options, _check_load_options, parse_channel_map
+from .options import parse_channel_map
 from .parquet_reader import _read_parquet
 from .rosbag_reader import is_rosbag, read_rosbag
 from .variables import _READ_CHANNEL as _READ_CHANNEL  # read from here by tests
@@ -196,11 +196,12 @@ def load_recording(
     >>> rec.names, rec.units, rec.dt, rec["x"].tolist()
     (('x', 'u'), ('m', 'N'), 0.5, [0.001, 0.002, 0.004])
     """
-    resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
-    channels = parse_channel_map(channels)
-    defaults = parse_channel_map(channel_defaults) or {}
-    rate, rate_source = _rate_of(rate, defaults, channel_defaults_source)
-    decimal, delimiter = _check_csv_options(decimal, delimiter)
+    resample, uniform_rtol, channels, defaults, rate, rate_source, decimal, delimiter = (
+        _reading_options(
+            resample, uniform_rtol, channels, channel_defaults, channel_defaults_source, rate,
+            decimal, delimiter,
+        )
+    )  # fmt: skip
     path = Path(path)
     if is_rosbag(path):
         source = read_rosbag(path, topic=topic, joint_names=joint_names, mapped=set(channels or {}))
@@ -216,11 +217,7 @@ def load_recording(
     elif fmt == "csv":
         source = _read_csv(path, decimal=decimal, delimiter=delimiter)
     else:
-        if (decimal, delimiter) != (".", None):
-            raise InputError(
-                f"decimal= and delimiter= apply to CSV files only; {path} is {fmt.upper()}. "
-                "Drop them."
-            )
+        _check_csv_only(path, fmt, decimal, delimiter)
         readers = {"npz": _read_npz, "mat": _read_mat, "hdf5": _read_hdf5, "parquet": _read_parquet}
         source = readers[fmt](path)
     source.metadata = {**source.metadata, "source": str(path), "format": fmt}

@@ -29,8 +29,7 @@ from ..blocks import RecordingBlocks
 from ..recording import Recording
 from .assemble import _assemble
 from .block_formats import _CsvBlocks, _Hdf5Blocks, _NpzBlocks, _ParquetBlocks
-from .files import _check_readable, _format_of, _rate_of
-from .options import _check_csv_options, _check_load_options, parse_channel_map
+from .files import _check_csv_only, _check_readable, _format_of, _reading_options
 from .rosbag_reader import is_rosbag
 from .timebase import rate_time
 from .variables import DEFAULT_UNIFORM_RTOL, SUPPORTED_SUFFIXES
@@ -115,11 +114,10 @@ def open_blocks(
     ...     [b["x"].tolist() for b in src.blocks(4)]
     [[0.0, 1.0, 2.0, 3.0], [4.0, 5.0, 6.0, 7.0, 8.0, 9.0]]
     """
-    _, uniform_rtol = _check_load_options(False, uniform_rtol)
-    channels = parse_channel_map(channels)
-    defaults = parse_channel_map(channel_defaults) or {}
-    rate, rate_source = _rate_of(rate, defaults, channel_defaults_source)
-    decimal, delimiter = _check_csv_options(decimal, delimiter)
+    _, uniform_rtol, channels, defaults, rate, rate_source, decimal, delimiter = _reading_options(
+        False, uniform_rtol, channels, channel_defaults, channel_defaults_source, rate, decimal,
+        delimiter,
+    )  # fmt: skip
     path = Path(path)
     if is_rosbag(path):
         raise DataFileError(
@@ -129,10 +127,7 @@ def open_blocks(
         )
     fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
     _check_readable(path)
-    if fmt != "csv" and (decimal, delimiter) != (".", None):
-        raise InputError(
-            f"decimal= and delimiter= apply to CSV files only; {path} is {fmt.upper()}. Drop them."
-        )
+    _check_csv_only(path, fmt, decimal, delimiter)
     options = _Options(
         channels, defaults, channel_defaults_source or "channel_defaults=", rate, rate_source,
         uniform_rtol,

@@ -10,7 +10,30 @@ from pathlib import Path
 import numpy as np
 
 from ...errors import DataFileError, InputError
+from .options import _check_csv_options, _check_load_options, parse_channel_map
 from .timebase import check_rate
+
+
+def _reading_options(
+    resample, uniform_rtol, channels, channel_defaults, channel_defaults_source, rate, decimal,
+    delimiter,
+):  # fmt: skip
+    """The reading options `load_recording` and `open_blocks` share, checked and parsed:
+    ``(resample, uniform_rtol, channels, defaults, rate, rate_source, decimal, delimiter)``."""
+    resample, uniform_rtol = _check_load_options(resample, uniform_rtol)
+    channels = parse_channel_map(channels)
+    defaults = parse_channel_map(channel_defaults) or {}
+    rate, rate_source = _rate_of(rate, defaults, channel_defaults_source)
+    decimal, delimiter = _check_csv_options(decimal, delimiter)
+    return resample, uniform_rtol, channels, defaults, rate, rate_source, decimal, delimiter
+
+
+def _check_csv_only(path, fmt: str, decimal: str, delimiter) -> None:
+    """Refuse ``decimal=``/``delimiter=`` set for a file that is not CSV."""
+    if fmt != "csv" and (decimal, delimiter) != (".", None):
+        raise InputError(
+            f"decimal= and delimiter= apply to CSV files only; {path} is {fmt.upper()}. Drop them."
+        )
 
 
 def _rate_of(rate, defaults: dict, source) -> tuple[float | None, str]:
