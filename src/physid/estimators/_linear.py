@@ -7,6 +7,7 @@ squares, as MATLAB's ``compare`` does with ``InitialCondition = 'estimate'``).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Mapping
 
@@ -304,16 +305,24 @@ def check_distinct_channels(input_name: str, output_name: str) -> None:
 
 def check_distinct_signals(u, y) -> None:
     """Refuse an input that is (numerically) a multiple of the output: no information."""
-    from ..errors import EstimationError
 
     u = np.asarray(u, dtype=float)
     y = np.asarray(y, dtype=float)
     u = u - u.mean()  # constant records are the excitation checks' business
     y = y - y.mean()
     nu, ny = float(np.linalg.norm(u)), float(np.linalg.norm(y))
-    if nu <= 1e-12 * np.sqrt(u.size) * float(np.abs(u).max(initial=0.0)) or ny == 0.0:
+    refuse_same_signal(nu, ny, float(u @ y), u.size, float(np.abs(u).max(initial=0.0)))
+
+
+def refuse_same_signal(nu: float, ny: float, uy: float, n: int, u_max: float) -> None:
+    """The test of `check_distinct_signals` from the centred input's and output's norms
+    ``nu``, ``ny``, their product ``uy``, the count ``n`` and the input's largest magnitude
+    ``u_max`` (the streamed fit has these as sums): refuse ``|cos| > 1 − 1e-12``."""
+    from ..errors import EstimationError
+
+    if nu <= 1e-12 * math.sqrt(n) * u_max or ny == 0.0:
         return
-    cos = abs(float(u @ y)) / (nu * ny)
+    cos = abs(uy) / (nu * ny)
     if cos > 1.0 - 1e-12:
         raise EstimationError(
             "the input and the output are the same signal up to a factor (|cos| = "

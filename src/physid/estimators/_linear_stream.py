@@ -15,7 +15,7 @@ import numpy as np
 
 from .._validate import check_int
 from ..errors import EstimationError, InputError, arg
-from ._linear import check_distinct_channels, check_known_finite
+from ._linear import check_distinct_channels, check_known_finite, refuse_same_signal
 from .plausibility import check_magnitude, flipped_segments, partial_segments, unchanging
 
 #: Segments of the record whose correlations the gate compares (as `linear_ode_problems`).
@@ -118,16 +118,7 @@ class RecordStats:
         n = self.n
         uu, yy, uy = suu - su * su / n, syy - sy * sy / n, suy - su * sy / n
         nu, ny = math.sqrt(max(uu, 0.0)), math.sqrt(max(yy, 0.0))
-        if nu <= 1e-12 * math.sqrt(n) * self.u_max or ny == 0.0:
-            return
-        cos = abs(uy) / (nu * ny)
-        if cos > 1.0 - 1e-12:
-            raise EstimationError(
-                "the input and the output are the same signal up to a factor (|cos| = "
-                f"{cos:.15f}); the recording's input channel is probably mapped to the output "
-                "column. A linear ODE driven by its own output is not excited: check the channel "
-                "names (the model's input and output, the channel map)."
-            )
+        refuse_same_signal(nu, ny, uy, n, self.u_max)
 
     def unchanging(self, out_name: str) -> str | None:
         """`unchanging` of the output, from its extremes."""
