@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from physid.analysis.fleet import fit_one_log, run_fleet
+from physid.analysis.sweep_backends import dask_client
 
 MODEL = "arm6"
 
@@ -83,24 +84,11 @@ def _max_delta(a, b) -> float:
 def _on_cluster(n_workers: int, paths: list[str], warm: str):
     """(start-up s, fleet) on a fresh LocalCluster; each worker fits the short log ``warm``
     first (model load, kernels), so that the timed run is the fleet's fits only."""
-    import distributed
-
     start = time.perf_counter()
-    cluster = distributed.LocalCluster(
-        n_workers=n_workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-    )
-    client = distributed.Client(cluster)
-    try:
+    with dask_client("dask-local", n_workers, 0.0) as (client, _):  # physid's own set-up
         client.run(fit_one_log, MODEL, warm)
         startup = time.perf_counter() - start
         return startup, run_fleet(MODEL, paths, scheduler=client, progress=False)
-    finally:
-        client.close()
-        cluster.close()
 
 
 def _on_address(paths: list[str], warm: str):

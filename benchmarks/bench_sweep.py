@@ -16,25 +16,15 @@ Rows:
 
 from __future__ import annotations
 
-import logging
 import os
 
 from physid.analysis import montecarlo as mc
 from physid.analysis import msd_study
+from physid.analysis.sweep_backends import dask_client
 
 
 def _dask_time(n_workers: int, grid: dict) -> tuple[float, mc.SweepResult]:
-    import distributed
-
-    cluster = distributed.LocalCluster(
-        n_workers=n_workers,
-        threads_per_worker=1,
-        processes=True,
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-    )
-    client = distributed.Client(cluster)
-    try:
+    with dask_client("dask-local", n_workers, 0.0) as (client, _):  # physid's own set-up
         variants = msd_study.msd_estimator_variants(grid["methods"])
         for v in variants:
             v.update(duration=grid["duration"], dt=1e-3)
@@ -55,9 +45,6 @@ def _dask_time(n_workers: int, grid: dict) -> tuple[float, mc.SweepResult]:
             )
             best = min(best, res.elapsed_s)
         return best, res
-    finally:
-        client.close()
-        cluster.close()
 
 
 def run(quick: bool) -> list[dict]:
