@@ -14,7 +14,7 @@ import numpy as np
 
 from ...errors import DataFileError
 from ..writers import _split_header_cell
-from .variables import _check_header_names, _Source, _Var
+from .variables import _add_metadata_scalars, _check_header_names, _Source, _Var
 
 
 def _header_end(text: str, start: int) -> int:
@@ -145,14 +145,7 @@ def _csv_source(body, table, names, units, delimiter, metadata, row_label) -> _S
         name: _Var(name, _exact_integers(body, table, j, delimiter), units[j])
         for j, name in enumerate(names)
     }  # fmt: skip
-    for key, value in metadata.items():  # numbers in the metadata: scalars for channel maps
-        if (
-            isinstance(key, str)
-            and key not in variables
-            and isinstance(value, (int, float))
-            and not isinstance(value, bool)
-        ):
-            variables[key] = _Var(key, np.array([float(value)]))
+    _add_metadata_scalars(variables, metadata)
     return _Source(variables, metadata, row_label)
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ...errors import DataFileError, MissingDependencyError
 from ..writers import _split_header_cell
-from .variables import _check_header_names, _classify, _Source, _Var
+from .variables import _add_metadata_scalars, _check_header_names, _classify, _Source, _Var
 
 _TIMESTAMP_UNITS = {"s": "s", "ms": "ms", "us": "us", "ns": "ns"}
 
@@ -110,14 +110,7 @@ def _source_from_table(table, columns, metadata) -> _Source:
             variables[name] = _Var(name, array, unit, size=int(array.size))
         else:
             variables[name] = _classify(name, _column_values(values), unit)
-    for key, value in metadata.items():  # numbers in the metadata: scalars for channel maps
-        if (
-            isinstance(key, str)
-            and key not in variables
-            and isinstance(value, (int, float))
-            and not isinstance(value, bool)
-        ):
-            variables[key] = _Var(key, np.array([float(value)]))
+    _add_metadata_scalars(variables, metadata)
     return _Source(variables, dict(metadata))
 
 

@@ -65,6 +65,19 @@ class _Source:
     row_label: Any = None  # callable(i) -> "data row i (line k)" for CSV
 
 
+def _add_metadata_scalars(variables: dict, metadata: Mapping) -> None:
+    """The numbers of a table file's metadata (CSV, Parquet) as scalar variables, in place,
+    for channel maps (``tau1 = "g*cur"``); a column of the same name keeps its place."""
+    for key, value in metadata.items():  # numbers in the metadata: scalars for channel maps
+        if (
+            isinstance(key, str)
+            and key not in variables
+            and isinstance(value, (int, float))
+            and not isinstance(value, bool)
+        ):
+            variables[key] = _Var(key, np.array([float(value)]))
+
+
 def _classify(name: str, value, unit: str = "") -> _Var:
     arr = np.asarray(value) if not isinstance(value, np.ndarray) else value
     kind, size = arr.dtype.kind, int(arr.size)
