@@ -208,10 +208,19 @@ def _full_rate(model, info, k, q, tau, dt, filters, nds):
     return idx, stacked, qdf, m_used
 
 
-def _recording_rows(full, q, dt, nd, stick, cutoff, nj, p):
+def _at_rest(q, dt, stick):
+    """What the ``"auto"`` stiction rule reads from one recording's measured positions, once
+    for every candidate nd: ``(sticking samples, rms speed per joint)``, or None."""
+    if stick is None or stick[1] != STICK_AUTO:
+        return None
+    return sticking_samples(q, dt, stick[0]), coarse_speed_rms(q, dt)
+
+
+def _recording_rows(full, at_rest, nd, stick, cutoff, nj, p):
     """One recording's rows at decimation ``nd``: parallel filter, stuck equations.
 
-    ``full`` is `_full_rate`'s output; ``stick`` is ``(coulomb, threshold)`` or None. Returns
+    ``full`` is `_full_rate`'s output; ``at_rest`` `_at_rest`'s; ``stick`` is
+    ``(coulomb, threshold)`` or None. Returns
     ``(W_k, tau_k, samples, stuck, reversal)``: the decimated rows, the samples of the
     recording they belong to, the stuck and reversal masks (or None).
     """
@@ -224,8 +233,8 @@ def _recording_rows(full, q, dt, nd, stick, cutoff, nj, p):
         coulomb, rule = stick
         if rule == STICK_AUTO:  # sticking shown by the measured positions, on every sample
             reach = contamination_reach(cutoff, nd)
-            stuck = dilate(sticking_samples(q, dt, coulomb), reach)[idx[kept]]
-            speed = coarse_speed_rms(q, dt)
+            still, speed = at_rest
+            stuck = dilate(still, reach)[idx[kept]]
             reversal = reversal_samples(qdf, coulomb, reach, speed)[kept] & ~stuck
         else:
             stuck = stuck_samples(qdf, coulomb, rule, decimation_edge(nd))[kept]
@@ -262,9 +271,10 @@ def _all_rows(model, info, arrays, dts, filters, nds, stick):
         full = _full_rate(model, info, k, q, tau, dts[k], filters, nds)
         m_used = full[3]
         target = None
+        at_rest = _at_rest(q, dts[k], stick)
         for nd in nds:
             Wk, tauk, samples, stuck, rev = _recording_rows(
-                full, q, dts[k], nd, stick, filters[1], nj, p
+                full, at_rest, nd, stick, filters[1], nj, p
             )
             per_nd[nd].append((Wk, tauk, samples, stuck, rev, target))
         del full
