@@ -262,58 +262,6 @@ def test_a_weakly_identified_record_fails_streamed_as_in_memory(tmp_path):
     assert streamed.success is False and "Weakly identified" in streamed.message
 
 
-def _windowed_filtfilt(sos, x, step, margin, padlen):
-    """`filtfilt_window` over windows of ``step`` samples with a right margin of ``margin``."""
-    from physid.estimators.idim.stream_filter import filtfilt_window
-
-    n = x.shape[1]
-    out, carry, a = np.empty_like(x), None, 0
-    while a < n:
-        b = min(n, a + step)
-        c1 = min(n, b + margin)
-        p0 = max(0, min(a, n - 1 - padlen)) if c1 == n else a  # the end padding's samples
-        y, carry = filtfilt_window(
-            sos, x[:, p0:c1], a - p0, b - p0, np.arange(b - a), carry,
-            first=a == 0, last=c1 == n, padlen=padlen,
-        )  # fmt: skip
-        out[:, a:b] = y
-        a = b
-    return out
-
-
-@pytest.mark.parametrize(
-    ("nd", "n", "step"), [(1, 5003, 777), (5, 20011, 997), (300, 90007, 30011)]
-)
-def test_parallel_filter_window_by_window_equals_sosfiltfilt(nd, n, step):
-    from scipy import signal
-
-    from physid.estimators.idim.decimation import _decimation_sos, decimation_edge
-    from physid.estimators.idim.stream_window import PARALLEL_DECAY
-
-    sos = _decimation_sos(nd)
-    padlen = min(n - 1, max(decimation_edge(nd), 12))
-    margin = max(stream_plan.decay_length(sos, PARALLEL_DECAY), padlen + 1)
-    assert margin < step or nd < 300  # interior windows whose backward pass starts in the record
-    x = np.random.default_rng(nd).normal(size=(3, n))
-    ref = signal.sosfiltfilt(sos, x, axis=-1, padlen=padlen)
-    got = _windowed_filtfilt(sos, x, step, margin, padlen)
-    scale = np.max(np.abs(ref))
-    assert np.max(np.abs(got - ref)) <= 1e-12 * scale
-    # the forward pass is carried bit for bit: where the backward pass starts at the record's
-    # end (the last window and its margin), the windows give the whole-record call exactly
-    tail = n - (n % step or step)
-    np.testing.assert_array_equal(got[:, tail:], ref[:, tail:])
-    # without the carried state (each window's forward pass from rest) the result is wrong
-    from physid.estimators.idim.stream_filter import filtfilt_window
-
-    a = step
-    y, _ = filtfilt_window(
-        sos, x[:, a : a + step + margin], 0, step, np.arange(step), (np.empty((3, 0)), np.zeros((sos.shape[0], 3, 2))),
-        first=False, last=False, padlen=padlen,
-    )  # fmt: skip
-    assert np.max(np.abs(y - ref[:, a : a + step])) > 1e-3 * scale
-
-
 def test_parallel_filter_state_is_carried_through_windows_without_rows(arm, rec):
     # windows of 100 samples are shorter than the filters' edge: many hold no decimated row of
     # the largest nd, and the forward state must still pass through them

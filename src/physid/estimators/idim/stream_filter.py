@@ -18,7 +18,7 @@ whole record's too. Elsewhere the backward pass starts at the window's end ``c1`
 free response of the filter, which decays over the right margin (`stream_plan.decay_length`).
 No left margin is needed at all.
 
-`decimated_window` is what the streamed fit runs: the same, with only the decimated rows computed
+`decimated_window` does this with only the decimated rows computed
 (`physid.filters.lifted.decimated_filtfilt`, under the rule of the in-memory
 `decimation.parallel_decimate`) and only the forward *state* carried, at the window's next
 decimated row (the right margin's forward pass is computed again by the next window).
@@ -33,7 +33,7 @@ from scipy import signal
 
 from ...filters.lifted import decimated_filtfilt, lifting_pays
 
-__all__ = ["filtfilt_window", "step_state", "decimated_window"]
+__all__ = ["step_state", "decimated_window"]
 
 
 @functools.lru_cache(maxsize=32)
@@ -50,72 +50,6 @@ def step_state(sos) -> np.ndarray:
     state `scipy.signal.sosfiltfilt` gives ``sosfilt`` (time on the last axis)."""
     sos = np.ascontiguousarray(sos, dtype=float)
     return _zi(sos.tobytes(), sos.shape[0])
-
-
-def filtfilt_window(sos, x, i0: int, i1: int, take, carry, *, first: bool, last: bool, padlen: int):
-    """Samples of ``sosfiltfilt(sos, record, axis=-1, padlen=padlen)`` from a stretch of it.
-
-    Parameters
-    ----------
-    sos : ndarray, shape (n_sections, 6)
-    x : ndarray, shape (k, m)
-        Samples ``c0 .. c0 + m − 1`` of ``k`` signals of the record (time on the last axis).
-    i0, i1 : int
-        The window's own samples are ``x[:, i0:i1]`` (``c0 + i0 = a``, ``c0 + i1 = b``); the
-        samples after ``i1`` are the right margin.
-    take : ndarray of int
-        Samples wanted, relative to ``i0`` (in ``[0, i1 − i0)``).
-    carry : tuple or None
-        ``(ahead, state)``: the forward pass over the ``h`` samples from ``a`` on, shape (k, h),
-        and its state after them, shape (n_sections, k, 2) (what this function returned for
-        the previous window: nothing of the forward pass is computed twice); ignored when
-        ``first``.
-    first : bool
-        ``a`` is the record's first sample (then ``i0 = 0``, and ``x`` holds samples
-        ``1 .. padlen`` too).
-    last : bool
-        ``x``'s last sample is the record's last (then ``x`` holds the last ``padlen + 1``
-        samples).
-    padlen : int
-        The whole-record call's ``padlen`` (``min(n − 1, edge)``).
-
-    Returns
-    -------
-    y : ndarray, shape (k, take.size)
-        The filtered samples ``a + take``: bit for bit the whole record's when ``last``, else
-        up to the free response left at the window's end.
-    carry : tuple
-        ``(ahead, state)`` for the next window (``ahead``: the forward pass from ``b`` to
-        ``x``'s end).
-    """
-    zi = step_state(sos)
-    if first:
-        ahead = np.empty((x.shape[0], 0))
-        if padlen > 0:
-            pad = 2 * x[:, :1] - x[:, padlen:0:-1]
-            _, z = signal.sosfilt(sos, pad, axis=-1, zi=zi * pad[:, :1])
-        else:
-            z = zi * x[:, :1]
-    else:
-        ahead, z = carry
-    h = ahead.shape[1]
-    if h > x.shape[1] - i0:
-        raise ValueError(f"the carried forward pass ({h} samples) runs past the window's end")
-    f = ahead
-    if x.shape[1] > i0 + h:  # the forward pass from where the previous window's stopped
-        f_new, z = signal.sosfilt(sos, x[:, i0 + h :], axis=-1, zi=z)
-        f = np.concatenate([ahead, f_new], axis=1) if h else f_new
-    carry = (f[:, i1 - i0 :].copy(), z)
-    if np.size(take) == 0:  # only the carry is wanted
-        return np.empty((x.shape[0], 0)), carry
-    # the backward pass from the end (through the end padding's forward pass when ``last``)
-    z = zi * f[:, -1:]
-    if last and padlen > 0:
-        pad = 2 * x[:, -1:] - x[:, -2 : -(padlen + 2) : -1]
-        f_pad, _ = signal.sosfilt(sos, pad, axis=-1, zi=carry[1])
-        _, z = signal.sosfilt(sos, f_pad[:, ::-1], axis=-1, zi=zi * f_pad[:, -1:])
-    back, _ = signal.sosfilt(sos, f[:, ::-1], axis=-1, zi=z)
-    return back[:, f.shape[1] - 1 - np.asarray(take)], carry
 
 
 def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen):
