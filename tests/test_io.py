@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 import scipy.io
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import physid
@@ -403,6 +403,9 @@ _VALUE = st.floats(allow_nan=False, allow_infinity=False, min_value=-1e150, max_
     values=st.lists(_VALUE, min_size=12, max_size=12),
     suffix=st.sampled_from([".csv", ".npz"]),
 )
+@example(names=["data", "names", "units", "metadata"], units=["m"] * 4, values=[1.5] * 12,
+         suffix=".npz")  # fmt: skip
+@example(names=["metadata", "data"], units=["N"] * 4, values=[-2.0] * 12, suffix=".csv")
 def test_write_read_round_trips_names_units_and_values_bit_for_bit(
     tmp_path, names, units, values, suffix
 ):

@@ -267,7 +267,9 @@ def map_recording(
         raise InputError(f"map_recording expects a Recording; got {type(rec).__name__}.")
     variables = {"t": _Var("t", np.asarray(rec.t), "s", size=rec.n_samples)}
     for j, name in enumerate(rec.names):
-        variables[name] = _Var(name, np.asarray(rec.data[:, j]), rec.units[j], size=rec.n_samples)
+        variables[name] = _Var(
+            name, np.asarray(rec.data[:, j]), rec.units[j], size=rec.n_samples, column=True
+        )
     source = _Source(variables, dict(rec.metadata))
     defaults = parse_channel_map(channel_defaults) or {}
     defaults.pop("rate", None)  # the time is the recording's

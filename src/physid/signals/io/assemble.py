@@ -36,7 +36,7 @@ def _assemble(
     variables: dict[str, _Var] = source.variables
     metadata = dict(source.metadata)
     mapping = dict(channels or {})
-    listed = [v for v in variables if v not in _RESERVED]
+    listed = [v for v, var in variables.items() if v not in _RESERVED or var.column]
     found = _Defaults(
         path,
         defaults_source,
@@ -230,8 +230,8 @@ def _file_channels(variables, t_name, n, used) -> _FileChannels:
     table = _FileChannels({}, {}, [], {})
     columns, refused = table.columns, table.refused
     for name, var in variables.items():
-        if name == t_name or name in _RESERVED:
-            continue
+        if name == t_name or name in _RESERVED and (name == "t" or not var.column):
+            continue  # a channel named like a layout key (data, names, units, metadata) stays
         value = _as_channel(var, n)
         if isinstance(value, float):
             table.scalars[name] = value

@@ -142,7 +142,7 @@ def _csv_source(body, table, names, units, delimiter, metadata, row_label) -> _S
     """The variables of parsed rows (the whole file, or a block of its rows): one per column,
     and the metadata's numbers as scalars for channel maps."""
     variables = {
-        name: _Var(name, _exact_integers(body, table, j, delimiter), units[j])
+        name: _Var(name, _exact_integers(body, table, j, delimiter), units[j], column=True)
         for j, name in enumerate(names)
     }  # fmt: skip
     _add_metadata_scalars(variables, metadata)

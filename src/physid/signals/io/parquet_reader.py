@@ -110,6 +110,7 @@ def _source_from_table(table, columns, metadata) -> _Source:
             variables[name] = _Var(name, array, unit, size=int(array.size))
         else:
             variables[name] = _classify(name, _column_values(values), unit)
+        variables[name].column = True  # a column named "data" or "names" is a channel too
     _add_metadata_scalars(variables, metadata)
     return _Source(variables, dict(metadata))
 

@@ -56,6 +56,7 @@ class _Var:
     detail: str = ""  # the type in words, for messages
     size: int = 0  # number of elements (-1: unknown)
     origin: int | None = None  # integer stamps: the record's first stamp (a block of a file)
+    column: bool = False  # a named column of the table: a channel even if named like a layout key
 
 
 @dataclass
@@ -167,7 +168,7 @@ def _from_mapping(path, items: Mapping[str, Any], units_by_name=None) -> _Source
         if "t" in items:
             variables["t"] = _classify("t", items["t"], units_by_name.get("t", ""))
         for j, name in enumerate(names):
-            variables[name] = _Var(name, data[:, j], units[j], size=data.shape[0])
+            variables[name] = _Var(name, data[:, j], units[j], size=data.shape[0], column=True)
         for key, value in items.items():  # scalars next to data (a gain) stay usable
             if key not in _RESERVED and key not in variables:
                 var = _classify(key, value, units_by_name.get(key, ""))
