@@ -53,7 +53,7 @@ from .inverse import (
     _rowless_joints,
     _stick_note,
 )
-from .inverse_residual import explain_inverse_residual
+from .inverse_residual import explain_inverse_residual, set_aside_reversals
 from .loaded import LoadedResult, _as_loaded, load_result
 from .output_error import _chain_output_error, _relative, check_controller, fit_percent
 from .parameters import _base_theta as _base_theta
@@ -290,7 +290,9 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
         # (c) judges the record's equations, not the fit's choice: the equations the fit
         # dropped only because its residual stood out (next to reversals, at low speed) are
         # tested with the others; those of a stuck joint stay out (no torque to explain)
-        t_f, tau_f, tau_hat, stuck = _sticking_rows(loaded, recording)
+        t_f, tau_f, tau_hat, stuck, reversal = _sticking_rows(loaded, recording)
+    else:
+        reversal = None
     index = np.arange(tau_f.shape[0])  # (c)'s rows in the decimated sequence
     kept = np.ones(tau_f.shape, dtype=bool) if stuck is None else ~stuck
     if stuck is not None:  # (c): the rows where every joint's equation is kept
@@ -300,6 +302,7 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
         elif free.sum() > 2 * max_lag + 1:
             t_f, tau_f, tau_hat = t_f[free], tau_f[free], tau_hat[free]
             index, kept = index[free], kept[free]
+            reversal = None if reversal is None else reversal[free]
             notes.append(
                 "(c) runs on the kept rows joined end to end: its lags span the gaps "
                 "where rows near rest were dropped"
@@ -325,14 +328,34 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
                 kept=kept,
                 position_noise=_position_noise_draws(loaded, recording, rows, index, kept),
             )
+            if residual["explanation"] == "model" and reversal is not None:
+                residual = set_aside_reversals(
+                    residual,
+                    tau_hat - tau_f,
+                    tau_f,
+                    nd=rows.decimate,
+                    index=index,
+                    kept=kept,
+                    reversal=reversal,
+                    position_noise=lambda k: _position_noise_draws(
+                        loaded, recording, rows, index, k
+                    ),
+                )
     return rel, fits, out_rel, residual
 
 
 def _sticking_rows(loaded, recording):
-    """(t, τ_f, τ̂, stuck) of an IDIM result with only the sticking equations dropped."""
+    """(t, τ_f, τ̂, stuck, reversal) of an IDIM result with only the sticking equations dropped;
+    ``reversal`` marks the equations next to speed reversals of the joints whose reversal
+    equations the fit dropped (``reversal_joints``), or is None."""
     threshold, _ = _idim_threshold(loaded)
     rows, beta = _idim_rows(loaded, recording, stick_threshold=threshold)
-    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck
+    reversal = None
+    if rows.reversal is not None:
+        reversal = np.zeros(rows.reversal.shape, dtype=bool)
+        joints = [int(j) - 1 for j in loaded.data.get("reversal_joints") or ()]
+        reversal[:, joints] = rows.reversal[:, joints]
+    return np.asarray(rows.t), np.asarray(rows.tau), rows.W @ beta, rows.stuck, reversal
 
 
 def _options_note(loaded: LoadedResult) -> str | None:
