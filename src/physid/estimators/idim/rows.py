@@ -322,8 +322,8 @@ def idim_rows(
     decimate : int or "auto"
         nd; "auto": chosen by the data among ``floor(f π / cutoff)`` for f in 1.6 (the
         parallel filter's cut-off 0.8 π / nd at half the state filter's, where the FIR bank is
-        flat), 0.8 and 0.5, each lowered when fewer than 20 equations per base parameter would
-        remain: the one with the lowest 5-fold cross-validated torque error
+        flat) and 0.8, each lowered when fewer than 20 equations per base parameter would
+        remain: the one with the lower 5-fold cross-validated torque error
         (`physid.estimators.idim.choose`; the first stays unless another is 2 % better).
         Without torques (``torque=False``) the first.
     torque : bool
