@@ -430,7 +430,7 @@ class FileBlocks:
             f"{drift.local:.6g} s to the record's mean period {self.dt:.6g} s "
             f"((t_last − t_first) / (n − 1)) by more than the tolerance {rtol:g}, without one "
             "gap to split at. Resample it (load_recording(..., resample=True) reads it whole), "
-            "or pass uniform_rtol=None to keep the times as they are."
+            f"or pass uniform_rtol=None to keep the times as they are.{self._time_hint()}"
         )
 
     def _back(self, a: int, t_a: float, prev: float) -> DataFileError:
@@ -448,8 +448,13 @@ class FileBlocks:
             f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
             "the parts as separate experiments (physid.signals.join_recordings splits files at "
             "gaps), or pass uniform_rtol=None to keep the "
-            "times as they are."
+            f"times as they are.{self._time_hint()}"
         )
+
+    def _time_hint(self) -> str:
+        """What the format adds to a time error (a ROS bag: its stamps may jitter)."""
+        hint = getattr(self._reader, "time_hint", "")
+        return f" {hint}" if hint else ""
 
     # ------------------------------------------------------------------ the rest
     def close(self) -> None:

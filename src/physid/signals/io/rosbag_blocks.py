@@ -72,6 +72,11 @@ class _BagBlocks:
     """
 
     how = "message by message (rosbags AnyReader), decoded a block at a time; one topic"
+    time_hint = (
+        "A bag's stamps that jitter are resampled onto the mean period only when the bag is "
+        "read whole: fit it in memory (load_recording(..., resample=True); physid identify "
+        "--stream off)."
+    )
 
     def __init__(self, path: Path, topic, joint_names, mapped):
         self.path = path
@@ -150,13 +155,17 @@ class _BagBlocks:
             # the connections of this reader (those of the scan's reader select nothing here)
             connections = [c for c in reader.connections if c.topic == self.topic]
             items = _messages(self.path, reader, connections)
-            decoder = _Decoder(self.path, self.topic, self._decoder.named, first=self._decoder.first)
+            decoder = _Decoder(
+                self.path, self.topic, self._decoder.named, first=self._decoder.first
+            )
             decoder.width = self._decoder.width
             state = {"pos": 0}
 
             def read(a, b):
                 if a < state["pos"]:
-                    raise DataFileError(f"{self.path}: messages {a}..{b} asked after {state['pos']}.")
+                    raise DataFileError(
+                        f"{self.path}: messages {a}..{b} asked after {state['pos']}."
+                    )
                 for _ in islice(items, a - state["pos"]):  # skipped, not decoded
                     decoder.seen += 1
                 batch = list(islice(items, b - a))
