@@ -143,9 +143,9 @@ def test_a_block_of_a_bag_is_checked_against_the_memory(bags, model, monkeypatch
     import physid._resources as resources
 
     with open_blocks(bags["ros1"], joint_names=model.joint_names) as src:
-        monkeypatch.setattr(resources, "available_memory", lambda: 100_000)
-        # a message is a few hundred bytes raw plus 3 × 8 × 13 bytes decoded: 700 of them
-        # need over 50 kB, more than half of the 100 kB said to be free
+        monkeypatch.setattr(resources, "available_memory", lambda: 1_000_000)
+        # a message is taken as ~1.3 kB (raw, decoded, 3 copies of its values; twice over in
+        # the check): 700 of them need over the half of the 1 MB said to be free, 50 do not
         with pytest.raises(DataFileError, match=r"one block of 700 samples .* more than half"):
             next(iter(src.blocks(700)))
         assert len(list(src.blocks(50))) == 80  # 50 samples a block fit
@@ -258,3 +258,25 @@ def test_a_fleet_of_bags(bags, model, tmp_path, capsys):
         table = json.loads((out / "results" / f"{name}.json").read_text())
         got = np.array([table["parameters"][n] for n in mem.result_.names])
         np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["mcap", "ros1"])
+def test_a_controller_state_topic_is_read_in_blocks(tmp_path, kind):
+    """JointTrajectoryControllerState by name (q, q̇, τ measured, r commanded) in blocks."""
+    from test_io_rosbag_topics import _write_jtc
+
+    n = 1500
+    stamps = T0 + np.arange(n, dtype=np.int64) * 2_000_000
+    rng = np.random.default_rng(3)
+    cols = {c: rng.normal(size=n) for c in ("q1", "q2", "qd1", "qd2", "tau1", "tau2", "r1", "r2")}
+    path = _write_jtc(tmp_path / ("s.bag" if kind == "ros1" else "s"), kind, stamps, cols)
+    keys = {"topic": "/arm_controller/state", "joint_names": ("shoulder", "elbow")}
+    whole = load_recording(path, **keys)
+    with open_blocks(path, **keys) as src:
+        blocks = list(src.blocks(400))
+    assert len(blocks) == 3 and blocks[0].names == whole.names and set(cols) <= set(whole.names)
+    for c in cols:
+        got = np.concatenate([b[c] for b in blocks])
+        np.testing.assert_array_equal(got, whole[c])
+        np.testing.assert_array_equal(got, cols[c])
+    np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
