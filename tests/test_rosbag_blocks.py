@@ -220,7 +220,7 @@ def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, mod
         open_blocks(path, joint_names=names) as src,
         pytest.raises(
             DataFileError,
-            match=r"from sample 1699 .* to sample 1700 is 0\.002 s.*jitter.*--stream off",
+            match=r"from sample 1699 .* to sample 1700 is 0\.002 s.*jitter.*resample=True",
         ),
     ):
         list(src.blocks(500))

@@ -76,9 +76,8 @@ class _BagBlocks:
 
     how = "message by message (rosbags AnyReader), decoded a block at a time; one topic"
     time_hint = (
-        "A bag's stamps that jitter are resampled onto the mean period only when the bag is "
-        "read whole: fit it in memory (load_recording(..., resample=True); physid identify "
-        "--stream off)."
+        "A bag whose stamps jitter is resampled onto its mean period only when it is read "
+        "whole: fit it in memory with resample=True (load_recording)."
     )
 
     def __init__(self, path: Path, topic, joint_names, mapped):
@@ -92,7 +91,7 @@ class _BagBlocks:
                 raise DataFileError(
                     f"{path}: the topics {names} are joined on their stamps by interpolation "
                     "onto one grid of the whole run, which is not read in blocks; fit the bag in "
-                    "memory (load_recording(..., topic=...), or --stream off), or read one "
+                    "memory (load_recording with topic=...), or read one "
                     "topic in blocks (topic='/joint_states' with the torques in its effort)."
                 )
             self.topic, self.connections = chosen[0]
@@ -139,7 +138,7 @@ class _BagBlocks:
                 f"{self.path}: topic {self.topic!r} fills {sorted(self._fields)} in its first "
                 f"messages but not {lost} in every message of samples {a}..{a + stamps.size - 1}; "
                 "read in blocks, a field must be filled in every message. Fit the bag in "
-                "memory (load_recording, or --stream off), which drops such a field."
+                "memory (load_recording), which drops such a field."
             )
         return _topic_source(self._decoder.topic_of(columns, stamps), self.metadata)
 
