@@ -306,11 +306,6 @@ def test_mat_v5_read_whole_under_the_limit_refused_over_it(tmp_path, monkeypatch
         open_blocks(path, MAP)
 
 
-def test_a_ros_bag_is_read_whole(tmp_path):
-    with pytest.raises(DataFileError, match=r"ROS bags are read whole.*load_recording"):
-        open_blocks(tmp_path / "run.bag")
-
-
 def test_a_compressed_channel_major_member_is_refused(tmp_path):
     path = tmp_path / "r.npz"
     t, q, _ = _signals()
@@ -392,7 +387,7 @@ def test_in_memory_bytes_from_shapes_alone(tmp_path):
     assert in_memory_bytes(csv) == 3 * csv.stat().st_size
     parquet = _write("parquet", tmp_path / "r.parquet", t, q, cur)
     assert in_memory_bytes(parquet) == N * 4 * 16
-    assert set(BLOCK_FORMATS) == {"hdf5", "npz", "csv", "parquet", "mat"}
+    assert set(BLOCK_FORMATS) == {"hdf5", "npz", "csv", "parquet", "mat", "rosbag"}
 
 
 @pytest.mark.parametrize(

@@ -77,11 +77,12 @@ def _empty_row(path) -> dict:
 def _check_log_path(path) -> None:
     """A missing file or a folder in the list: the log's own failure, worded for it."""
     from ..errors import DataFileError
+    from ..signals.io.rosbag_reader import is_rosbag
 
     p = Path(path)
     if not p.exists():
         raise DataFileError(f"no such file {str(p)!r}; check the path (a log of the fleet).")
-    if p.is_dir():
+    if p.is_dir() and not is_rosbag(p):  # a ROS 2 bag is a folder
         raise DataFileError(f"{str(p)!r} is a folder, not a log file; list the files in it.")
 
 

@@ -95,6 +95,7 @@ def _load_options(args, model) -> dict:
         "channel_defaults": table or None,
         "channel_defaults_source": _table_name(args),
         "rate": getattr(args, "rate", None),
+        "joint_names": getattr(model, "joint_names", None),  # a ROS bag's joints, by name
     }
 
 

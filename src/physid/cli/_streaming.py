@@ -135,6 +135,8 @@ def open_sources(args, paths, model) -> list:
                 decimal=getattr(args, "decimal", ".") or ".",
                 delimiter=getattr(args, "delimiter", None),
                 uniform_rtol=1e-3,  # as a whole file is read by the command line
+                topic=getattr(args, "topic", None),  # a ROS bag's, matched to the model's joints
+                joint_names=getattr(model, "joint_names", None),
             )
             src = joint_side_blocks(model, src)  # motor-side channels, block by block
             first = next(iter(src.blocks(min(src.n_samples, 4096))))

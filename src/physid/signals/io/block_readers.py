@@ -43,6 +43,7 @@ BLOCK_FORMATS = {
     "csv": "in chunks of lines, after a first scan that counts the rows",
     "parquet": "by row batches (pyarrow)",
     "mat": "MATLAB v7.3 by dataset slices; a v5 file is read whole (up to MAX_WHOLE_MAT_BYTES)",
+    "rosbag": "one topic message by message (rosbags), decoded a block at a time",
 }
 
 #: Largest MATLAB v5 ``.mat`` file [bytes] `open_blocks` reads whole (a v5 file cannot be read
@@ -70,6 +71,8 @@ def open_blocks(
     uniform_rtol: float | None = DEFAULT_UNIFORM_RTOL,
     decimal: str = ".",
     delimiter: str | None = None,
+    topic: str | None = None,
+    joint_names: Sequence[str] | None = None,
 ) -> FileBlocks:
     """Open a recording file to be read in blocks (a `physid.signals.blocks.BlockSource`).
 
@@ -85,10 +88,16 @@ def open_blocks(
     ----------
     path : str or os.PathLike
         ``.h5``/``.hdf5``, ``.mat`` (v7.3; v5 up to `MAX_WHOLE_MAT_BYTES`, read whole),
-        ``.npz``, ``.csv``/``.txt`` or ``.parquet``.
+        ``.npz``, ``.csv``/``.txt``, ``.parquet``, or a ROS bag (``.bag``, ``.mcap``,
+        ``.db3`` or a ROS 2 bag folder).
     channels, rate, channel_defaults, channel_defaults_source, uniform_rtol, decimal, delimiter
         As for `load_recording` (``rate`` [Hz], ``uniform_rtol`` relative). ``resample`` has no
         block form: a non-uniform record is refused at the sample where it stops being uniform.
+    topic, joint_names
+        ROS bags, as for `load_recording` (ignored ``joint_names`` for other files): one topic
+        (several, joined on their stamps, are refused: they are read whole), its joints
+        matched to ``joint_names`` by name. A block of ``size`` messages holds them raw and
+        decoded: about 2 kB per message of a 7-joint JointState, measured (`.rosbag_blocks`).
 
     Returns
     -------
@@ -99,8 +108,8 @@ def open_blocks(
     Raises
     ------
     DataFileError
-        What `load_recording` refuses; a ROS bag or a v5 ``.mat`` file too large to read
-        whole; and, while blocks are read, a NaN/inf, a time not increasing or a gap (at its
+        What `load_recording` refuses; several topics of a ROS bag; a v5 ``.mat`` file too
+        large to read whole; and, while blocks are read, a NaN/inf, a time not increasing or a gap (at its
         sample), a file that changed since it was opened.
     InputError, ExpressionError, MissingDependencyError
         As for `load_recording`.
@@ -119,19 +128,21 @@ def open_blocks(
         delimiter,
     )  # fmt: skip
     path = Path(path)
-    if is_rosbag(path):
-        raise DataFileError(
-            f"{path}: ROS bags are read whole, not in blocks; load it with load_recording "
-            "(and hand the Recording to a streamed fit as it is), or export the joint states to "
-            f"a format read in blocks: {_formats_text()}."
-        )
-    fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
-    _check_readable(path)
-    _check_csv_only(path, fmt, decimal, delimiter)
     options = _Options(
         channels, defaults, channel_defaults_source or "channel_defaults=", rate, rate_source,
         uniform_rtol,
     )  # fmt: skip
+    if is_rosbag(path):
+        from .rosbag_blocks import _BagBlocks
+
+        bag = _BagBlocks(path, topic, joint_names, set(channels or {}))
+        options.channels = {**bag.joint_map, **(channels or {})} or None  # as load_recording
+        return FileBlocks(path, "rosbag", bag, options)
+    if topic is not None:
+        raise InputError(f"topic= applies to ROS bags only; {path} is not one. Drop it.")
+    fmt = _format_of(path, SUPPORTED_SUFFIXES, "read")
+    _check_readable(path)
+    _check_csv_only(path, fmt, decimal, delimiter)
     if fmt == "mat" and not _is_hdf5(path):
         return _whole_mat(path, options)
     reader = {
@@ -197,7 +208,7 @@ class FileBlocks:
     ----------
     path : pathlib.Path
     format : str
-        ``"hdf5"``, ``"mat"``, ``"npz"``, ``"csv"`` or ``"parquet"``.
+        ``"hdf5"``, ``"mat"``, ``"npz"``, ``"csv"``, ``"parquet"`` or ``"rosbag"``.
     n_samples : int
     dt : float
         Sample period [s] of the whole record.
@@ -418,7 +429,7 @@ class FileBlocks:
             f"{drift.local:.6g} s to the record's mean period {self.dt:.6g} s "
             f"((t_last − t_first) / (n − 1)) by more than the tolerance {rtol:g}, without one "
             "gap to split at. Resample it (load_recording(..., resample=True) reads it whole), "
-            "or pass uniform_rtol=None to keep the times as they are."
+            f"or pass uniform_rtol=None to keep the times as they are.{self._time_hint()}"
         )
 
     def _back(self, a: int, t_a: float, prev: float) -> DataFileError:
@@ -436,8 +447,13 @@ class FileBlocks:
             f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
             "the parts as separate experiments (physid.signals.join_recordings splits files at "
             "gaps), or pass uniform_rtol=None to keep the "
-            "times as they are."
+            f"times as they are.{self._time_hint()}"
         )
+
+    def _time_hint(self) -> str:
+        """What the format adds to a time error (a ROS bag: its stamps may jitter)."""
+        hint = getattr(self._reader, "time_hint", "")
+        return f" {hint}" if hint else ""
 
     # ------------------------------------------------------------------ the rest
     def close(self) -> None:

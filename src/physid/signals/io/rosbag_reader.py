@@ -33,7 +33,9 @@ equivalent files with ``--join``; a gap that would split the run is refused, nam
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import chain, islice
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -224,15 +226,20 @@ def read_rosbag(path, *, topic=None, joint_names=None, mapped=()) -> _Source:
         "joint_map": joint_map,
     }
     if len(parts) == 1:
-        stamps = parts[0].stamps
-        variables = {"t": _Var("t", stamps, "ns", size=stamps.size)}
-        variables.update({k: _Var(k, v, "", size=stamps.size) for k, v in parts[0].values.items()})
-        return _Source(variables, metadata)
+        return _topic_source(parts[0], metadata)
     grid, columns, notes = _join_topics(path, parts)
     variables = {"t": _Var("t", grid, "s", size=grid.size)}
     variables.update({k: _Var(k, v, "", size=grid.size) for k, v in columns.items()})
     metadata["bag_join"] = notes
     return _Source(variables, metadata)
+
+
+def _topic_source(part, metadata: dict) -> _Source:
+    """The `_Source` of one topic's messages: ``t`` the stamps [ns] (int64, exact), its values."""
+    stamps = part.stamps
+    variables = {"t": _Var("t", stamps, "ns", size=stamps.size)}
+    variables.update({k: _Var(k, v, "", size=stamps.size) for k, v in part.values.items()})
+    return _Source(variables, dict(metadata))
 
 
 @dataclass
@@ -285,22 +292,6 @@ def _label(topic: str) -> str:
     return topic.strip("/").replace("/", ".") or "topic"
 
 
-def _read_topic(path, reader, topic, connections) -> _Topic:
-    """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
-    if connections[0].msgtype in _NAMED:
-        columns, stamps, names = _read_messages(path, reader, connections, topic)
-        values = {
-            f"{field}.{name}": values[:, j]
-            for field, values in columns.items()
-            for j, name in enumerate(names)
-        }
-        return _Topic(topic, stamps, values, tuple(names), _sources(columns))
-    data, stamps = _read_arrays(path, reader, connections, topic)
-    label = _label(topic)
-    values = {f"{label}.data{k + 1}": data[:, k] for k in range(data.shape[1])}
-    return _Topic(topic, stamps, values)
-
-
 def _join_topics(path, parts):
     """Several topics of one run on one uniform grid (`physid.signals.join_recordings`).
 
@@ -349,76 +340,144 @@ def _join_topics(path, parts):
     return seg.t, {n: seg[n] for n in seg.names}, notes
 
 
-def _read_messages(path, reader, connections, topic):
-    """(field → (n_messages, n_joints) array, stamps [ns] int64, joint names of the first)."""
-    count = sum(int(c.msgcount) for c in connections)
-    if count < 2:
-        raise DataFileError(
-            f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
-        )
-    first = None
-    rows: dict[str, list] = {}
-    stamps = []
-    for connection, logtime, raw in reader.messages(connections=connections):
-        msg = reader.deserialize(raw, connection.msgtype)
-        names, fields = _fields_of(msg)
-        if first is None:
-            first = names
-            width = len(first)
-            rows = {f: [] for f in fields}
-            check_memory(
-                8.0 * count * (len(fields) * width + 1) * 3,
-                what=f"reading topic {topic!r} of {path} ({count} messages of {width} joints)",
-                fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
-            )
-            index = np.arange(width)
-        elif names != first:
-            if sorted(names) != sorted(first):
-                raise DataFileError(
-                    f"{path}: topic {topic!r} changes its joints from {list(first)} to "
-                    f"{list(names)} at message {len(stamps)}; physid reads one set of joints."
-                )
-            index = np.array([names.index(n) for n in first])
-        else:
-            index = np.arange(len(first))
-        stamps.append(_stamp(msg, logtime))
-        for field, raw_values in fields.items():
-            values = np.asarray(raw_values, dtype=float)
-            rows[field].append(values[index] if values.size == len(first) else None)
-    columns = {
-        field: np.vstack(values) for field, values in rows.items()
-        if all(v is not None for v in values)
-    }  # fmt: skip
-    return columns, np.asarray(stamps, dtype=np.int64), first
-
-
-def _read_arrays(path, reader, connections, topic):
-    """((n_messages, width) float array, receive times [ns] int64) of a MultiArray topic."""
-    count = sum(int(c.msgcount) for c in connections)
-    if count < 2:
-        raise DataFileError(
-            f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
-        )
-    rows, stamps = [], []
-    width = None
-    for connection, logtime, raw in reader.messages(connections=connections):
-        values = np.asarray(reader.deserialize(raw, connection.msgtype).data, dtype=float)
-        if width is None:
-            width = values.size
-            check_memory(
-                8.0 * count * (width + 1) * 3,
-                what=f"reading topic {topic!r} of {path} ({count} messages of {width} values)",
-                fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
-            )
-        if values.size != width or width == 0:
+def _messages(path, reader, connections):
+    """``(connection, logtime, raw)`` of the connections' messages, lazily, in the bag's order;
+    a damaged bag's failure midway is a `DataFileError` (the whole read and the blocks alike)."""
+    items = reader.messages(connections=connections)
+    while True:
+        try:
+            item = next(items)
+        except StopIteration:
+            return
+        except Exception as exc:  # rosbags raises its own classes for damaged chunks
             raise DataFileError(
-                f"{path}: topic {topic!r} has {width} values in its first message and "
-                f"{values.size} in message {len(rows) + 1}; physid reads arrays of one length "
-                "(one value per joint)."
-            )
-        rows.append(values)
-        stamps.append(int(logtime))  # no header: the bag's receive time
-    return np.vstack(rows), np.asarray(stamps, dtype=np.int64)
+                f"{path}: the bag is damaged: reading its messages failed ({type(exc).__name__}: "
+                f"{exc}); repair it (rosbag reindex, ros2 bag reindex) or export the topics."
+            ) from None
+        yield item
+
+
+def _check_count(path, topic, count: int) -> None:
+    if count < 2:
+        raise DataFileError(
+            f"{path}: topic {topic!r} holds {count} message(s); physid needs at least 2."
+        )
+
+
+def _deserialize(path, reader, connection, raw, topic, k: int):
+    try:
+        return reader.deserialize(raw, connection.msgtype)
+    except Exception as exc:  # a truncated or foreign message
+        raise DataFileError(
+            f"{path}: message {k} of topic {topic!r} cannot be decoded as "
+            f"{connection.msgtype} ({type(exc).__name__}: {exc}); the bag is damaged."
+        ) from None
+
+
+@dataclass
+class _Decoder:
+    """Decodes a topic's messages batch by batch, the first message fixing the joints (named
+    messages) or the width (arrays); ``seen`` counts the messages decoded so far."""
+
+    path: Any
+    topic: str
+    named: bool
+    first: tuple | None = None  # the joint names of the first message (named messages)
+    width: int | None = None  # values per message (arrays)
+    seen: int = 0
+
+    def decode(self, reader, items) -> tuple[dict, np.ndarray]:
+        """``(columns, stamps [ns] int64)`` of the messages ``items``; ``columns``: field ->
+        (m, n_joints) float array (None for a field some of them leave empty) or, for arrays,
+        ``{"data": (m, width)}``."""
+        if not self.named:
+            return self._arrays(reader, items)
+        rows: dict[str, list] = {}
+        stamps = []
+        for connection, logtime, raw in items:
+            msg = _deserialize(self.path, reader, connection, raw, self.topic, self.seen)
+            names, fields = _fields_of(msg)
+            if self.first is None:
+                self.first = names
+            if names == self.first:
+                index = None
+            elif sorted(names) == sorted(self.first):
+                index = np.array([names.index(n) for n in self.first])
+            else:
+                raise DataFileError(
+                    f"{self.path}: topic {self.topic!r} changes its joints from "
+                    f"{list(self.first)} to {list(names)} at message {self.seen}; physid reads "
+                    "one set of joints."
+                )
+            stamps.append(_stamp(msg, logtime))
+            for field, raw_values in fields.items():
+                values = np.asarray(raw_values, dtype=float)
+                full = values.size == len(self.first)
+                row = (values if index is None else values[index]) if full else None
+                rows.setdefault(field, []).append(row)
+            self.seen += 1
+        columns = {
+            field: np.vstack(values) if all(v is not None for v in values) else None
+            for field, values in rows.items()
+        }  # fmt: skip
+        return columns, np.asarray(stamps, dtype=np.int64)
+
+    def _arrays(self, reader, items) -> tuple[dict, np.ndarray]:
+        rows, stamps = [], []
+        for connection, logtime, raw in items:
+            msg = _deserialize(self.path, reader, connection, raw, self.topic, self.seen)
+            values = np.asarray(msg.data, dtype=float)
+            if self.width is None:
+                self.width = values.size
+            if values.size != self.width or self.width == 0:
+                raise DataFileError(
+                    f"{self.path}: topic {self.topic!r} has {self.width} values in its first "
+                    f"message and {values.size} in message {self.seen + 1}; physid reads "
+                    "arrays of one length (one value per joint)."
+                )
+            rows.append(values)
+            stamps.append(int(logtime))  # no header: the bag's receive time
+            self.seen += 1
+        data = np.vstack(rows) if rows else np.zeros((0, self.width or 0))
+        return {"data": data}, np.asarray(stamps, dtype=np.int64)
+
+    def topic_of(self, columns, stamps) -> _Topic:
+        """The `_Topic` of decoded columns (fields every message fills; arrays by index)."""
+        if not self.named:
+            label = _label(self.topic)
+            data = columns["data"]
+            values = {f"{label}.data{k + 1}": data[:, k] for k in range(data.shape[1])}
+            return _Topic(self.topic, stamps, values)
+        filled = {f: v for f, v in columns.items() if v is not None}
+        values = {
+            f"{field}.{name}": v[:, j]
+            for field, v in filled.items()
+            for j, name in enumerate(self.first)
+        }  # fmt: skip
+        return _Topic(self.topic, stamps, values, tuple(self.first), _sources(filled))
+
+
+def _read_topic(path, reader, topic, connections) -> _Topic:
+    """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
+    count = sum(int(c.msgcount) for c in connections)
+    _check_count(path, topic, count)
+    decoder = _Decoder(path, topic, connections[0].msgtype in _NAMED)
+    items = _messages(path, reader, connections)
+    head = list(islice(items, 1))
+    columns, _ = decoder.decode(reader, head)
+    if decoder.named:
+        width, what = len(decoder.first) * len(columns), f"{len(decoder.first)} joints"
+    else:
+        width = decoder.width or 0
+        what = f"{width} values"
+    check_memory(
+        8.0 * count * (width + 1) * 3,
+        what=f"reading topic {topic!r} of {path} ({count} messages of {what})",
+        fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
+    )
+    decoder.seen = 0
+    columns, stamps = decoder.decode(reader, chain(head, items))
+    return decoder.topic_of(columns, stamps)
 
 
 def _joint_map(path, topics, parts, joint_names, mapped) -> dict:

@@ -1,0 +1,282 @@
+"""ROS bags read in blocks (physid.signals.io.open_blocks, rosbag_blocks): one topic of a ROS 1
+or ROS 2 bag, message by message, gives what load_recording gives, and a fit streamed from it the
+in-memory fit's base parameters; bad bags give load_recording's errors.
+
+Kinds of test (docs STYLE.md): equivalence of forms (blocks end to end == the whole bag, bit for
+bit; the streamed IDIM fit == the in-memory one to 1e-10 relative; the command line's block
+sources and fleets == the Python fits) and error paths (pytest.raises with the message).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_typestore
+
+import physid
+from physid.cli import main
+from physid.errors import DataFileError, InputError
+from physid.estimators.idim import IDIMEstimator
+from physid.estimators.idim.stream import fit_streamed
+from physid.signals import load_recording
+from physid.signals.io import open_blocks
+from physid.simulate.closed_loop import simulate_closed_loop
+
+T0 = 1_700_000_000_123_456_789  # epoch nanoseconds: beyond a float64's exact integers
+PERIOD = 1_000_000  # 1 kHz [ns]
+JOINT_STATE = "sensor_msgs/msg/JointState"
+ARRAY = "std_msgs/msg/Float64MultiArray"
+KP = (3800.0, 40000.0, 10000.0, 500.0)
+KD = (159.5, 120.0, 50.0, 2.0)
+W0 = 2 * np.pi * np.array([0.2, 0.3, 0.5, 0.7])
+
+
+@pytest.fixture(scope="module")
+def model():
+    return physid.load_model("manipulator")
+
+
+@pytest.fixture(scope="module")
+def run(model):
+    """The 4-joint manipulator under PD control, 4 s at 1 kHz (4000 samples), noisy q."""
+    t = np.arange(0.0, 4.0, 1e-3)
+    ramp = np.clip(t, 0.0, 1.0)[:, None] ** 3
+    ref = ramp * (0.8 * np.sin(np.outer(t, W0)) + 0.3 * np.sin(np.outer(t, 2.3 * W0) + 1))
+    rec = simulate_closed_loop(model, kp=KP, kd=KD, reference=ref, t=t, noise_std=1e-4, rng=1)
+    q = np.column_stack([rec[f"q{j}"] for j in range(1, 5)])
+    tau = np.column_stack([rec[f"tau{j}"] for j in range(1, 5)])
+    return {"q": q, "tau": tau, "stamps": T0 + np.arange(t.size, dtype=np.int64) * PERIOD}
+
+
+def _header(types, ros1, k, s):
+    time = types["builtin_interfaces/msg/Time"](sec=s // 10**9, nanosec=s % 10**9)
+    header = types["std_msgs/msg/Header"]
+    return header(seq=k, stamp=time, frame_id="") if ros1 else header(stamp=time, frame_id="")
+
+
+def write_bag(
+    path, kind, names, q, tau, stamps, *, topics=("/joint_states",), arrays=False, logged=None
+):
+    """JointState messages (the joints in the order ``names``, no velocity) on each of
+    ``topics``, and with ``arrays`` the efforts as a Float64MultiArray ``/effort``; logged at
+    ``logged`` [ns] (default the stamps)."""
+    ros1 = kind == "ros1"
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if ros1:
+        writer = Writer1(path)
+    else:
+        plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer2(path, version=9, storage_plugin=plugin)
+    serialize = store.serialize_ros1 if ros1 else store.serialize_cdr
+    types = store.types
+    with writer:
+        conns = [writer.add_connection(tp, JOINT_STATE, typestore=store) for tp in topics]
+        effort = writer.add_connection("/effort", ARRAY, typestore=store) if arrays else None
+        layout = types["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0)
+        for k, s in enumerate(stamps):
+            s, log = int(s), int(stamps[k] if logged is None else logged[k])
+            msg = types[JOINT_STATE](
+                header=_header(types, ros1, k, s), name=list(names), position=q[k].copy(),
+                velocity=np.zeros(0), effort=tau[k].copy(),
+            )  # fmt: skip
+            for conn in conns:
+                writer.write(conn, log, serialize(msg, JOINT_STATE))
+            if effort is not None:
+                writer.write(
+                    effort, log, serialize(types[ARRAY](layout=layout, data=tau[k]), ARRAY)
+                )
+    return path
+
+
+@pytest.fixture(scope="module")
+def bags(tmp_path_factory, run, model):
+    """The run as a ROS 2 MCAP, a ROS 2 sqlite3 and a ROS 1 bag, the joints in the reverse of the
+    model's order (matched by name)."""
+    folder = tmp_path_factory.mktemp("bag_blocks")
+    names = list(model.joint_names)[::-1]
+    q, tau = run["q"][:, ::-1], run["tau"][:, ::-1]
+    return {
+        kind: write_bag(folder / name, kind, names, q, tau, run["stamps"])
+        for kind, name in (("mcap", "run_mcap"), ("sqlite3", "run_db3"), ("ros1", "run.bag"))
+    }
+
+
+@pytest.mark.parametrize("kind", ["mcap", "sqlite3", "ros1"])
+def test_blocks_end_to_end_are_the_whole_bag(bags, model, kind):
+    whole = load_recording(bags[kind], joint_names=model.joint_names)
+    with open_blocks(bags[kind], joint_names=model.joint_names) as src:
+        assert src.format == "rosbag" and src.n_samples == 4000 and src.dt == pytest.approx(1e-3)
+        blocks = list(src.blocks(700))
+    # 4000 samples in blocks of 700: five blocks, the last holding the remainder (1200)
+    assert [b.n_samples for b in blocks] == [700, 700, 700, 700, 1200]
+    assert (
+        blocks[0].names == whole.names == ("q1", "tau1", "q2", "tau2", "q3", "tau3", "q4", "tau4")
+    )
+    np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
+    # times t0 + k·dt against the whole load's grid: equal up to rounding
+    t = np.concatenate([b.t for b in blocks])
+    np.testing.assert_allclose(t, whole.t, rtol=0, atol=1e-15)
+    meta = blocks[0].metadata
+    assert meta["time_origin"] == {"first_stamp": T0, "unit": "ns"} == whole.metadata["time_origin"]
+    assert meta["topic"] == "/joint_states" and meta["bag_joint_names"][0] == "joint4"
+    assert meta["channel_map"] == whole.metadata["channel_map"]
+
+
+def test_streamed_fit_equals_the_in_memory_fit(bags, model):
+    rec = load_recording(bags["mcap"], joint_names=model.joint_names)
+    mem = IDIMEstimator(model, "ols").fit(rec).result_
+    with open_blocks(bags["mcap"], joint_names=model.joint_names) as src:
+        st = fit_streamed(model, src, method="ols", block_samples=700, progress=False)
+    assert st.names == mem.names and st.decimate == mem.decimate
+    ref = np.array([mem.parameters[n] for n in mem.names])
+    got = np.array([st.parameters[n] for n in st.names])
+    assert np.max(np.abs(got - ref) / np.abs(ref)) <= 1e-10
+
+
+def test_a_block_of_a_bag_is_checked_against_the_memory(bags, model, monkeypatch):
+    import physid._resources as resources
+
+    with open_blocks(bags["ros1"], joint_names=model.joint_names) as src:
+        monkeypatch.setattr(resources, "available_memory", lambda: 1_000_000)
+        # a message is taken as ~1.3 kB (raw, decoded, 3 copies of its values; twice over in
+        # the check): 700 of them need over the half of the 1 MB said to be free, 50 do not
+        with pytest.raises(DataFileError, match=r"one block of 700 samples .* more than half"):
+            next(iter(src.blocks(700)))
+        assert len(list(src.blocks(50))) == 80  # 50 samples a block fit
+
+
+def test_an_array_topic_is_read_in_blocks(tmp_path, run, model):
+    path = write_bag(
+        tmp_path / "arrays", "mcap", model.joint_names, run["q"], run["tau"], run["stamps"],
+        arrays=True,
+    )  # fmt: skip
+    whole = load_recording(path, topic="/effort")
+    with open_blocks(path, topic="/effort") as src:
+        blocks = list(src.blocks(1000))
+    assert len(blocks) == 4 and blocks[0].names == tuple(f"effort.data{k}" for k in range(1, 5))
+    np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
+    np.testing.assert_array_equal(whole["effort.data3"], run["tau"][:, 2])
+
+
+def test_several_topics_are_refused_with_the_fix(tmp_path, run, model):
+    path = write_bag(
+        tmp_path / "two", "mcap", model.joint_names, run["q"], run["tau"], run["stamps"],
+        arrays=True,
+    )  # fmt: skip
+    with pytest.raises(DataFileError, match=r"joined .* not read in blocks; fit the bag in memory"):
+        open_blocks(path, topic="/joint_states,/effort", joint_names=model.joint_names)
+
+
+def _same_error(path, **kw):
+    with pytest.raises(DataFileError) as whole:
+        load_recording(path, **kw)
+    with pytest.raises(DataFileError) as blocks:
+        open_blocks(path, **kw)
+    assert str(blocks.value) == str(whole.value)
+    return str(whole.value)
+
+
+def test_bad_bags_give_the_whole_reads_errors(tmp_path, run, model, bags):
+    names, q, tau, stamps = model.joint_names, run["q"][:50], run["tau"][:50], run["stamps"][:50]
+    arrays_only = write_bag(tmp_path / "a", "mcap", names, q, tau, stamps, topics=(), arrays=True)
+    assert "the bag has no sensor_msgs/JointState topic" in _same_error(arrays_only)
+    two = write_bag(tmp_path / "b", "mcap", names, q, tau, stamps, topics=("/js1", "/js2"))
+    assert "2 sensor_msgs/JointState topics" in _same_error(two)
+    assert "no topic '/nope'" in _same_error(bags["mcap"], topic="/nope")
+    assert "joint(s) ['joint9']" in _same_error(bags["mcap"], joint_names=("joint1", "joint9"))
+    damaged = tmp_path / "damaged.bag"
+    damaged.write_bytes(Path(bags["ros1"]).read_bytes()[:5000])
+    assert "cannot be read as a ROS bag" in _same_error(damaged)
+    data = bytearray(Path(bags["ros1"]).read_bytes())
+    mid = len(data) // 2
+    data[mid : mid + 200] = b"\xff" * 200  # a chunk's header overwritten
+    damaged.write_bytes(bytes(data))
+    assert "the bag is damaged: reading its messages failed" in _same_error(damaged)
+    one = write_bag(tmp_path / "c", "mcap", names, q[:1], tau[:1], stamps[:1])
+    assert "holds 1 message(s); physid needs at least 2" in _same_error(one)
+    with pytest.raises(InputError, match="topic= applies to ROS bags only"):
+        open_blocks(tmp_path / "r.csv", topic="/joint_states")
+
+
+def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, model):
+    names, q, tau = model.joint_names, run["q"][:3000], run["tau"][:3000]
+    back = run["stamps"][:3000].copy()
+    back[2000] = back[1999] - 10  # non-monotone stamps (the log time stays in order)
+    path = write_bag(tmp_path / "back", "mcap", names, q, tau, back, logged=run["stamps"])
+    with (
+        open_blocks(path, joint_names=names) as src,
+        pytest.raises(DataFileError, match=r"not strictly increasing: .* at sample 2000 follows"),
+    ):
+        list(src.blocks(500))
+    gap = np.concatenate([run["stamps"][:1700], run["stamps"][1701:3001]])  # one message lost
+    path = write_bag(tmp_path / "gap", "mcap", names, q, tau, gap)
+    with (
+        open_blocks(path, joint_names=names) as src,
+        pytest.raises(
+            DataFileError,
+            match=r"from sample 1699 .* to sample 1700 is 0\.002 s.*jitter.*resample=True",
+        ),
+    ):
+        list(src.blocks(500))
+
+
+def test_the_command_lines_block_sources_read_a_bag(bags, model, capsys):
+    """The sources `identify --stream` opens (the model's joints, --topic) fit as in memory."""
+    import argparse
+
+    from physid.cli._streaming import open_sources
+
+    code = main(["identify", str(bags["sqlite3"]), "--model", "manipulator", "--method",
+                 "idim-ols", "--stream", "off", "--json"])  # fmt: skip
+    mem = json.loads(capsys.readouterr().out)
+    assert code == 0
+    args = argparse.Namespace(topic="/joint_states", model="manipulator", channel_map=None)
+    (src,) = open_sources(args, [str(bags["sqlite3"])], model)
+    st = fit_streamed(model, src, method="ols", block_samples=1000, progress=False)
+    ref = np.array([p["value"] for p in mem["base_parameters"]])
+    got = np.array([st.parameters[p["name"]] for p in mem["base_parameters"]])
+    assert np.max(np.abs(got - ref) / np.abs(ref)) <= 1e-10
+
+
+def test_a_fleet_of_bags(bags, model, tmp_path, capsys):
+    out = tmp_path / "fleet"
+    code = main(["identify", str(bags["mcap"]), str(bags["ros1"]), "--model", "manipulator",
+                 "--method", "idim-ols", "--each", "--out", str(out), "--json"])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    mem = IDIMEstimator(model, "ols").fit(
+        load_recording(bags["ros1"], joint_names=model.joint_names, uniform_rtol=1e-3)
+    )
+    ref = np.array([mem.result_.parameters[n] for n in mem.result_.names])
+    for name in ("run", "run_mcap"):  # run.bag, and a ROS 2 bag's folder
+        table = json.loads((out / "results" / f"{name}.json").read_text())
+        got = np.array([table["parameters"][n] for n in mem.result_.names])
+        np.testing.assert_allclose(got, ref, rtol=1e-12)
+
+
+@pytest.mark.parametrize("kind", ["mcap", "ros1"])
+def test_a_controller_state_topic_is_read_in_blocks(tmp_path, kind):
+    """JointTrajectoryControllerState by name (q, q̇, τ measured, r commanded) in blocks."""
+    from test_io_rosbag_topics import _write_jtc
+
+    n = 1500
+    stamps = T0 + np.arange(n, dtype=np.int64) * 2_000_000
+    rng = np.random.default_rng(3)
+    cols = {c: rng.normal(size=n) for c in ("q1", "q2", "qd1", "qd2", "tau1", "tau2", "r1", "r2")}
+    path = _write_jtc(tmp_path / ("s.bag" if kind == "ros1" else "s"), kind, stamps, cols)
+    keys = {"topic": "/arm_controller/state", "joint_names": ("shoulder", "elbow")}
+    whole = load_recording(path, **keys)
+    with open_blocks(path, **keys) as src:
+        blocks = list(src.blocks(400))
+    assert len(blocks) == 3 and blocks[0].names == whole.names and set(cols) <= set(whole.names)
+    for c in cols:
+        got = np.concatenate([b[c] for b in blocks])
+        np.testing.assert_array_equal(got, whole[c])
+        np.testing.assert_array_equal(got, cols[c])
+    np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
