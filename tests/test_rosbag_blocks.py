@@ -204,6 +204,55 @@ def test_bad_bags_give_the_whole_reads_errors(tmp_path, run, model, bags):
         open_blocks(tmp_path / "r.csv", topic="/joint_states")
 
 
+def _write_rows(path, rows):
+    """A ROS 2 MCAP bag of JointState messages ``(names, position, effort)``, 1 kHz."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    types = store.types
+    with Writer2(path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conn = writer.add_connection("/joint_states", JOINT_STATE, typestore=store)
+        for k, (names, position, effort) in enumerate(rows):
+            s = T0 + k * PERIOD
+            msg = types[JOINT_STATE](
+                header=_header(types, False, k, s), name=list(names),
+                position=np.asarray(position, float), velocity=np.zeros(0),
+                effort=np.asarray(effort, float),
+            )  # fmt: skip
+            writer.write(conn, s, store.serialize_cdr(msg, JOINT_STATE))
+    return path
+
+
+def test_a_joint_set_changing_mid_bag_is_named_at_its_message(tmp_path):
+    rows = [(("a", "b") if k < 700 else ("a", "c"), [k, -k], [1.0, 2.0]) for k in range(1000)]
+    path = _write_rows(tmp_path / "switch", rows)
+    # the whole read and the open (whose scan sees other joints in the last messages) agree
+    assert "from ['a', 'b'] to ['a', 'c'] at message 700;" in _same_error(path)
+
+
+def test_a_field_the_first_messages_leave_empty_is_dropped_as_the_whole_read_drops_it(tmp_path):
+    rows = [(("a", "b"), [k, -k], [] if k == 1 else [1.0 + k, 2.0]) for k in range(1000)]
+    path = _write_rows(tmp_path / "late", rows)
+    whole = load_recording(path)
+    with open_blocks(path) as src:
+        blocks = list(src.blocks(300))
+    assert whole.names == blocks[0].names == ("position.a", "position.b")
+    np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
+
+
+def test_a_field_left_empty_after_the_first_messages_is_named_with_its_block(tmp_path):
+    rows = [(("a", "b"), [k, -k], [] if k == 650 else [1.0 + k, 2.0]) for k in range(1000)]
+    path = _write_rows(tmp_path / "early", rows)
+    assert load_recording(path).names == ("position.a", "position.b")  # dropped when whole
+    with (
+        open_blocks(path) as src,
+        pytest.raises(
+            DataFileError,
+            match=r"fills \['effort'\] in its first messages but leaves it empty in some "
+            r"message of samples 600\.\.999; .* Fit the bag in memory",
+        ),
+    ):
+        list(src.blocks(300))
+
+
 def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, model):
     names, q, tau = model.joint_names, run["q"][:3000], run["tau"][:3000]
     back = run["stamps"][:3000].copy()

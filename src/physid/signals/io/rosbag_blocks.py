@@ -127,19 +127,35 @@ class _BagBlocks:
         ends = _Decoder(self.path, self.topic, named, first=self._decoder.first)
         ends.width = self._decoder.width
         ends.seen = n - 2
-        self._tail = ends.decode(reader, list(tail))
+        try:
+            self._tail = ends.decode(reader, list(tail))
+        except DataFileError:
+            self._first_bad(reader)  # the whole read's error, at its message
+            raise
+
+    def _first_bad(self, reader) -> None:
+        """Decode the topic forward, a batch at a time, to the message whose joints (or array
+        length) differ from the first's: raises the whole read's error, which names it."""
+        decoder = _Decoder(self.path, self.topic, self._decoder.named)
+        items = _messages(self.path, reader, self.connections)
+        while batch := list(islice(items, 4096)):
+            decoder.decode(reader, batch)
 
     def _source(self, columns, stamps, a: int) -> _Source:
-        """The `_Source` of decoded messages ``a ..`` (the fields of the first message)."""
+        """The `_Source` of decoded messages ``a ..``: the fields the first messages fill (a
+        field they leave empty is dropped, as the whole read drops it, even where later
+        messages fill it)."""
         filled = {f for f, v in columns.items() if v is not None}
-        if self._decoder.named and filled != self._fields:
-            lost = sorted(self._fields - filled) or sorted(filled - self._fields)
-            raise DataFileError(
-                f"{self.path}: topic {self.topic!r} fills {sorted(self._fields)} in its first "
-                f"messages but not {lost} in every message of samples {a}..{a + stamps.size - 1}; "
-                "read in blocks, a field must be filled in every message. Fit the bag in "
-                "memory (load_recording), which drops such a field."
-            )
+        if self._decoder.named:
+            lost = sorted(self._fields - filled)
+            if lost:
+                raise DataFileError(
+                    f"{self.path}: topic {self.topic!r} fills {lost} in its first messages but "
+                    f"leaves it empty in some message of samples {a}..{a + stamps.size - 1}; "
+                    "read in blocks, a field the first messages fill must be filled in every "
+                    "message. Fit the bag in memory (load_recording), which drops such a field."
+                )
+            columns = {f: v for f, v in columns.items() if f in self._fields}
         return _topic_source(self._decoder.topic_of(columns, stamps), self.metadata)
 
     def probe(self, a: int, b: int) -> _Source:
