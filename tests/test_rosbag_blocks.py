@@ -267,9 +267,17 @@ def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, mod
     path = write_bag(tmp_path / "gap", "mcap", names, q, tau, gap)
     with (
         open_blocks(path, joint_names=names) as src,
+        pytest.raises(DataFileError, match=r"from sample 1699 .* to sample 1700 is 0\.002 s") as e,
+    ):
+        list(src.blocks(500))
+    assert "jitter" not in str(e.value)  # a lost message: no hint on resampling jitter
+    jitter = run["stamps"][:3000].copy()
+    jitter[1:-1] += np.random.default_rng(2).integers(-50_000, 50_001, 2998)  # ±5 % of a period
+    path = write_bag(tmp_path / "jitter.bag", "ros1", names, q, tau, jitter)
+    with (
+        open_blocks(path, joint_names=names) as src,
         pytest.raises(
-            DataFileError,
-            match=r"from sample 1699 .* to sample 1700 is 0\.002 s.*jitter.*resample=True",
+            DataFileError, match=r"not uniformly sampled.*jitter: .*resample=True\) reads it whole"
         ),
     ):
         list(src.blocks(500))
@@ -329,3 +337,40 @@ def test_a_controller_state_topic_is_read_in_blocks(tmp_path, kind):
         np.testing.assert_array_equal(got, whole[c])
         np.testing.assert_array_equal(got, cols[c])
     np.testing.assert_array_equal(np.vstack([b.data for b in blocks]), whole.data)
+
+
+def test_closing_the_source_ends_a_pass_left_halfway(bags, model, monkeypatch):
+    import physid.signals.io.rosbag_blocks as rb
+
+    opened, closed = [], []
+
+    def counted(path):
+        reader = _open(path)
+        opened.append(reader)
+        close = reader.close
+        reader.close = lambda: (closed.append(reader), close())[1]
+        return reader
+
+    _open = rb._open
+    monkeypatch.setattr(rb, "_open", counted)
+    src = open_blocks(bags["ros1"], joint_names=model.joint_names)
+    blocks = src.blocks(500)
+    next(blocks)  # a pass left halfway: the bag's reader open
+    assert len(opened) == 2 and len(closed) == 1  # the scan's, then the pass's
+    src.close()
+    assert closed == opened  # the pass's reader closed with the source
+    with pytest.raises(StopIteration):
+        next(blocks)
+
+
+def test_a_change_to_a_bag_folders_storage_file_is_seen(tmp_path, run, model):
+    import os
+
+    names = model.joint_names
+    path = write_bag(tmp_path / "live", "mcap", names, run["q"], run["tau"], run["stamps"])
+    (storage,) = path.glob("*.mcap")
+    src = open_blocks(path, joint_names=names)
+    st = storage.stat()
+    os.utime(storage, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # rewritten, same size
+    with pytest.raises(DataFileError, match=r"the file changed since it was opened"):
+        next(iter(src.blocks(500)))

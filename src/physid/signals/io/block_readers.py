@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import warnings
+import weakref
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -224,6 +225,7 @@ class FileBlocks:
         self.path, self.format = path, fmt
         self._reader, self._options = reader, options
         self._stat = _stat(path)
+        self._passes: weakref.WeakSet = weakref.WeakSet()  # passes not yet ended (close())
         if isinstance(reader, _WholeRecording):
             self._whole = RecordingBlocks(reader.rec)
             rec = reader.rec
@@ -322,7 +324,9 @@ class FileBlocks:
         if self._whole is not None:
             return self._whole.blocks(size, names)
         self._check_block_memory(size)
-        return self._blocks(size, names)
+        gen = self._blocks(size, names)
+        self._passes.add(gen)
+        return gen
 
     def _blocks(self, size: int, names: list) -> Iterator[Recording]:
         self._check_unchanged()
@@ -440,6 +444,7 @@ class FileBlocks:
         )
 
     def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
+        # the format's hint on jitter for a step off by under half a period (not a lost sample)
         return DataFileError(
             f"{self.path}: time is not uniformly sampled: the interval from sample {g} "
             f"(t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s against a period of "
@@ -447,7 +452,7 @@ class FileBlocks:
             f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
             "the parts as separate experiments (physid.signals.join_recordings splits files at "
             "gaps), or pass uniform_rtol=None to keep the "
-            f"times as they are.{self._time_hint()}"
+            f"times as they are.{self._time_hint() if abs(step - period) < 0.5 * period else ''}"
         )
 
     def _time_hint(self) -> str:
@@ -457,7 +462,10 @@ class FileBlocks:
 
     # ------------------------------------------------------------------ the rest
     def close(self) -> None:
-        """Nothing is held open between passes; kept for the context-manager protocol."""
+        """End the passes not read to their end (a ROS bag's reader, a file they hold open)."""
+        for gen in list(self._passes):
+            gen.close()
+        self._passes.clear()
 
     def __enter__(self) -> FileBlocks:
         return self
@@ -481,6 +489,13 @@ class _Drift(Exception):
 
 
 def _stat(path: Path) -> tuple:
+    """Size and time of modification of the file, or of each file of a folder (a ROS 2 bag:
+    its metadata.yaml and storage files)."""
+    path = Path(path)
+    if path.is_dir():
+        return tuple(
+            (p.name, *_stat(p)) for p in sorted(path.iterdir(), key=lambda p: p.name) if p.is_file()
+        )
     st = os.stat(path)
     return (st.st_size, st.st_mtime_ns)
 

@@ -75,9 +75,11 @@ class _BagBlocks:
     """
 
     how = "message by message (rosbags AnyReader), decoded a block at a time; one topic"
+    #: Added to a time error of jitter (a step off by under half a period, or a drift), not
+    #: to a lost message's gap.
     time_hint = (
-        "A bag whose stamps jitter is resampled onto its mean period only when it is read "
-        "whole: fit it in memory with resample=True (load_recording)."
+        "A ROS bag's stamps may jitter: load_recording(..., resample=True) reads it whole and "
+        "resamples it onto its mean period (in memory, not in blocks)."
     )
 
     def __init__(self, path: Path, topic, joint_names, mapped):
