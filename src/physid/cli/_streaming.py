@@ -59,6 +59,7 @@ def _why_not(args, paths, method: str) -> str | None:
         detrend=getattr(args, "detrend", None),
         joints=getattr(args, "joints", None),
         torque=getattr(args, "torque", "measured"),
+        topic=getattr(args, "topic", None),
     )
     return None if why is None else InputError(why).render(getattr(args, "argument_flags", None))
 

@@ -306,6 +306,7 @@ def stream_obstacle(
     detrend=None,
     joints=None,
     torque: str = "measured",
+    topic=None,
 ) -> str | None:
     """Why a fit of the files ``paths`` with these settings cannot stream, or None.
 
@@ -322,6 +323,10 @@ def stream_obstacle(
     stderr, consistent : as `IDIMEstimator`
     resample, join, detrend, joints, torque : as `physid.load_recording` and `physid identify`
         (reading options that act on the whole record).
+    topic : str, optional
+        A ROS bag's topic (`physid.load_recording`): several comma-separated topics are joined
+        on their stamps, which does not stream (`physid.signals.io.block_readers.
+        blocks_obstacle`, the files' rule).
 
     Returns
     -------
@@ -329,12 +334,8 @@ def stream_obstacle(
         The reason, its settings marked with `physid.errors.arg` (so that the command line
         shows its flags), or None when the fit can stream.
     """
-    from pathlib import Path
-
     from ...errors import arg
-    from ...signals.io import BLOCK_FORMATS
-    from ...signals.io.rosbag_reader import is_rosbag
-    from ...signals.io.variables import SUPPORTED_SUFFIXES
+    from ...signals.io.block_readers import blocks_obstacle
 
     if method not in ("idim-ols", "idim-wls"):
         return (
@@ -364,12 +365,7 @@ def stream_obstacle(
             )
             return f"{shown} {why}"
     for p in paths:
-        if is_rosbag(p):
-            return f"{p} is a ROS bag, read whole"
-        fmt = SUPPORTED_SUFFIXES.get(Path(p).suffix.lower())
-        if fmt not in BLOCK_FORMATS:
-            return (
-                f"{p} cannot be read in blocks (formats read in blocks: "
-                f"{', '.join(sorted(BLOCK_FORMATS))})"
-            )
+        why = blocks_obstacle(p, topic)
+        if why is not None:
+            return why
     return None

@@ -35,7 +35,14 @@ from .rosbag_reader import is_rosbag
 from .timebase import rate_time
 from .variables import DEFAULT_UNIFORM_RTOL, SUPPORTED_SUFFIXES
 
-__all__ = ["open_blocks", "FileBlocks", "BLOCK_FORMATS", "in_memory_bytes", "MAX_WHOLE_MAT_BYTES"]
+__all__ = [
+    "open_blocks",
+    "FileBlocks",
+    "BLOCK_FORMATS",
+    "blocks_obstacle",
+    "in_memory_bytes",
+    "MAX_WHOLE_MAT_BYTES",
+]
 
 #: How each format is read by `open_blocks` (for messages and the docs).
 BLOCK_FORMATS = {
@@ -505,6 +512,47 @@ def _length_error(path, a, b, got) -> DataFileError:
         f"{path}: samples {a}..{b - 1} gave {got} time samples, not {b - a}: the time and the "
         "channels have different lengths; every channel needs one value per time sample."
     )
+
+
+def blocks_obstacle(path, topic=None) -> str | None:
+    """Why `open_blocks` cannot read ``path`` in blocks, from its name alone, or None.
+
+    The rule the streamed fits share (``physid identify --stream``, ``physid estimate
+    --stream``, fleets): a file of a format in `BLOCK_FORMATS` (a ROS bag, its ``.bag``, its
+    ``.mcap``/``.db3`` or its folder, included) streams; several ROS bag topics joined on their
+    stamps do not. A file that can be named here may still fail to open (then `open_blocks`
+    says why).
+
+    Parameters
+    ----------
+    path : str or Path
+        The record file (or a ROS 2 bag's folder).
+    topic : str, optional
+        As `open_blocks` (several comma-separated topics are read whole).
+
+    Returns
+    -------
+    str or None
+        The reason, its settings marked with `physid.errors.arg` (the command line shows its
+        flags), or None.
+    """
+    from ...errors import arg
+
+    if is_rosbag(path):
+        names = [t for t in topic.split(",") if t.strip()] if isinstance(topic, str) else []
+        if len(names) > 1:
+            return (
+                f"{arg('topic', repr(topic), cli=topic)} joins several topics on their stamps "
+                "by interpolation onto one grid of the whole run"
+            )
+        return None
+    fmt = SUPPORTED_SUFFIXES.get(Path(path).suffix.lower())
+    if fmt not in BLOCK_FORMATS:
+        return (
+            f"{path} cannot be read in blocks (formats read in blocks: "
+            f"{', '.join(sorted(BLOCK_FORMATS))})"
+        )
+    return None
 
 
 def in_memory_bytes(path) -> int:
