@@ -301,12 +301,21 @@ def test_the_command_lines_block_sources_read_a_bag(bags, model, capsys):
     assert np.max(np.abs(got - ref) / np.abs(ref)) <= 1e-10
 
 
-def test_a_fleet_of_bags(bags, model, tmp_path, capsys):
+def test_a_fleet_of_bags(bags, model, tmp_path, capsys, monkeypatch):
+    """Bags too large for memory stream (the fit in blocks, counted here), as one fit each."""
+    import physid.estimators.idim.stream as stream
+
+    streamed = []
+    fit = stream.fit_streamed
+    monkeypatch.setattr(stream, "streams_better", lambda paths, model, workers=1: (True, 0, 0))
+    monkeypatch.setattr(stream, "fit_streamed", lambda *a, **k: streamed.append(1) or fit(*a, **k))
     out = tmp_path / "fleet"
     code = main(["identify", str(bags["mcap"]), str(bags["ros1"]), "--model", "manipulator",
-                 "--method", "idim-ols", "--each", "--out", str(out), "--json"])  # fmt: skip
+                 "--method", "idim-ols", "--each", "--out", str(out), "--json",
+                 "--scheduler", "serial"])  # fmt: skip
     captured = capsys.readouterr()
     assert code == 0, captured.err
+    assert len(streamed) == 2
     mem = IDIMEstimator(model, "ols").fit(
         load_recording(bags["ros1"], joint_names=model.joint_names, uniform_rtol=1e-3)
     )
@@ -374,3 +383,61 @@ def test_a_change_to_a_bag_folders_storage_file_is_seen(tmp_path, run, model):
     os.utime(storage, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))  # rewritten, same size
     with pytest.raises(DataFileError, match=r"the file changed since it was opened"):
         next(iter(src.blocks(500)))
+
+
+def _jittered(tmp_path, run, model, name="jitter.bag"):
+    """The run as a ROS 1 bag whose stamps jitter by up to ±5 % of the period."""
+    stamps = run["stamps"].copy()
+    stamps[1:-1] += np.random.default_rng(4).integers(-50_000, 50_001, stamps.size - 2)
+    names = list(model.joint_names)
+    return write_bag(tmp_path / name, "ros1", names, run["q"], run["tau"], stamps)
+
+
+def test_identify_stream_on_fits_a_bag_in_blocks(bags, model, capsys):
+    base = ["identify", str(bags["mcap"]), "--model", "manipulator", "--method", "idim-ols"]
+    assert main([*base, "--stream", "off", "--json"]) == 0
+    mem = json.loads(capsys.readouterr().out)
+    code = main([*base, "--stream", "on", "--block-samples", "1000", "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "streamed in blocks of 1000 samples): 4000 samples of" in captured.err
+    st = json.loads(captured.out)
+    ref = np.array([p["value"] for p in mem["base_parameters"]])
+    got = np.array([p["value"] for p in st["base_parameters"]])
+    assert np.max(np.abs(got - ref) / np.abs(ref)) <= 1e-10
+
+
+def test_identify_stream_on_refuses_joined_topics_and_names_the_fix_for_jitter(
+    tmp_path, run, model, capsys
+):
+    two = write_bag(
+        tmp_path / "two", "mcap", model.joint_names, run["q"], run["tau"], run["stamps"],
+        arrays=True,
+    )  # fmt: skip
+    code = main(["identify", str(two), "--model", "manipulator", "--method", "idim-ols",
+                 "--topic", "/joint_states,/effort", "--stream", "on"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "--stream on cannot stream this fit: --topic /joint_states,/effort joins" in err
+    bag = _jittered(tmp_path, run, model)
+    base = ["identify", str(bag), "--model", "manipulator", "--method", "idim-ols"]
+    assert main(base) == 0  # read whole, resampled onto its mean period
+    capsys.readouterr()
+    assert main([*base, "--stream", "on"]) != 0
+    err = capsys.readouterr().err
+    assert "not uniformly sampled" in err and "--resample reads it whole and resamples" in err
+
+
+def test_a_fleet_reads_a_jittered_bag_resampled_as_identify_does(tmp_path, run, model, capsys):
+    bag = _jittered(tmp_path, run, model)
+    assert main(["identify", str(bag), "--model", "manipulator", "--method", "idim-ols",
+                 "--json"]) == 0  # fmt: skip
+    one = json.loads(capsys.readouterr().out)
+    out = tmp_path / "fleet"
+    code = main(["identify", str(bag), "--model", "manipulator", "--method", "idim-ols",
+                 "--each", "--out", str(out), "--scheduler", "serial"])  # fmt: skip
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    table = json.loads((out / "results" / "jitter.json").read_text())
+    for p in one["base_parameters"]:
+        assert table["parameters"][p["name"]] == pytest.approx(p["value"], rel=1e-12)

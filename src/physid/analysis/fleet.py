@@ -148,6 +148,7 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options, work
     """The fit of `fit_one_log`: load the log, fit, and the row's numbers (raises on failure)."""
     from ..estimators.idim import IDIMEstimator
     from ..signals import load_recording
+    from ..signals.io.rosbag_reader import is_rosbag
     from ..signals.joint_side import joint_side
 
     model = _cached_model(model_ref, model_options)
@@ -155,9 +156,12 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options, work
     if _streamable(path, model, method, fit_options, load_options, workers):
         result, n, duration, caught = _fit_streamed(model, path, method, fit_options, load_options)
     else:
+        load = dict(load_options or {})
+        if is_rosbag(path):
+            load["resample"] = True  # a bag's stamps jitter: onto its mean period, as identify
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            rec = joint_side(model, load_recording(path, **dict(load_options or {})))
+            rec = joint_side(model, load_recording(path, **load))
             est = IDIMEstimator(model, method.removeprefix("idim-"), **dict(fit_options or {}))
             est.fit(rec)
         result, n, duration = est.result_, int(rec.n_samples), float(rec.t[-1] - rec.t[0])
@@ -191,6 +195,7 @@ def _streamable(path, model, method, fit_options, load_options, workers=1) -> bo
         stderr=fit_options.get("stderr", "filtered"),
         consistent=bool(fit_options.get("consistent")),
         resample=bool(load_options.get("resample")),
+        topic=load_options.get("topic"),
     )
     if obstacle is not None:
         return False
@@ -284,7 +289,8 @@ def run_fleet(
     fit_options : mapping, optional
         Keywords of `physid.estimators.idim.IDIMEstimator` for every log.
     load_options : mapping, optional
-        Keywords of `physid.load_recording` for every log.
+        Keywords of `physid.load_recording` for every log (a ROS bag read whole is resampled
+        onto its mean period, its stamps' jitter smoothed, as ``physid identify`` reads it).
     scheduler : str or distributed.Client
         ``"local"`` (default: in-process for one or two logs, else a Dask LocalCluster with one
         single-threaded worker per CPU, at most one per log; in-process when Dask is not
