@@ -441,3 +441,27 @@ def test_a_fleet_reads_a_jittered_bag_resampled_as_identify_does(tmp_path, run, 
     table = json.loads((out / "results" / "jitter.json").read_text())
     for p in one["base_parameters"]:
         assert table["parameters"][p["name"]] == pytest.approx(p["value"], rel=1e-12)
+
+
+def test_estimate_stream_on_reads_a_bag_in_blocks_as_identify_does(tmp_path, capsys):
+    from scipy import signal
+
+    t = np.arange(6000) * 1e-3
+    u = np.sin(10 * t) + 0.5 * np.sin(23 * t)
+    x = signal.lsim(([1.0], [1.0, 2.0, 100.0]), u, t)[1]  # ẍ + 2 ẋ + 100 x = u
+    stamps = T0 + np.arange(t.size, dtype=np.int64) * PERIOD
+    ux = np.c_[u, x]
+    bag = write_bag(tmp_path / "msd", "mcap", ["a", "b"], ux, ux, stamps, topics=(), arrays=True)
+    base = ["estimate", str(bag), "--method", "rls", "--topic", "/effort", "--map",
+            "u=effort.data1,x=effort.data2", "--json"]  # fmt: skip
+    assert main([*base, "--stream", "off"]) == 0
+    mem = json.loads(capsys.readouterr().out)
+    assert main([*base, "--stream", "on", "--block-samples", "1000"]) == 0
+    captured = capsys.readouterr()
+    assert "streamed: read in blocks of 1000 samples" in captured.err
+    st = json.loads(captured.out)
+    for name, value in mem["parameters"].items():
+        assert st["parameters"][name] == pytest.approx(value, rel=1e-9)
+    joined = [*base[:5], "/effort,/other", *base[6:], "--stream", "on"]
+    assert main(joined) != 0
+    assert "--stream on: --topic /effort,/other joins several topics" in capsys.readouterr().err

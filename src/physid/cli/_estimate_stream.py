@@ -35,9 +35,11 @@ def _why_not(args, method: str) -> str | None:
         return "--resample interpolates the whole record; a streamed fit reads a uniform file"
     if getattr(args, "detrend", None):
         return "--detrend subtracts the whole record's mean before the fit"
-    if getattr(args, "topic", None):
-        return "ROS bags are read whole (--topic)"
-    return None
+    from ..signals.io.block_readers import blocks_obstacle
+    from ._common import cli_words
+
+    why = blocks_obstacle(args.file, getattr(args, "topic", None))  # identify's rule for files
+    return None if why is None else cli_words(InputError(why).render({"topic": "--topic"}))
 
 
 def block_source(args, model, method: str):
@@ -121,6 +123,7 @@ def _open(args, model):
             uniform_rtol=1e-3,
             decimal=getattr(args, "decimal", ".") or ".",
             delimiter=getattr(args, "delimiter", None),
+            topic=getattr(args, "topic", None),  # a ROS bag's
         )
     except PhysidError as exc:
         raise _reworded(_with_table_line(args, exc)) from None
