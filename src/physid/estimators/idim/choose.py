@@ -2,9 +2,10 @@
 
 `decimate_candidates` lists the decimation factors tried when ``decimate="auto"``: the spectrum
 rule's (the parallel filter's cut-off at half the state filter's, ``nd = 1.6π/Ω``) and the
-state filter's own cut-off (``0.8π/Ω``), each lowered to keep enough equations (`FACTORS`). `cross_validated_error` scores one candidate: the record is cut into contiguous
-folds in time; the OLS estimate from the candidate's rows outside a fold predicts the torque on
-common evaluation rows inside it (those of the least smoothing candidate), so every candidate's
+state filter's own cut-off (``0.8π/Ω``), each lowered to keep enough equations (`FACTORS`).
+`cross_validated_error` scores one candidate: the record is cut into contiguous folds in time;
+the OLS estimate from the candidate's rows outside a fold predicts the torque on common
+evaluation rows inside it (those of the least smoothing candidate), so every candidate's
 estimate is judged on the same equations. The regression is cheap; the rows of every candidate
 share the state filter and the regressor.
 """
