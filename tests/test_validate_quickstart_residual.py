@@ -28,9 +28,10 @@ INFO = base_regressor_info(MODEL)
 TRUE = np.asarray(INFO.from_standard(MODEL.beta()), dtype=float)
 
 
-def _synthetic(bump, coloured=0.0):
+def _synthetic(bump, coloured=0.0, alternate=True):
     """White residual (600 rows, 2 joints) with ``bump`` (σ per row) added at 12 marked
-    'reversals' of joint 2, every 50 rows, the sign alternating as the velocity's does, and
+    'reversals' of joint 2, every 50 rows, the sign alternating as the velocity's does (or not,
+    ``alternate=False``), and
     ``coloured`` × an AR(1) series (a = 0.9) on joint 2 everywhere; explained as a first pass
     would (filter colouring of nd = 38)."""
     from physid.analysis.validation.inverse_residual import explain_inverse_residual
@@ -41,7 +42,7 @@ def _synthetic(bump, coloured=0.0):
     rev = np.zeros(e.shape, dtype=bool)
     for k, start in enumerate(range(20, 600, 50)):
         rev[start : start + bump.size, 1] = True
-        e[start : start + bump.size, 1] += bump * (-1) ** k
+        e[start : start + bump.size, 1] += bump * (-1) ** k if alternate else bump
     ar = np.zeros(600)
     for i, v in enumerate(rng.normal(size=600)):  # a model miss: coloured on every row
         ar[i] = 0.9 * ar[i - 1] + v if i else v
@@ -80,10 +81,17 @@ def test_reversal_bumps_are_reversal_friction_never_consistent():
     assert ev["other_equations"]["relative_residual"] < 0.8 * rel_all
 
 
-def test_a_stribeck_like_friction_miss_is_not_called_consistent():
-    # a friction law other than the model's (Stribeck: extra friction at low speed, the
-    # velocity's sign, on both sides of each reversal) leaves a dipole at every reversal
-    res, e, tau, kept, rev = _synthetic([2.0, 4.0, 5.0, -5.0, -4.0, -2.0])
+@pytest.mark.parametrize(
+    ("bump", "alternate"),
+    [
+        # Stribeck: extra friction at low speed, the velocity's sign, on both sides of a reversal
+        ([2.0, 4.0, 5.0, -5.0, -4.0, -2.0], True),
+        # asymmetric Coulomb fitted with the symmetric Fc: a step of one sign, smeared
+        ([1.5, 3.0, 4.5, 3.0, 1.5], False),
+    ],
+)
+def test_a_wrong_friction_law_is_not_called_consistent(bump, alternate):
+    res, e, tau, kept, rev = _synthetic(bump, alternate=alternate)
     assert res["explanation"] == "model"
     out = _set_aside(res, e, tau, kept, rev)
     assert out["explanation"] == "reversal friction", out["verdict"]
