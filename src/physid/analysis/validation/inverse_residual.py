@@ -26,19 +26,22 @@ low-passed and decimated by ``nd``. Three explanations, checked in this order:
 When that says "model" and the fit dropped equations next to speed reversals
 (``reversal_joints``), `set_aside_reversals` tests again without those equations of the joints
 where they stand out (mean square residual more than `STAND_OUT` times the joint's other
-equations', the fit's own rule): dry friction at a reversal (its torque step smeared by the
-filters, brief sticking) is what Fc·sign(q̇) of the filtered velocity cannot follow there.
-If the other equations are then consistent (filter or position noise), the verdict says so and
-counts the equations set aside and their share of the residual power; if not, "model" stands
-and says that setting them aside does not change it. Measured on the quickstart's held-out
-``arm6`` record (σ_q = 1e-4 rad, no torque noise, the IDIM-WLS fit of the quickstart): the
-residual is 1.3 % of the torque's spread, the same with the fit's and with the true
-parameters (the estimation error ``W(β̂ − β)`` is 5 % of it in norm, 0.3 % in power); on the
-simulation without position noise the true parameters leave 0.37 %, 70–87 % of its power
-on the reversal equations; with them, joint 5's 3 reversal equations hold 58 % of its
-residual power and position noise needs 5.7× the power its bound gives (3.5× allowed), 2.85×
-without them, so the good fit is "input noise"; link 3's inertial parameters 5, 10 or 20 %
-off stay "model" either way.
+equations', the fit's own rule). If the other equations are then explained (filter or position
+noise), the explanation is **"reversal friction"**, not "consistent": the model explains the
+other equations, and the residual concentrated next to the reversals is friction its
+Fc·sign(q̇) of the filtered velocity does not follow there (dry friction smeared by the filters,
+sticking, or another friction law: Stribeck, asymmetric Coulomb). The verdict gives the
+equations per joint, their share of that joint's residual power and their mean square ratio,
+and the fix (a friction model with a smooth or stiction term, or leaving those equations out as
+the fit did); the evidence stays that of every equation, the rest's under ``other_equations``.
+If not, "model" stands and says that setting them aside does not change it. Measured on the
+quickstart's held-out ``arm6`` record (σ_q = 1e-4 rad, no torque noise, the IDIM-WLS fit of
+the fixed excitation of `tests/test_validate_quickstart_residual.py`, the same with any BLAS
+thread count): the residual is 1.33 % of the torque's spread, the same with the true
+parameters; position noise needs 5.7× the power its bound gives (3.5× allowed); 18 of 462
+equations next to reversals stand out (joint 5: 3, 58 % of its residual power, 31× its other
+equations' mean square) and without them 2.8× does: "reversal friction"; link 3's inertial
+parameters 5 or 20 % off stay "model".
 """
 
 from __future__ import annotations
@@ -178,7 +181,8 @@ def explain_inverse_residual(
     result : dict
         `residual_analysis` of ``residual``; updated in place: ``verdict``, ``explanation``
         (``"none"``, ``"resolution"``, ``"filter"``, ``"input noise"``, ``"model"``) and
-        ``evidence`` (the numbers).
+        ``evidence`` (the numbers); `set_aside_reversals` may then make a ``"model"``
+        explanation ``"reversal friction"``.
     residual, measured : array_like, shape (n_rows, n_joints)
         ``τ̂ − τ_f`` and ``τ_f`` on the rows tested [N·m or N].
     nd : int
@@ -340,12 +344,16 @@ def set_aside_reversals(
     Called when `explain_inverse_residual` said "model" on a fit that dropped its reversal
     equations (see the module docstring). A joint's equations marked in ``reversal`` are set
     aside when their mean square residual exceeds `STAND_OUT` times that of its other kept
-    equations. (Long: the two verdicts are written out where they are decided.)
+    equations. If the other equations are then explained (filter colouring or position noise),
+    the explanation is ``"reversal friction"``, never "consistent": the model's friction does not
+    follow the reversals, which a wrong friction law (Stribeck, asymmetric Coulomb) would do too.
+    (Long: the two verdicts are written out where they are decided.)
 
     Parameters
     ----------
     result : dict
-        The explained `residual_analysis` of ``residual`` on every kept equation.
+        The explained `residual_analysis` of ``residual`` on every kept equation; updated in
+        place.
     residual, measured : array_like, shape (n_rows, n_joints)
         ``τ̂ − τ_f`` and ``τ_f`` on the rows tested [N·m or N].
     nd : int
@@ -361,9 +369,11 @@ def set_aside_reversals(
     Returns
     -------
     dict
-        The analysis on the other equations when they are consistent (its evidence carries
-        ``reversals_set_aside`` and ``all_equations``), else ``result`` with
-        ``reversals_set_aside`` in its evidence and a verdict that says it was tried.
+        ``result``. Its evidence keeps the numbers of every equation (``relative_residual``,
+        the filter's and position noise's) and gains ``reversals_set_aside`` (per joint set
+        aside: equations, share of that joint's residual power, mean square ratio) and
+        ``other_equations`` (the explanation and evidence without them). Its explanation becomes
+        ``"reversal friction"`` when the other equations are explained, else stays ``"model"``.
     """
     e = np.asarray(residual, dtype=float)
     kept = np.asarray(kept, dtype=bool)
@@ -380,12 +390,12 @@ def set_aside_reversals(
     aside = np.zeros_like(rev)
     aside[:, joints] = rev[:, joints]
     power = np.sum(np.where(kept, sq, 0.0), axis=0)
-    share = float(np.sum(sq[aside]) / max(float(power.sum()), 1e-300))
+    # per joint only: the joints' torques (and residuals) have different scales [N·m]
     info = {
         "joints": [int(j) + 1 for j in joints],
         "equations": int(aside.sum()),
         "of": int(kept.sum()),
-        "power_share": share,
+        "equations_per_joint": [int(aside[:, j].sum()) for j in joints],
         "power_share_per_joint": [float(np.sum(sq[aside[:, j], j]) / max(power[j], 1e-300))
                                   for j in joints],
         "mean_square_ratio": [float(ratio[j]) for j in joints],
@@ -393,33 +403,43 @@ def set_aside_reversals(
     kept2 = kept & ~aside
     e2 = np.where(kept2, e, 0.0)
     second = residual_analysis(e2, max_lag=(len(result["lags"]) - 1) // 2)
-    second["of"] = result.get("of", "") + ", equations next to speed reversals set aside"
     explain_inverse_residual(
         second, e2, measured, nd=nd, index=index, kept=kept2,
         position_noise=None if position_noise is None else position_noise(kept2),
     )  # fmt: skip
-    which = ", ".join(str(j) for j in info["joints"])
+    evidence = result["evidence"]
+    evidence["reversals_set_aside"] = info
+    evidence["other_equations"] = {"explanation": second["explanation"], **second["evidence"]}
+    per_joint = "; ".join(
+        f"joint {j}: {n} equation{'s' if n > 1 else ''}, {100 * sh:.0f} % of its residual "
+        f"power, {r:.1f}× its other equations' mean square"
+        for j, n, sh, r in zip(joints + 1, info["equations_per_joint"],
+                               info["power_share_per_joint"], info["mean_square_ratio"],
+                               strict=True)
+    )  # fmt: skip
     counted = (
-        f"the {info['equations']} equations next to speed reversals of joint(s) {which} (of "
-        f"{info['of']}; the fit dropped them too) hold {100 * share:.0f} % of the torque "
-        f"residual's power (up to {100 * max(info['power_share_per_joint']):.0f} % of a "
-        f"joint's), {min(info['mean_square_ratio']):.1f}–"
-        f"{max(info['mean_square_ratio']):.1f}× the joint's other equations' per equation"
+        f"the {info['equations']} equations next to speed reversals that stand out (of "
+        f"{info['of']}; the fit dropped them too; {per_joint})"
     )
     if second["explanation"] in ("model", "none"):
-        result["evidence"]["reversals_set_aside"] = {**info, "explanation": "model"}
-        result["verdict"] += f"; setting aside {counted}, does not change this"
+        result["verdict"] += f"; setting aside {counted} does not change this"
         return result
-    second["evidence"]["reversals_set_aside"] = info
-    second["evidence"]["all_equations"] = {
-        k: result["evidence"].get(k) for k in ("filter_lags_outside", "filter_largest_deviation")
-    }
-    second["verdict"] = (
-        f"consistent once the equations next to speed reversals are set aside: {counted} (dry "
-        "friction at a reversal, its torque step smeared by the filters and brief sticking, is "
-        "what Fc·sign(q̇) of the filtered velocity cannot follow there; with them the residual "
-        "departs from the filters' colouring at up to "
-        f"{max(result['evidence']['filter_lags_outside'])} lags). On the other equations: "
-        f"{second['verdict']}"
+    other_why = {
+        "filter": "the filters' colouring of white torque noise",
+        "input noise": "noise on the measured positions, σ_q ≈ "
+        f"{second['evidence'].get('position_noise_std', float('nan')):.2g} rad",
+        "resolution": "the resolution of the arithmetic",
+    }[second["explanation"]]
+    result["explanation"] = "reversal friction"
+    result["verdict"] = (
+        "the model's friction does not follow the speed reversals: on every equation the torque "
+        f"residual ({evidence['relative_residual']:.2g} of the torque's spread) departs from the "
+        f"filters' colouring at up to {max(evidence['filter_lags_outside'])} lags; "
+        f"{counted}; without them the model explains the other equations "
+        f"by {other_why}. The residual concentrated next to the reversals is friction that "
+        "Fc·sign(q̇) of the filtered velocity does not follow there (dry friction smeared by the "
+        "filters, sticking, or a friction law other than the model's: Stribeck, asymmetric "
+        "Coulomb). Use a friction model with a smooth or stiction term, or leave those "
+        "equations out as the fit did"
     )
-    return second
+    return result
