@@ -268,3 +268,28 @@ def test_parallel_filter_state_is_carried_through_windows_without_rows(arm, rec)
     ref = _fit(arm, rec, decimate=20)
     got = fit_streamed(arm, ArrayBlocks(rec), decimate=20, block_samples=100, progress=False)
     _same(ref, got)
+
+
+def test_the_last_window_is_filtered_in_place_and_equals_in_memory(arm, rec, monkeypatch):
+    # from IN_PLACE_ND on every window's parallel filter reads the rows in place (a view, no
+    # copy of the live columns) and lifts, the last window's too (which ends at the record's
+    # end, with no right margin); the carried test of non-zero columns gives the same rows
+    import physid.estimators.idim.stream_window as sw
+
+    calls = []
+    inner = sw.decimated_window
+
+    def spy(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift=None):
+        calls.append((c1 == n_full, lift, rows.flags.owndata, rows.shape[1]))
+        return inner(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift)
+
+    monkeypatch.setattr(sw, "decimated_window", spy)
+    nd = sw.IN_PLACE_ND + 10
+    ref = _fit(arm, rec, decimate=nd)
+    got = fit_streamed(arm, ArrayBlocks(rec), decimate=nd, block_samples=2000, progress=False)
+    _same(ref, got)
+    last = [c for c in calls if c[0]]
+    assert len(calls) > 3 and last
+    assert all(lift is True and not owns for _, lift, owns, _ in calls)
+    # one call per window: the columns from the first live one to the last, read as one slice
+    assert len({width for *_, width in calls[1:]}) == 1

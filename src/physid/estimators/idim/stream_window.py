@@ -237,7 +237,7 @@ def window_rows(
     if cache is not None:
         cache["rows"] = (c0, c1)
     tic = _tick(timings, "regressor", tic)
-    nonzero = np.any(stacked != 0.0, axis=0)
+    nonzero = _nonzero(stacked, start - c0, cache)
     n_full = plan.n_stacked(k)
     stick_raw = _sticking(plan, k, q, r0, mg)
     states = cache.setdefault("forward", {}) if cache is not None else {}
@@ -276,10 +276,6 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
     # a column is filtered once it has held a non-zero value (its forward pass never returns
     # to exactly zero); one that has not is zero after the filter
     live = np.union1d(np.flatnonzero(nonzero), was)
-    # lifted from IN_PLACE_ND on: every column read in place, no copy (a zero one stays zero)
-    in_place = nd >= IN_PLACE_ND and lifting_pays(nd, c1 - b, live.size)
-    if in_place:
-        live = np.arange(stacked.shape[1])
     where = np.searchsorted(live, was)  # where the carried columns sit among the live ones
     nxt = edge + max(0, -(-(b - edge) // nd)) * nd  # the first decimated row from b on
     dec = np.zeros((s.size, stacked.shape[1]))
@@ -293,22 +289,66 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
     # the samples read: from the state's on (and the end padding's when the record ends here)
     r0 = max(c0, min(pos, n_full - 1 - padlen) if c1 == n_full else pos)
     new_z = np.zeros((sos.shape[0], live.size, 2))
-    step = max(live.size, 1) if in_place else COLUMNS
-    for i in range(0, live.size, step):  # columns in chunks: bounded temporaries
-        chunk = slice(i, i + step)
-        cols = live[chunk]
+    # lifted from IN_PLACE_ND on: the columns from the first live one to the last read in
+    # place, no copy (a zero one stays zero); judged on the stretch filtered (the last window's
+    # too, which ends at b). Slices of live columns apart would filter fewer zero columns, but
+    # no faster (measured: the filter reads the rows' memory either way) and not bit for bit.
+    in_place = nd >= IN_PLACE_ND and lifting_pays(nd, c1 - stop, live.size)
+    if in_place:
+        chunks = [(0, live.size)]
+    else:  # columns in chunks: bounded temporaries
+        chunks = [(i, min(i + COLUMNS, live.size)) for i in range(0, live.size, COLUMNS)]
+    for i, j in chunks:
+        cols = live[i:j]
+        # the columns' places among those read: a slice of stacked in place, or a copy
+        at = cols - cols[0] if in_place else np.arange(cols.size)
         state = None
         if a > 0:  # the carried state of these columns (zero for those not filtered before)
-            state = np.zeros((sos.shape[0], cols.size, 2))
-            inside = (where >= i) & (where < i + cols.size)
-            state[:, where[inside] - i] = z[:, inside]
-        rows = stacked[r0 - c0 : c1 - c0] if in_place else stacked[r0 - c0 : c1 - c0, cols]
-        y, zc = decimated_window(sos, rows, r0, c1, pos, stop, s.size, nd, state, n_full, padlen)
-        dec[:, cols] = y.T
+            state = np.zeros((sos.shape[0], int(at[-1]) + 1, 2))
+            inside = (where >= i) & (where < j)
+            state[:, at[where[inside] - i]] = z[:, inside]
+        if in_place:
+            rows = stacked[r0 - c0 : c1 - c0, cols[0] : cols[-1] + 1]
+        else:
+            rows = stacked[r0 - c0 : c1 - c0, cols]
+        y, zc = decimated_window(
+            sos,
+            rows,
+            r0,
+            c1,
+            pos,
+            stop,
+            s.size,
+            nd,
+            state,
+            n_full,
+            padlen,
+            lift=True if in_place else None,
+        )
+        dec[:, cols] = y[at].T
         if zc is not None:
-            new_z[:, chunk] = zc
+            new_z[:, i:j] = zc[:, at]
     states[nd] = (live, stop + s.size * nd, new_z)
     return dec
+
+
+def _nonzero(stacked, new: int, cache) -> np.ndarray:
+    """Columns of ``stacked`` with a non-zero value: those of its rows from ``new`` on (the
+    rows computed for this window), or'ed with the previous window's (kept in ``cache``).
+
+    The previous window's rows hold the ones reused here (``stacked[:new]``), so the result
+    can hold more columns than the window's own, but only columns the previous window already
+    fed to the parallel filter: `_parallel` adds those (its carried ``live``) in any case, and
+    its set of filtered columns is the same as with the window's own test.
+    """
+    out = np.zeros(stacked.shape[1], dtype=bool)
+    for i in range(new, stacked.shape[0], 8192):  # in slices: a bounded boolean temporary
+        out |= np.any(stacked[i : i + 8192] != 0.0, axis=0)
+    if cache is not None:
+        if new > 0:
+            out |= cache["nonzero"]
+        cache["nonzero"] = out
+    return out
 
 
 def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
