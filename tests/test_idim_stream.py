@@ -293,3 +293,32 @@ def test_the_last_window_is_filtered_in_place_and_equals_in_memory(arm, rec, mon
     assert all(lift is True and not owns for _, lift, owns, _ in calls)
     # one call per window: the columns from the first live one to the last, read as one slice
     assert len({width for *_, width in calls[1:]}) == 1
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 1023, 1024, 65536, 65537])
+def test_median_of_columns_equals_numpy_median_bit_for_bit(n):
+    rng = np.random.default_rng(n)
+    rows = np.stack(
+        [
+            rng.normal(size=n),
+            np.round(rng.normal(size=n) * 3.0) * 0.25,  # a grid: ties at the middle
+            rng.exponential(size=n) ** 4,  # skewed
+            np.full(n, 7.0),
+            np.where(np.arange(n) % max(1, n // 1024) == 0, 1e9, 0.0),  # a sample that lies
+        ]
+    )
+    got = stream_plan.median_columns(rows)
+    assert np.array_equal(got, np.median(rows, axis=1))
+
+
+def test_survey_noise_statistics_equal_the_in_memory_ones_bit_for_bit():
+    from physid.estimators._stiction import position_noise
+    from physid.estimators.idim.verdict import torque_noise_sigma
+
+    rng = np.random.default_rng(3)
+    t = np.arange(30001) * 1e-3
+    q = np.sin(np.outer(t, [1.0, 2.0, 3.0])) + 1e-4 * rng.normal(size=(t.size, 3))
+    tau = np.cos(np.outer(t, [1.0, 0.5, 2.0])) + 0.02 * rng.normal(size=(t.size, 3))
+    sigma = stream_plan._robust_sigma(np.hstack([q, tau]))
+    assert np.array_equal(sigma[3:], torque_noise_sigma(tau))
+    assert np.array_equal(sigma[:3], position_noise(q)[0])
