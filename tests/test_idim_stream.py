@@ -322,3 +322,28 @@ def test_survey_noise_statistics_equal_the_in_memory_ones_bit_for_bit():
     sigma = stream_plan._robust_sigma(np.hstack([q, tau]))
     assert np.array_equal(sigma[3:], torque_noise_sigma(tau))
     assert np.array_equal(sigma[:3], position_noise(q)[0])
+
+
+def test_window_buffers_hold_the_reused_rows_and_move_them_every_other_window():
+    from physid.estimators.idim.stream_window import _reuse
+
+    n, step, left, right = 2000, 100, 10, 40
+    cache, places, made = {}, [], set()
+    a = 0
+    while a < n:
+        b = n if n - a < step + step // 2 else a + step
+        c0, c1 = max(0, a - left), min(n, b + right)
+        stacked, qdf, start = _reuse(cache, c0, c1, 3, 1, 2 * step + left + right)
+        assert stacked.shape == (c1 - c0, 3) and qdf.shape == (c1 - c0, 1)
+        # the rows reused from the previous window are the ones it wrote
+        assert np.array_equal(stacked[: start - c0, 0], np.arange(c0, start))
+        assert np.array_equal(qdf[: start - c0, 0], -np.arange(c0, start))
+        stacked[start - c0 :] = np.arange(start, c1)[:, None]
+        qdf[start - c0 :, 0] = -np.arange(start, c1)
+        cache["rows"] = (c0, c1)
+        places.append(cache["at"])
+        made.add(id(cache["buf"]))
+        a = b
+    assert len(made) == 1  # one buffer, the last (longer) window's included
+    moved = sum(1 for at in places[1:] if at == 0)
+    assert moved == len(places[1:]) // 2  # every other window moves its reused rows

@@ -219,7 +219,10 @@ def window_rows(
     q, tau = x[:, :nj], x[:, nj:]
     tic = time.perf_counter()
     p = plan.n_base
-    stacked, qdf, start = _reuse(cache, c0, c1, nj * p + nj, nj)
+    # buffers of two steps and the margins: the longest window (the last), and one step more
+    # than the others (see `_reuse`)
+    capacity = min(2 * plan.block_samples + mg.left + mg.parallel, plan.n_stacked(k))
+    stacked, qdf, start = _reuse(cache, c0, c1, nj * p + nj, nj, capacity)
     if c1 > start:
         qf, qdf_new, qddf = _states(plan, q, r0, start, c1)
         qdf[start - c0 :] = qdf_new
@@ -351,32 +354,45 @@ def _nonzero(stacked, new: int, cache) -> np.ndarray:
     return out
 
 
-def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int):
-    """``(stacked, qdf, start)``: the window's full-rate buffers, with the rows the previous
-    window already computed (its right margin) moved to their front; rows from ``start`` on
-    remain to be computed. The buffers live in ``cache`` from one window to the next (one
-    window's memory, not two)."""
+def _reuse(cache, c0: int, c1: int, n_cols: int, nj: int, capacity: int):
+    """``(stacked, qdf, start)``: the window's full-rate buffers, views holding first the rows
+    the previous window already computed (its right margin); rows from ``start`` on remain to
+    be computed.
+
+    The buffers live in ``cache`` from one window to the next and hold ``capacity`` rows (at
+    least one window and one step more: `window_rows` passes two steps and the margins, what
+    the longest window, the last, needs). A window is placed where the previous one's rows
+    already lie while it fits behind them, and moved to the buffers' front (a copy of the
+    reused rows) only when it does not: every other window, instead of every window. Which
+    rows of the buffer a window occupies changes nothing computed on them.
+    """
+    n = c1 - c0
     if cache is None:
-        return np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj)), c0
+        return np.empty((n, n_cols)), np.empty((n, nj)), c0
     prev = cache.get("rows")
     buf, qbuf = cache.get("buf"), cache.get("qdf")
-    start = c0
-    if prev is not None and prev[0] <= c0 < prev[1]:
+    start, at = c0, 0
+    if buf is None or buf.shape[0] < n:  # the first window (or a longer one than planned)
+        rows = max(n, capacity)
+        buf2, qbuf2 = np.empty((rows, n_cols)), np.empty((rows, nj))
+        if prev is not None and prev[0] <= c0 < prev[1]:
+            start = min(prev[1], c1)
+            old = cache["at"] + c0 - prev[0]
+            buf2[: start - c0] = buf[old : old + start - c0]
+            qbuf2[: start - c0] = qbuf[old : old + start - c0]
+        buf, qbuf = buf2, qbuf2
+    elif prev is not None and prev[0] <= c0 < prev[1]:
         start = min(prev[1], c1)
-        shift, count = c0 - prev[0], start - c0
-        if buf.shape[0] < c1 - c0:  # a longer window (the last): a larger buffer
-            buf2, qbuf2 = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
-            buf2[:count], qbuf2[:count] = buf[shift : shift + count], qbuf[shift : shift + count]
-            buf, qbuf = buf2, qbuf2
-        else:
-            for i in range(0, count, max(shift, 1)):  # forward, in chunks that never overlap
-                j = min(i + shift, count)
-                buf[i:j] = buf[shift + i : shift + j]
-                qbuf[i:j] = qbuf[shift + i : shift + j]
-    elif buf is None or buf.shape[0] < c1 - c0:
-        buf, qbuf = np.empty((c1 - c0, n_cols)), np.empty((c1 - c0, nj))
-    cache["buf"], cache["qdf"] = buf, qbuf
-    return buf[: c1 - c0], qbuf[: c1 - c0], start
+        at = cache["at"] + c0 - prev[0]  # where the window's first row lies now
+        if at + n > buf.shape[0]:  # not behind them: the reused rows to the front
+            count = start - c0
+            for i in range(0, count, max(at, 1)):  # forward, in chunks that never overlap
+                j = min(i + at, count)
+                buf[i:j] = buf[at + i : at + j]
+                qbuf[i:j] = qbuf[at + i : at + j]
+            at = 0
+    cache["buf"], cache["qdf"], cache["at"] = buf, qbuf, at
+    return buf[at : at + n], qbuf[at : at + n], start
 
 
 def _sticking(plan: StreamPlan, k: int, q, r0: int, mg: Margins):
