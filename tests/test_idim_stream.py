@@ -279,9 +279,9 @@ def test_the_last_window_is_filtered_in_place_and_equals_in_memory(arm, rec, mon
     calls = []
     inner = sw.decimated_window
 
-    def spy(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift=None):
+    def spy(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry):
         calls.append((c1 == n_full, lift, rows.flags.owndata, rows.shape[1]))
-        return inner(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift)
+        return inner(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry)
 
     monkeypatch.setattr(sw, "decimated_window", spy)
     nd = sw.IN_PLACE_ND + 10

@@ -297,8 +297,14 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
     # too, which ends at b). Slices of live columns apart would filter fewer zero columns, but
     # no faster (measured: the filter reads the rows' memory either way) and not bit for bit.
     in_place = nd >= IN_PLACE_ND and lifting_pays(nd, c1 - stop, live.size)
+    carry = None
     if in_place:
         chunks = [(0, live.size)]
+        # the lifted blocks of the previous window past its last row (its right margin) are
+        # this window's first ones when it starts at that row with the same columns
+        carry = states.setdefault(("lifted", nd), {})
+        if a == 0 or pos != stop or carry.get("at") != (stop, live[0], live[-1]):
+            carry.clear()
     else:  # columns in chunks: bounded temporaries
         chunks = [(i, min(i + COLUMNS, live.size)) for i in range(0, live.size, COLUMNS)]
     for i, j in chunks:
@@ -314,23 +320,15 @@ def _parallel(stacked, nonzero, s, win, n_full: int, nd: int, states: dict, righ
             rows = stacked[r0 - c0 : c1 - c0, cols[0] : cols[-1] + 1]
         else:
             rows = stacked[r0 - c0 : c1 - c0, cols]
+        lift = True if in_place else None
         y, zc = decimated_window(
-            sos,
-            rows,
-            r0,
-            c1,
-            pos,
-            stop,
-            s.size,
-            nd,
-            state,
-            n_full,
-            padlen,
-            lift=True if in_place else None,
+            sos, rows, r0, c1, pos, stop, s.size, nd, state, n_full, padlen, lift, carry
         )
         dec[:, cols] = y[at].T
         if zc is not None:
             new_z[:, i:j] = zc[:, at]
+    if carry is not None:
+        carry["at"] = (stop + s.size * nd, live[0], live[-1])
     states[nd] = (live, stop + s.size * nd, new_z)
     return dec
 
