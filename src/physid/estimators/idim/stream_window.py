@@ -7,7 +7,8 @@ samples ``[a, b)`` at a time, from the raw samples around it with margins:
 * the parallel Chebyshev filter (zero phase, every candidate nd) needs no left margin: its
   forward pass continues from the state the previous window left at its first decimated row
   (`stream_filter.decimated_window`, the same kernel and rule as the in-memory
-  `decimation.parallel_decimate`), and only its backward
+  `decimation.parallel_decimate`; lifted, the blocks it computed over the previous window's
+  right margin are carried too, not computed again), and only its backward
   pass starts inside the record, at the end of a right margin over which its free response
   decays below `PARALLEL_DECAY` of the impulse response's peak (`stream_plan.decay_length`);
 * the Butterworth state filter (zero phase) needs the length after which its impulse response
