@@ -249,7 +249,7 @@ def decimated_filtfilt(
     products). Peak memory beyond ``x``: ``k · n_samples · (6 n_sections + 1) / nd`` floats (the
     product, then the block states of one pass; 25/nd of ``x`` for 4 sections) and copies of the
     samples before ``first`` and after the last whole block (for ``sosfilt``). The matrices of
-    ``(sos, nd)`` are cached (16 pairs). One function of ~65 lines of code: the head, the lifted
+    ``(sos, nd)`` are cached (16 pairs). One function of ~75 lines of code: the head, the lifted
     blocks, the tail and the backward recursion hand their states to one another.
     """
     from scipy import signal
