@@ -268,3 +268,82 @@ def test_parallel_filter_state_is_carried_through_windows_without_rows(arm, rec)
     ref = _fit(arm, rec, decimate=20)
     got = fit_streamed(arm, ArrayBlocks(rec), decimate=20, block_samples=100, progress=False)
     _same(ref, got)
+
+
+def test_the_last_window_is_filtered_in_place_and_equals_in_memory(arm, rec, monkeypatch):
+    # from IN_PLACE_ND on every window's parallel filter reads the rows in place (a view, no
+    # copy of the live columns) and lifts, the last window's too (which ends at the record's
+    # end, with no right margin); the carried test of non-zero columns gives the same rows
+    import physid.estimators.idim.stream_window as sw
+
+    calls = []
+    inner = sw.decimated_window
+
+    def spy(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry):
+        calls.append((c1 == n_full, lift, rows.flags.owndata, rows.shape[1]))
+        return inner(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry)
+
+    monkeypatch.setattr(sw, "decimated_window", spy)
+    nd = sw.IN_PLACE_ND + 10
+    ref = _fit(arm, rec, decimate=nd)
+    got = fit_streamed(arm, ArrayBlocks(rec), decimate=nd, block_samples=2000, progress=False)
+    _same(ref, got)
+    last = [c for c in calls if c[0]]
+    assert len(calls) > 3 and last
+    assert all(lift is True and not owns for _, lift, owns, _ in calls)
+    # one call per window: the columns from the first live one to the last, read as one slice
+    assert len({width for *_, width in calls[1:]}) == 1
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4, 1023, 1024, 65536, 65537])
+def test_median_of_columns_equals_numpy_median_bit_for_bit(n):
+    rng = np.random.default_rng(n)
+    rows = np.stack(
+        [
+            rng.normal(size=n),
+            np.round(rng.normal(size=n) * 3.0) * 0.25,  # a grid: ties at the middle
+            rng.exponential(size=n) ** 4,  # skewed
+            np.full(n, 7.0),
+            np.where(np.arange(n) % max(1, n // 1024) == 0, 1e9, 0.0),  # a sample that lies
+        ]
+    )
+    got = stream_plan.median_columns(rows)
+    assert np.array_equal(got, np.median(rows, axis=1))
+
+
+def test_survey_noise_statistics_equal_the_in_memory_ones_bit_for_bit():
+    from physid.estimators._stiction import position_noise
+    from physid.estimators.idim.verdict import torque_noise_sigma
+
+    rng = np.random.default_rng(3)
+    t = np.arange(30001) * 1e-3
+    q = np.sin(np.outer(t, [1.0, 2.0, 3.0])) + 1e-4 * rng.normal(size=(t.size, 3))
+    tau = np.cos(np.outer(t, [1.0, 0.5, 2.0])) + 0.02 * rng.normal(size=(t.size, 3))
+    sigma = stream_plan._robust_sigma(np.hstack([q, tau]))
+    assert np.array_equal(sigma[3:], torque_noise_sigma(tau))
+    assert np.array_equal(sigma[:3], position_noise(q)[0])
+
+
+def test_window_buffers_hold_the_reused_rows_and_move_them_every_other_window():
+    from physid.estimators.idim.stream_window import _reuse
+
+    n, step, left, right = 2000, 100, 10, 40
+    cache, places, made = {}, [], set()
+    a = 0
+    while a < n:
+        b = n if n - a < step + step // 2 else a + step
+        c0, c1 = max(0, a - left), min(n, b + right)
+        stacked, qdf, start = _reuse(cache, c0, c1, 3, 1, 2 * step + left + right)
+        assert stacked.shape == (c1 - c0, 3) and qdf.shape == (c1 - c0, 1)
+        # the rows reused from the previous window are the ones it wrote
+        assert np.array_equal(stacked[: start - c0, 0], np.arange(c0, start))
+        assert np.array_equal(qdf[: start - c0, 0], -np.arange(c0, start))
+        stacked[start - c0 :] = np.arange(start, c1)[:, None]
+        qdf[start - c0 :, 0] = -np.arange(start, c1)
+        cache["rows"] = (c0, c1)
+        places.append(cache["at"])
+        made.add(id(cache["buf"]))
+        a = b
+    assert len(made) == 1  # one buffer, the last (longer) window's included
+    moved = sum(1 for at in places[1:] if at == 0)
+    assert moved == len(places[1:]) // 2  # every other window moves its reused rows

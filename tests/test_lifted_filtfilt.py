@@ -186,7 +186,9 @@ def test_streamed_fit_lifted_equals_in_memory(monkeypatch, nd, block):
 
     calls = []  # the block-rate recursions run: the lifted path is the one tested
     recursion = lifted._recursion
-    monkeypatch.setattr(lifted, "_recursion", lambda *a: calls.append(1) or recursion(*a))
+    monkeypatch.setattr(
+        lifted, "_recursion", lambda *a, **kw: calls.append(1) or recursion(*a, **kw)
+    )
     monkeypatch.setattr(lifted, "LIFT_MIN_WORK", 10**9)
     plain, _ = fits()
     assert not calls
@@ -200,3 +202,46 @@ def test_streamed_fit_lifted_equals_in_memory(monkeypatch, nd, block):
     np.testing.assert_allclose(b2, b1, rtol=1e-10, atol=0)
     s1, s2 = np.array(list(mem.stderr.values())), np.array(list(st.stderr.values()))
     np.testing.assert_allclose(s2, s1, rtol=1e-8, atol=0)
+
+
+@pytest.mark.parametrize("nd", [20, 300])
+def test_lifted_blocks_carried_to_the_next_window_give_the_same_rows_bit_for_bit(nd):
+    """The blocks a window lifted past its last row (its right margin), carried to the next
+    window that starts there: the rows and states bit for bit those computed afresh."""
+    from physid.estimators.idim.stream_plan import decay_length
+    from physid.estimators.idim.stream_window import PARALLEL_DECAY
+
+    sos, edge = _decimation_sos(nd), decimation_edge(nd)
+    n = 80 * nd + 2 * edge + 13
+    padlen = min(n - 1, edge)
+    margin = max(decay_length(sos, PARALLEL_DECAY), edge + 1)
+    x = _signals(n, nd, 7).T
+    kept = np.arange(edge, n - edge, nd)
+    runs = {True: [], False: []}
+    reused = 0
+    for carried in (True, False):
+        pos, z, a, carry = 0, None, 0, {}
+        while a < n:
+            b = min(n, a + 7 * nd + 3)
+            c1 = min(n, b + margin)
+            c0 = max(0, a - edge - 1)
+            s = kept[(kept >= a) & (kept < b)]
+            nxt = edge + max(0, -(-(b - edge) // nd)) * nd
+            stop = s[0] if s.size else max(nxt, pos)
+            if carry.get("at") != stop or pos != stop:
+                carry.clear()
+            reused += carried and "Z" in carry
+            y, z = decimated_window(
+                sos, x[c0:c1], c0, c1, pos, stop, s.size, nd, z, n, padlen, True,
+                carry if carried else None,
+            )  # fmt: skip
+            carry["at"] = stop + s.size * nd
+            runs[carried].append((y, z))
+            pos, a = stop + s.size * nd, b
+    assert reused > 5
+    for (y1, z1), (y0, z0) in zip(runs[True], runs[False], strict=True):
+        assert np.array_equal(y1, y0)
+        assert (z1 is None and z0 is None) or np.array_equal(z1, z0)
+    ref = signal.sosfiltfilt(sos, x, axis=0, padlen=padlen)[kept]
+    got = np.concatenate([y.T for y, _ in runs[True]])
+    assert _rel(got.T, ref.T) < 1e-11

@@ -140,15 +140,16 @@ def _sos_state(flat: np.ndarray) -> np.ndarray:
     )
 
 
-def _recursion(g: np.ndarray, Phi: np.ndarray, x0: np.ndarray) -> np.ndarray:
-    """``X[0] = x0``, ``X[j+1] = Phi X[j] + g[j]`` for ``g`` of shape (L, n, k): (L + 1, n, k).
+def _recursion(g: np.ndarray, Phi: np.ndarray, x0: np.ndarray, out=None) -> np.ndarray:
+    """``X[0] = x0``, ``X[j+1] = Phi X[j] + g[j]`` for ``g`` of shape (L, n, k): (L + 1, n, k)
+    (written into ``out`` when given).
 
     A true recursion at the block rate (``L = n_samples / nd`` steps, each one (n, n) by (n, k)
     product). Grouping it into blocks of steps with powers of ``Phi`` lost up to 1e-8 relative
     (the states span ~18 decades and the powers of the non-normal ``Phi`` cancel).
     """
     L, n, k = g.shape
-    out = np.empty((L + 1, n, k))
+    out = np.empty((L + 1, n, k)) if out is None else out
     out[0] = x0
     for j in range(L):
         np.matmul(Phi, out[j], out=out[j + 1])
@@ -181,7 +182,17 @@ def _check(sos, x, nd, first, count, axis):
 
 
 def decimated_filtfilt(
-    sos, x, nd: int, first: int, count: int, *, axis=-1, forward_state=None, after=None, lift=None
+    sos,
+    x,
+    nd: int,
+    first: int,
+    count: int,
+    *,
+    axis=-1,
+    forward_state=None,
+    after=None,
+    lift=None,
+    carry=None,
 ):
     """Forward-backward ``sosfilt`` of a stretch, only at samples ``first + j nd``.
 
@@ -212,6 +223,16 @@ def decimated_filtfilt(
         Samples that follow ``x`` (the end padding), time on ``axis``; no row is taken there.
     lift : bool, optional
         Lift (True) or run ``sosfilt`` on every sample (False); default `lifting_pays`.
+    carry : dict, optional
+        The lifted blocks a previous call computed beyond its last row wanted, reused here and
+        replaced by this call's: on entry, ``carry["Z"]`` and ``carry["X"]`` (when present)
+        are the block products (with their forward-state terms) and forward states of this
+        call's first blocks, from ``first`` on, of the same signals (the caller checks that
+        they are: the stretches overlap, the previous call's ``first + count·nd`` is this
+        call's ``first``); on return, those of the blocks from ``first + count · nd`` on (empty
+        when none were lifted). The forward pass is a recursion continued from the same state
+        over the same samples, so these blocks are bit for bit what this call would compute
+        (``forward_state`` is then not used for them).
 
     Returns
     -------
@@ -228,7 +249,7 @@ def decimated_filtfilt(
     products). Peak memory beyond ``x``: ``k · n_samples · (6 n_sections + 1) / nd`` floats (the
     product, then the block states of one pass; 25/nd of ``x`` for 4 sections) and copies of the
     samples before ``first`` and after the last whole block (for ``sosfilt``). The matrices of
-    ``(sos, nd)`` are cached (16 pairs). One function of ~65 lines of code: the head, the lifted
+    ``(sos, nd)`` are cached (16 pairs). One function of ~75 lines of code: the head, the lifted
     blocks, the tail and the backward recursion hand their states to one another.
     """
     from scipy import signal
@@ -244,6 +265,9 @@ def decimated_filtfilt(
     if first > 0:  # the head: the samples before the first row wanted
         _, z = signal.sosfilt(sos, xt[:first].T, axis=-1, zi=z)
     end = first + count * nd  # the forward state wanted before this sample
+    known = {} if carry is None else dict(carry)
+    if carry is not None:
+        carry.clear()
     if count == 0:
         y0 = np.empty((k, 0))
         return (y0 if axis != 0 else y0.T), z if end <= n else None
@@ -259,15 +283,23 @@ def decimated_filtfilt(
         MT, Phi, P, Psi, hF = _matrices(sos.tobytes(), ns, nd)[:5]
         nx = 2 * ns
         blocks = xt[first : first + L * nd].reshape(L, nd, k)
-        Z = np.matmul(MT, blocks)  # (L, 2 nx + 1, k): G u, Q u, r u per block
-        X = _recursion(Z[:, :nx], Phi, _flat(z))  # X[m + nd] = A^nd X[m] + G u
+        Z, X = np.empty((L, 2 * nx + 1, k)), np.empty((L + 1, nx, k))
+        have = min(known["Z"].shape[0], L) if "Z" in known else 0  # blocks known already
+        if have:
+            Z[:have], X[: have + 1] = known["Z"][:have], known["X"][: have + 1]
+        else:
+            X[0] = _flat(z)
+        np.matmul(MT, blocks[have:], out=Z[have:])  # (L, 2 nx + 1, k): G u, Q u, r u per block
+        _recursion(Z[have:, :nx], Phi, X[have], out=X[have:])  # X[m + nd] = A^nd X[m] + G u
         z = _sos_state(X[L])
         if count <= L:
             zend = _sos_state(X[count])
-        for i in range(0, L, 1024):  # in place, a slice at a time (bounded temporaries)
+        for i in range(have, L, 1024):  # in place, a slice at a time (bounded temporaries)
             sl = slice(i, min(i + 1024, L))
             Z[sl, nx : 2 * nx] += np.matmul(P, X[sl])  # W_j = P X_j + Q u_j
             Z[sl, 2 * nx] += np.matmul(hF, X[sl])  # the part of y_j known going forward
+        if carry is not None and count < L:  # the blocks past the last row wanted
+            carry["Z"], carry["X"] = Z[count:].copy(), X[count:].copy()
         del X
     # the tail: sosfilt forward from the last block's end, then backward from the end
     t0 = first + L * nd

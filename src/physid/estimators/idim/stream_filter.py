@@ -52,7 +52,9 @@ def step_state(sos) -> np.ndarray:
     return _zi(sos.tobytes(), sos.shape[0])
 
 
-def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen):
+def decimated_window(
+    sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift=None, carry=None
+):
     """Rows ``first + j nd`` (j < ``count``) of ``sosfiltfilt(sos, record, padlen=padlen)``
     from a stretch of the record, with `physid.filters.lifted.decimated_filtfilt` (lifted when
     `lifting_pays`, as `decimation.parallel_decimate`).
@@ -76,6 +78,11 @@ def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, pa
         The forward state before sample ``pos``.
     n_full, padlen : int
         The record's length and the whole-record call's ``padlen``.
+    lift : bool, optional
+        Lift or not; default `lifting_pays` of the stretch and its columns.
+    carry : dict, optional
+        `physid.filters.lifted.decimated_filtfilt`'s lifted blocks, from the previous window
+        of the same columns (its next row, ``pos == first``) and for the next.
 
     Returns
     -------
@@ -93,9 +100,19 @@ def decimated_window(sos, rows, c0, c1, pos, first, count, nd, state, n_full, pa
     if last and padlen > 0 and count:  # the end padding
         end = rows[n_full - 1 - padlen - c0 : n_full - c0]
         after = 2 * end[-1:] - end[-2::-1]
-    lift = lifting_pays(nd, x.shape[0] - (first - pos), x.shape[1])
+    if lift is None:
+        lift = lifting_pays(nd, x.shape[0] - (first - pos), x.shape[1])
     y, z = decimated_filtfilt(
-        sos, x, nd, first - pos, count, axis=0, forward_state=state, after=after, lift=lift
+        sos,
+        x,
+        nd,
+        first - pos,
+        count,
+        axis=0,
+        forward_state=state,
+        after=after,
+        lift=lift,
+        carry=carry,
     )
     if z is not None and first + count * nd > c1:
         z = None

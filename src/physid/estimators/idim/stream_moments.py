@@ -238,11 +238,11 @@ def idim_moments(model, plan: StreamPlan, source, index: int, *, timings=None, p
 
     Notes
     -----
-    Peak memory: one window of raw samples and of full-rate rows,
-    ``(block_samples + margins) · (n_joints · p + n_joints) · 8`` bytes times about 3
-    (regressor, filter input and output; margins: ``12·nd`` before the owned range, the parallel
-    filter's ~95·nd after it), the carried forward pass over the latter, plus the accumulators
-    (see the module docstring).
+    Peak memory: one window of raw samples, buffers of full-rate rows for two steps and the
+    margins, ``(2 · block_samples + margins) · (n_joints · p + n_joints) · 8`` bytes (margins:
+    ``12·nd`` before the owned range, the parallel filter's ~95·nd after it; see
+    `stream_window._reuse`), the parallel filter's temporaries (~25/nd of a window), plus the
+    accumulators (see the module docstring).
     """
     from ...signals.blocks import as_block_source
     from .base_parameters import base_regressor_info

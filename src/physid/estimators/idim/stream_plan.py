@@ -42,7 +42,6 @@ from .choose import decimate_candidates
 from .filtering import DIFFERENTIATIONS, default_half_width
 from .rows import _resolve_cutoff, _resolve_decimate
 from .uncertainty import STDERR_METHODS
-from .verdict import torque_noise_sigma
 
 __all__ = ["StreamPlan", "plan_streamed", "survey_source", "plan_from_surveys", "SURVEY_BLOCK"]
 
@@ -310,9 +309,10 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
         c = 0 if carry is None else carry.shape[0]
         y = x if carry is None else np.concatenate([carry, x])
         y3 = y[max(c - 3, 0) :]  # each difference once: the carry supplies the ones across cuts
-        if y3.shape[0] >= 4:
-            sig_q.append(_robust_sigma(y3[:, :nj]))
-            sig_t.append(torque_noise_sigma(y3[:, nj:]))
+        if y3.shape[0] >= 4:  # position_noise's and torque_noise_sigma's σ of the block
+            sigma = _robust_sigma(y3)
+            sig_q.append(sigma[:nj])
+            sig_t.append(sigma[nj:])
         d1 = np.abs(np.diff(y[max(c - 1, 0) :, :nj], axis=0))
         for j in range(nj):  # per joint: the grid test of position_noise on the first 2000 steps
             nz = d1[:, j][d1[:, j] > 0]
@@ -349,10 +349,53 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
     return stats, welch
 
 
-def _robust_sigma(q) -> np.ndarray:
-    """`position_noise`'s σ of one block [rad]."""
-    d3 = np.diff(q, n=3, axis=0)
-    return 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20.0)
+def _robust_sigma(x) -> np.ndarray:
+    """The MAD of the third difference over √20 of each column of one block: `position_noise`'s
+    σ of positions [rad], `verdict.torque_noise_sigma` of torques [N·m], bit for bit (their
+    ``1.4826 · median(|d₃ − median(d₃)|) / √20``, the medians by `median_columns`)."""
+    d3 = np.ascontiguousarray(np.diff(x, n=3, axis=0).T)  # (columns, samples): rows contiguous
+    d3 -= median_columns(d3)[:, None]
+    np.abs(d3, out=d3)
+    return 1.4826 * median_columns(d3) / math.sqrt(20.0)
+
+
+def median_columns(rows) -> np.ndarray:
+    """``np.median(rows, axis=1)`` of finite values, bit for bit, in about half its time.
+
+    Each row's middle order statistics are selected among the values between two bounds taken
+    from a sorted sample of the row (every ``n // 1024``-th value, ±2√m sample ranks around its
+    middle): counting the values below the lower bound gives their ranks, and only the ~10 %
+    between the bounds are partitioned. Where the bounds miss (a rank outside them), the whole
+    row is partitioned. The mean of the two middle values of an even count is
+    ``(a + b) / 2``, as `np.median` computes it.
+
+    Parameters
+    ----------
+    rows : ndarray, shape (k, n)
+        Finite values, each row contiguous.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+    """
+    n = rows.shape[1]
+    h = n // 2
+    ranks = [h - 1, h] if n % 2 == 0 else [h]
+    out = np.empty(rows.shape[0])
+    for j, row in enumerate(rows):  # per column of the block (14 for a 7-DOF arm)
+        sample = np.sort(row[:: max(1, n // 1024)])
+        m = sample.size
+        w = int(2.0 * math.sqrt(m)) + 2
+        lo, hi = sample[max(m // 2 - w, 0)], sample[min(m // 2 + w, m - 1)]
+        below = int(np.count_nonzero(row < lo))
+        between = row[(row >= lo) & (row <= hi)]
+        if below <= ranks[0] and below + between.size > ranks[-1]:
+            at = [r - below for r in ranks]
+            v = np.partition(between, at)[at]
+        else:  # the bounds missed a middle rank
+            v = np.partition(row, ranks)[ranks]
+        out[j] = (v[0] + v[1]) / 2.0 if v.size == 2 else v[0]
+    return out
 
 
 def motionless(stats: SourceStats) -> np.ndarray:
