@@ -228,14 +228,14 @@ def test_lifted_blocks_carried_to_the_next_window_give_the_same_rows_bit_for_bit
             s = kept[(kept >= a) & (kept < b)]
             nxt = edge + max(0, -(-(b - edge) // nd)) * nd
             stop = s[0] if s.size else max(nxt, pos)
-            if carry.get("at") != stop or pos != stop:
+            if carry.get("next") != stop or pos != stop:
                 carry.clear()
             reused += carried and "Z" in carry
             y, z = decimated_window(
                 sos, x[c0:c1], c0, c1, pos, stop, s.size, nd, z, n, padlen, True,
                 carry if carried else None,
             )  # fmt: skip
-            carry["at"] = stop + s.size * nd
+            carry["next"] = stop + s.size * nd
             runs[carried].append((y, z))
             pos, a = stop + s.size * nd, b
     assert reused > 5
@@ -245,3 +245,31 @@ def test_lifted_blocks_carried_to_the_next_window_give_the_same_rows_bit_for_bit
     ref = signal.sosfiltfilt(sos, x, axis=0, padlen=padlen)[kept]
     got = np.concatenate([y.T for y, _ in runs[True]])
     assert _rel(got.T, ref.T) < 1e-11
+
+
+def test_a_carry_made_with_another_nd_or_signals_is_refused():
+    """A carry of lifted blocks made with another nd, sos or number of signals would give wrong
+    rows silently (or broadcast one signal's blocks to all): refused, naming the argument."""
+    nd = 50
+    sos = _decimation_sos(nd)
+    x = _signals(40 * nd + 7, nd, 3).T  # (n, 5), time on axis 0
+    carry: dict = {}
+    y, _ = decimated_filtfilt(sos, x, nd, 0, 10, axis=0, lift=True, carry=carry)
+    assert carry["key"][0] == nd and carry["key"][2] == 5 and carry["Z"].shape[2] == 5
+    # the same call again from the carried blocks: the same rows bit for bit
+    again = {k: v for k, v in carry.items()}
+    y2, _ = decimated_filtfilt(sos, x[10 * nd :], nd, 0, 10, axis=0, lift=True, carry=again)
+    y3, _ = decimated_filtfilt(
+        sos, x[10 * nd :], nd, 0, 10, axis=0, lift=True,
+        forward_state=decimated_filtfilt(sos, x, nd, 0, 10, axis=0, lift=True)[1],
+    )  # fmt: skip
+    assert np.array_equal(y2, y3)
+    other = _decimation_sos(60)
+    with pytest.raises(InputError, match=r"carry holds blocks of another filter.*nd=50"):
+        decimated_filtfilt(other, x, 60, 0, 10, axis=0, lift=True, carry=dict(carry))
+    with pytest.raises(InputError, match=r"carry holds blocks.*5 signals.*this call: nd=50, 1 "):
+        decimated_filtfilt(sos, x[:, :1], nd, 0, 10, axis=0, lift=True, carry=dict(carry))
+    with pytest.raises(InputError, match="another sos"):
+        decimated_filtfilt(sos * 1.0001, x, nd, 0, 10, axis=0, lift=True, carry=dict(carry))
+    with pytest.raises(InputError, match="carry must be a dict"):
+        decimated_filtfilt(sos, x, nd, 0, 10, axis=0, lift=True, carry=[1])

@@ -181,6 +181,31 @@ def _check(sos, x, nd, first, count, axis):
     return sos, xt
 
 
+def _carried(carry, sos, nd: int, k: int) -> dict:
+    """The lifted blocks ``carry`` holds for this call (``{}`` when none), after checking that
+    they were made with the same ``sos``, ``nd`` and number of signals; ``carry`` is emptied for
+    this call's."""
+    from ..errors import InputError
+
+    if carry is None:
+        return {}
+    if not isinstance(carry, dict):
+        raise InputError(f"carry must be a dict (empty at first); got {type(carry).__name__}.")
+    known = dict(carry)
+    carry.clear()
+    if "Z" not in known:
+        return {}
+    made = known.get("key")
+    if made is None or made[0] != nd or made[1] != sos.tobytes() or made[2] != k:
+        got = "unknown" if made is None else f"nd={made[0]}, {made[2]} signals"
+        raise InputError(
+            f"carry holds blocks of another filter (made with {got}; this call: nd={nd}, "
+            f"{k} signals, or another sos): pass the carry of a call with the same sos, nd "
+            "and signals, or an empty dict."
+        )
+    return known
+
+
 def decimated_filtfilt(
     sos,
     x,
@@ -230,7 +255,8 @@ def decimated_filtfilt(
         call's first blocks, from ``first`` on, of the same signals (the caller checks that
         they are: the stretches overlap, the previous call's ``first + count·nd`` is this
         call's ``first``); on return, those of the blocks from ``first + count · nd`` on (empty
-        when none were lifted). The forward pass is a recursion continued from the same state
+        when none were lifted), with ``carry["key"]``: the ``nd``, ``sos`` and number of
+        signals they were made with, checked on entry (another raises `InputError`). The forward pass is a recursion continued from the same state
         over the same samples, so these blocks are bit for bit what this call would compute
         (``forward_state`` is then not used for them).
 
@@ -265,9 +291,7 @@ def decimated_filtfilt(
     if first > 0:  # the head: the samples before the first row wanted
         _, z = signal.sosfilt(sos, xt[:first].T, axis=-1, zi=z)
     end = first + count * nd  # the forward state wanted before this sample
-    known = {} if carry is None else dict(carry)
-    if carry is not None:
-        carry.clear()
+    known = _carried(carry, sos, nd, k)
     if count == 0:
         y0 = np.empty((k, 0))
         return (y0 if axis != 0 else y0.T), z if end <= n else None
@@ -300,6 +324,7 @@ def decimated_filtfilt(
             Z[sl, 2 * nx] += np.matmul(hF, X[sl])  # the part of y_j known going forward
         if carry is not None and count < L:  # the blocks past the last row wanted
             carry["Z"], carry["X"] = Z[count:].copy(), X[count:].copy()
+            carry["key"] = (nd, sos.tobytes(), k)
         del X
     # the tail: sosfilt forward from the last block's end, then backward from the end
     t0 = first + L * nd
