@@ -324,26 +324,110 @@ def test_survey_noise_statistics_equal_the_in_memory_ones_bit_for_bit():
     assert np.array_equal(sigma[:3], position_noise(q)[0])
 
 
-def test_window_buffers_hold_the_reused_rows_and_move_them_every_other_window():
+def test_window_buffers_hold_the_reused_rows_at_their_front_in_one_allocation():
     from physid.estimators.idim.stream_window import _reuse
 
     n, step, left, right = 2000, 100, 10, 40
-    cache, places, made = {}, [], set()
+    capacity = max(step + left + right, -(-3 * step // 2) + left)  # as window_rows'
+    cache, made, reused = {}, set(), 0
     a = 0
     while a < n:
         b = n if n - a < step + step // 2 else a + step
         c0, c1 = max(0, a - left), min(n, b + right)
-        stacked, qdf, start = _reuse(cache, c0, c1, 3, 1, 2 * step + left + right)
+        stacked, qdf, start = _reuse(cache, c0, c1, 3, 1, capacity)
         assert stacked.shape == (c1 - c0, 3) and qdf.shape == (c1 - c0, 1)
+        assert stacked.base is cache["buf"] and np.shares_memory(stacked, cache["buf"][:1])
         # the rows reused from the previous window are the ones it wrote
         assert np.array_equal(stacked[: start - c0, 0], np.arange(c0, start))
         assert np.array_equal(qdf[: start - c0, 0], -np.arange(c0, start))
+        reused += start - c0
         stacked[start - c0 :] = np.arange(start, c1)[:, None]
         qdf[start - c0 :, 0] = -np.arange(start, c1)
         cache["rows"] = (c0, c1)
-        places.append(cache["at"])
         made.add(id(cache["buf"]))
         a = b
-    assert len(made) == 1  # one buffer, the last (longer) window's included
-    moved = sum(1 for at in places[1:] if at == 0)
-    assert moved == len(places[1:]) // 2  # every other window moves its reused rows
+    assert len(made) == 1 and cache["buf"].shape[0] == capacity  # the last window's included
+    assert reused == 19 * (left + right)  # each of the 19 windows after the first: both margins
+    with pytest.raises(RuntimeError, match="a window of 161 rows does not fit the buffers' 160"):
+        _reuse(cache, 0, capacity + 1, 3, 1, capacity)
+
+
+def _arm7_record(seconds: float, seed: int = 0) -> tuple:
+    """A 7-DOF arm, 1 kHz: smooth 5-harmonic motion, torques from its inverse dynamics plus
+    noise (2 % of each joint's rms), σ_q = 1e-4 rad."""
+    model = physid.load_model(DATA / "arm7.urdf")
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * 1000)) * 1e-3
+    w = 2 * np.pi / 10.0 * np.arange(1, 6)
+    a, b = rng.normal(size=(2, 7, 5)) * 0.6 / (5 * np.arange(1, 6) ** 1.5)
+    s, c = np.sin(np.outer(t, w)), np.cos(np.outer(t, w))
+    q = s @ a.T + c @ b.T + np.linspace(-0.3, 0.3, 7)
+    qd, qdd = (c * w) @ a.T - (s * w) @ b.T, -(s * w**2) @ a.T - (c * w**2) @ b.T
+    tau = model.inverse_dynamics(q, qd, qdd)
+    tau = tau + 0.02 * np.sqrt(np.mean(tau**2, axis=0)) * rng.normal(size=tau.shape)
+    q = q + 1e-4 * rng.normal(size=q.shape)
+    names = [f"q{j + 1}" for j in range(7)] + [f"tau{j + 1}" for j in range(7)]
+    units = ["rad"] * 7 + ["N*m"] * 7
+    return model, Recording(t, np.hstack([q, tau]), names, units)
+
+
+def test_one_window_record_with_a_leftover_chunk_equals_in_memory_to_rounding(monkeypatch):
+    # a record of one window, the last: from IN_PLACE_ND on its live columns are lifted in one
+    # call, where chunks of COLUMNS (the rule below IN_PLACE_ND) would leave a last chunk of
+    # fewer than LIFT_MIN_WORK / nd columns to plain sosfilt; the in-memory fit (chunks of 256)
+    # lifts them all too: the same estimate to rounding
+    import physid.estimators.idim.decimation as dm
+    import physid.estimators.idim.stream_window as sw
+    from physid.filters.lifted import LIFT_MIN_WORK
+
+    model, rec = _arm7_record(9.0)
+    nd = 45
+    assert nd >= sw.IN_PLACE_ND and rec.n_samples < 65536  # one window
+    chunks, inner = [], dm.lifting_pays
+
+    def spy(nd_, n_samples, n_columns):
+        chunks.append(n_columns)
+        return inner(nd_, n_samples, n_columns)
+
+    monkeypatch.setattr(dm, "lifting_pays", spy)
+    ref = _fit(model, rec, decimate=nd)
+    monkeypatch.setattr(dm, "lifting_pays", inner)
+    # the in-memory fit lifts the live columns in one chunk; in chunks of COLUMNS the last
+    # would hold too few to lift
+    assert len(chunks) == 1 and (chunks[0] % sw.COLUMNS) * nd < LIFT_MIN_WORK
+    got = fit_streamed(model, rec, decimate=nd, progress=False)
+    _same(ref, got, beta_rtol=1e-9)  # a parameter of 6e-4: 4e-10 of it (2e-13 absolute)
+    b1, b2 = ref.beta_vector(), got.beta_vector()
+    assert np.linalg.norm(b2 - b1) / np.linalg.norm(b1) < 1e-12
+
+
+def test_a_column_that_becomes_live_mid_record_clears_the_carried_blocks(arm, rec, monkeypatch):
+    # the last torque is exactly zero until 7 s (of 8), so the window where it
+    # turns non-zero filters one more column: the lifted blocks carried from the previous
+    # window (of fewer columns) are dropped and computed afresh; carried or never carried,
+    # the same estimate bit for bit, and the in-memory one to rounding
+    import physid.estimators.idim.stream_window as sw
+
+    data = rec.data.copy()
+    data[:7000, rec.names.index(f"tau{arm.n_joints}")] = 0.0
+    late = Recording(rec.t, data, rec.names, rec.units)
+    inner, calls = sw.decimated_window, []
+
+    def spy(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry):
+        calls.append((rows.shape[1], carry is not None and "Z" in carry))
+        return inner(sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift, carry)
+
+    def never(*args):
+        return inner(*args[:-1], None)
+
+    nd = sw.IN_PLACE_ND + 10
+    monkeypatch.setattr(sw, "decimated_window", spy)
+    got = fit_streamed(arm, ArrayBlocks(late), decimate=nd, block_samples=500, progress=False)
+    widths = [w for w, _ in calls]
+    grown = [i for i in range(1, len(calls)) if widths[i] > widths[i - 1]]
+    assert len(grown) == 1 and not calls[grown[0]][1]  # the carry cleared where it grew
+    assert calls[grown[0] - 1][1] and calls[grown[0] + 1][1]  # carried before and after
+    monkeypatch.setattr(sw, "decimated_window", never)
+    fresh = fit_streamed(arm, ArrayBlocks(late), decimate=nd, block_samples=500, progress=False)
+    assert np.array_equal(got.beta_vector(), fresh.beta_vector())
+    _same(_fit(arm, late, decimate=nd), got)

@@ -19,9 +19,10 @@ free response of the filter, which decays over the right margin (`stream_plan.de
 No left margin is needed at all.
 
 `decimated_window` does this with only the decimated rows computed
-(`physid.filters.lifted.decimated_filtfilt`, under the rule of the in-memory
-`decimation.parallel_decimate`) and only the forward *state* carried, at the window's next
-decimated row (the right margin's forward pass is computed again by the next window).
+(`physid.filters.lifted.decimated_filtfilt`, lifted or not as its caller says, by default as
+`lifting_pays` says) and the forward *state* carried, at the window's next decimated row. The
+right margin's forward pass is computed again by the next window, unless lifted with a
+``carry``: its lifted blocks are then handed to the next window, which starts there.
 """
 
 from __future__ import annotations
@@ -56,8 +57,8 @@ def decimated_window(
     sos, rows, c0, c1, pos, first, count, nd, state, n_full, padlen, lift=None, carry=None
 ):
     """Rows ``first + j nd`` (j < ``count``) of ``sosfiltfilt(sos, record, padlen=padlen)``
-    from a stretch of the record, with `physid.filters.lifted.decimated_filtfilt` (lifted when
-    `lifting_pays`, as `decimation.parallel_decimate`).
+    from a stretch of the record, with `physid.filters.lifted.decimated_filtfilt` (lifted as
+    ``lift`` says, by default when `lifting_pays`).
 
     Parameters
     ----------
