@@ -296,7 +296,7 @@ def test_the_last_window_is_filtered_in_place_and_equals_in_memory(arm, rec, mon
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4, 1023, 1024, 65536, 65537])
-def test_median_of_columns_equals_numpy_median_bit_for_bit(n):
+def test_median_of_rows_equals_numpy_median_bit_for_bit(n):
     rng = np.random.default_rng(n)
     rows = np.stack(
         [
@@ -307,8 +307,13 @@ def test_median_of_columns_equals_numpy_median_bit_for_bit(n):
             np.where(np.arange(n) % max(1, n // 1024) == 0, 1e9, 0.0),  # a sample that lies
         ]
     )
-    got = stream_plan.median_columns(rows)
+    got = stream_plan.median_rows(rows)
     assert np.array_equal(got, np.median(rows, axis=1))
+    rows[1, n // 2] = np.nan  # a NaN anywhere in a row: its median is NaN, as np.median's
+    rows[3, 0] = np.nan
+    got = stream_plan.median_rows(rows)
+    assert np.array_equal(got, np.median(rows, axis=1), equal_nan=True)
+    assert np.isnan(got[[1, 3]]).all() and np.isfinite(got[[0, 2, 4]]).all()
 
 
 def test_survey_noise_statistics_equal_the_in_memory_ones_bit_for_bit():
