@@ -238,11 +238,13 @@ def idim_moments(model, plan: StreamPlan, source, index: int, *, timings=None, p
 
     Notes
     -----
-    Peak memory: one window of raw samples, buffers of full-rate rows for two steps and the
-    margins, ``(2 · block_samples + margins) · (n_joints · p + n_joints) · 8`` bytes (margins:
-    ``12·nd`` before the owned range, the parallel filter's ~95·nd after it; see
-    `stream_window._reuse`), the parallel filter's temporaries (~25/nd of a window), plus the
-    accumulators (see the module docstring).
+    Peak memory: one window of raw samples, buffers of full-rate rows for the longest window,
+    ``max(block_samples + margins, 1.5 · block_samples + 12·nd) · (n_joints · p + n_joints) ·
+    8`` bytes (margins: ``12·nd`` before the owned range, the parallel filter's ~95·nd after
+    it; see `stream_window._reuse`), the parallel filter's temporaries (lifted in place, from
+    nd = 40 on: ~25/nd of a window; below, a copy of up to 96 columns of the window, and about
+    three more where ``sosfilt`` runs on every sample; an nd = 1 candidate: a copy of a step's
+    rows), plus the accumulators (see the module docstring).
     """
     from ...signals.blocks import as_block_source
     from .base_parameters import base_regressor_info
