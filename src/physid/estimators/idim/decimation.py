@@ -86,8 +86,8 @@ def parallel_decimate(x, nd: int, *, block_columns: int = 256) -> tuple[np.ndarr
     Returns
     -------
     y : ndarray, shape (n_kept, ...)
-        Filtered rows ``edge, edge + nd, ...`` (``edge = EDGE_PERIODS · nd``,
-        12 nd, samples of transient dropped at each end).
+        Filtered rows ``edge, edge + nd, ...``: ``edge = EDGE_PERIODS · nd`` samples (12 nd)
+        of transient are dropped at each end.
     kept : ndarray of int, shape (n_kept,)
         The input rows the output rows belong to.
 
