@@ -23,25 +23,27 @@ low-passed and decimated by ``nd``. Three explanations, checked in this order:
   `NOISE_BOUND_FACTOR`² times the predicted power at ``σ_b``;
 * **the model** otherwise ("model misses dynamics"), with the numbers of both checks.
 
-When that says "model" and the fit dropped equations next to speed reversals
-(``reversal_joints``), `set_aside_reversals` tests again without those equations of the joints
-where they stand out (mean square residual more than `STAND_OUT` times the joint's other
-equations', the fit's own rule). If the other equations are then explained (filter or position
-noise), the explanation is **"reversal friction"**, not "consistent": the model explains the
-other equations, and the residual concentrated next to the reversals is friction its
-Fc·sign(q̇) of the filtered velocity does not follow there (dry friction smeared by the filters,
-sticking, or another friction law: Stribeck, asymmetric Coulomb). The verdict gives the
-equations per joint, their share of that joint's residual power and their mean square ratio,
-and the fix (a friction model with a smooth or stiction term, or leaving those equations out as
-the fit did); the evidence stays that of every equation, the rest's under ``other_equations``.
+When that says "model" and the fit dropped equations next to speed reversals or at low speed
+(``reversal_joints``; `physid.estimators._stiction.reversal_samples` marks both),
+`set_aside_reversals` tests again without those equations of the joints where they stand out
+(mean square residual more than `STAND_OUT` times the joint's other equations', the fit's own
+rule). If the other equations are then explained (filter or position noise), the explanation
+is **"reversal friction"**, not "consistent": the residual stands out in equations the fit
+itself leaves out, and the model explains the others. There Fc·sign(q̇) of the filtered
+velocity does not follow the friction torque (dry friction smeared by the filters, sticking, or
+another friction law: Stribeck, asymmetric Coulomb). The verdict says what was compared, the
+equations set aside, each joint's share of its residual power, that nothing is to change for
+this fit, and the fix if the friction law differs (a friction model with a smooth or stiction
+term); per joint equations and mean square ratios are in the evidence, which stays that of
+every equation, the rest's under ``other_equations``.
 If not, "model" stands and says that setting them aside does not change it. Measured on the
 quickstart's held-out ``arm6`` record (σ_q = 1e-4 rad, no torque noise, the IDIM-WLS fit of
 the fixed excitation of `tests/test_validate_quickstart_residual.py`, the same with any BLAS
 thread count): the residual is 1.33 % of the torque's spread, the same with the true
 parameters; position noise needs 5.7× the power its bound gives (3.5× allowed); 18 of 462
-equations next to reversals stand out (joint 5: 3, 58 % of its residual power, 31× its other
-equations' mean square) and without them 2.8× does: "reversal friction"; link 3's inertial
-parameters 5 or 20 % off stay "model".
+equations next to reversals or at low speed stand out (joint 5: 3, 58 % of its residual power,
+31× its other equations' mean square) and without them 2.8× does: "reversal friction"; link
+3's inertial parameters 5 or 20 % off stay "model".
 """
 
 from __future__ import annotations
@@ -339,15 +341,17 @@ def set_aside_reversals(
     reversal,
     position_noise=None,
 ) -> dict[str, Any]:
-    """Test (c) again without the equations next to speed reversals where they stand out.
+    """Test (c) again without the equations next to speed reversals or at low speed where they
+    stand out.
 
     Called when `explain_inverse_residual` said "model" on a fit that dropped its reversal
     equations (see the module docstring). A joint's equations marked in ``reversal`` are set
     aside when their mean square residual exceeds `STAND_OUT` times that of its other kept
     equations. If the other equations are then explained (filter colouring or position noise),
-    the explanation is ``"reversal friction"``, never "consistent": the model's friction does not
-    follow the reversals, which a wrong friction law (Stribeck, asymmetric Coulomb) would do too.
-    (Long: the two verdicts are written out where they are decided.)
+    the explanation is ``"reversal friction"``, never "consistent": the residual stands out where
+    the fit itself leaves equations out, as dry friction smeared by the filters or a wrong
+    friction law (Stribeck, asymmetric Coulomb) would make it. (Long: the two verdicts are
+    written out where they are decided.)
 
     Parameters
     ----------
@@ -361,7 +365,8 @@ def set_aside_reversals(
     index : array_like of int, shape (n_rows,)
         The rows' positions in the decimated sequence.
     kept, reversal : array_like of bool, shape (n_rows, n_joints)
-        The equations kept, and those next to speed reversals of the fit's ``reversal_joints``.
+        The equations kept, and those next to speed reversals or at low speed of the fit's
+        ``reversal_joints``.
     position_noise : callable, optional
         ``position_noise(kept) -> callable`` as `explain_inverse_residual`'s ``position_noise``
         for the equations ``kept``.
@@ -370,8 +375,9 @@ def set_aside_reversals(
     -------
     dict
         ``result``. Its evidence keeps the numbers of every equation (``relative_residual``,
-        the filter's and position noise's) and gains ``reversals_set_aside`` (per joint set
-        aside: equations, share of that joint's residual power, mean square ratio) and
+        the filter's and position noise's) and gains ``reversals_set_aside`` (the equations next
+        to reversals or at low speed set aside, per joint: equations, share of that joint's
+        residual power, mean square ratio) and
         ``other_equations`` (the explanation and evidence without them). Its explanation becomes
         ``"reversal friction"`` when the other equations are explained, else stays ``"model"``.
     """
@@ -410,19 +416,17 @@ def set_aside_reversals(
     evidence = result["evidence"]
     evidence["reversals_set_aside"] = info
     evidence["other_equations"] = {"explanation": second["explanation"], **second["evidence"]}
-    per_joint = "; ".join(
-        f"joint {j}: {n} equation{'s' if n > 1 else ''}, {100 * sh:.0f} % of its residual "
-        f"power, {r:.1f}× its other equations' mean square"
-        for j, n, sh, r in zip(joints + 1, info["equations_per_joint"],
-                               info["power_share_per_joint"], info["mean_square_ratio"],
-                               strict=True)
+    # per joint, the share of its residual power only: "most" would overstate a 15 % share
+    shares = ", ".join(
+        f"joint {j} {100 * sh:.0f} %" for j, sh in zip(joints + 1, info["power_share_per_joint"],
+                                                       strict=True)
     )  # fmt: skip
-    counted = (
-        f"the {info['equations']} equations next to speed reversals that stand out (of "
-        f"{info['of']}; the fit dropped them too; {per_joint})"
+    where = (
+        f"{info['equations']} of {info['of']} equations next to speed reversals or at low "
+        f"speed, which the fit itself leaves out (share of each joint's residual power: {shares})"
     )
     if second["explanation"] in ("model", "none"):
-        result["verdict"] += f"; setting aside {counted} does not change this"
+        result["verdict"] += f"; setting aside the {where} does not change this"
         return result
     other_why = {
         "filter": "the filters' colouring of white torque noise",
@@ -432,14 +436,10 @@ def set_aside_reversals(
     }[second["explanation"]]
     result["explanation"] = "reversal friction"
     result["verdict"] = (
-        "the model's friction does not follow the speed reversals: on every equation the torque "
-        f"residual ({evidence['relative_residual']:.2g} of the torque's spread) departs from the "
-        f"filters' colouring at up to {max(evidence['filter_lags_outside'])} lags; "
-        f"{counted}; without them the model explains the other equations "
-        f"by {other_why}. The residual concentrated next to the reversals is friction that "
-        "Fc·sign(q̇) of the filtered velocity does not follow there (dry friction smeared by the "
-        "filters, sticking, or a friction law other than the model's: Stribeck, asymmetric "
-        "Coulomb). Use a friction model with a smooth or stiction term, or leave those "
-        "equations out as the fit did"
+        f"against the filters' colouring and position noise, the torque residual "
+        f"({evidence['relative_residual']:.2g} of the torque's spread) stands out in the {where}; "
+        f"the model explains the others by {other_why}. Nothing to change for this fit; if the "
+        "friction law differs (Stribeck, asymmetric Coulomb), use a friction model with a smooth "
+        "or stiction term"
     )
     return result
