@@ -200,7 +200,8 @@ def _streamable(path, model, method, fit_options, load_options, workers=1) -> bo
     if obstacle is not None:
         return False
     try:
-        return streams_better([path], model, workers=workers)[0]
+        topic = load_options.get("topic")  # a bag by its index's message count, as identify
+        return streams_better([path], model, workers=workers, topic=topic)[0]
     except PhysidError:
         return False  # the in-memory load says what is wrong with the file
 

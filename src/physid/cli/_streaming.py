@@ -73,7 +73,7 @@ def wants_stream(args, paths, model, method: str) -> bool:
         ``--stream on`` with settings that cannot stream (the reason and the fix).
     """
     from .._resources import format_bytes
-    from ..errors import InputError
+    from ..errors import DataFileError, InputError
     from ..estimators.idim.stream import streams_better
 
     choice = getattr(args, "stream", "auto")
@@ -92,7 +92,10 @@ def wants_stream(args, paths, model, method: str) -> bool:
         return True
     if why is not None:
         return False
-    stream, peak, limit = streams_better(paths, model)
+    try:  # a bag by its index's message count: the rule of estimate and fleets
+        stream, peak, limit = streams_better(paths, model, topic=getattr(args, "topic", None))
+    except DataFileError:
+        return False  # the in-memory read says what is wrong with the file
     if not stream:
         return False
     progress(

@@ -41,6 +41,7 @@ __all__ = [
     "BLOCK_FORMATS",
     "blocks_obstacle",
     "in_memory_bytes",
+    "in_memory_samples",
     "MAX_WHOLE_MAT_BYTES",
 ]
 
@@ -555,17 +556,49 @@ def blocks_obstacle(path, topic=None) -> str | None:
     return None
 
 
-def in_memory_bytes(path) -> int:
+def in_memory_samples(path, topic=None) -> int | None:
+    """The samples of ``path`` from its index alone, or None where only its size bounds them.
+
+    A ROS bag: its topic's message count (a ROS 1 bag's index, a ROS 2 bag's metadata.yaml),
+    nothing of the messages read. The one rule by which ``identify``, ``estimate`` and fleets
+    size a bag under ``--stream auto``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks`.
+
+    Returns
+    -------
+    int or None
+
+    Raises
+    ------
+    DataFileError
+        A bag that cannot be opened, or without the topic.
+    """
+    if not is_rosbag(path):
+        return None
+    from .rosbag_reader import bag_extent
+
+    return bag_extent(Path(path), topic)[0]
+
+
+def in_memory_bytes(path, topic=None) -> int:
     """Estimated bytes `load_recording` would take for ``path``, from its shapes, types and size.
 
     Nothing of the samples is read: HDF5/v7.3 datasets and NPZ members by their declared shape
     and type (the values, then as float64), a v5 ``.mat`` by its variables' declared sizes,
     Parquet by its rows × columns, a CSV file as three times its size (the text, its copy
-    parsed, the table); anything else twice its size.
+    parsed, the table), a ROS bag by its index's message count times the values of its first
+    message (three float64 copies, as its whole read checks); anything else twice its size.
 
     Parameters
     ----------
     path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks` (other files: unused).
 
     Returns
     -------
@@ -579,7 +612,9 @@ def in_memory_bytes(path) -> int:
     """
     path = Path(path)
     if is_rosbag(path):
-        return 2 * _tree_size(path)
+        from .rosbag_reader import bag_extent, read_bytes
+
+        return read_bytes(*bag_extent(path, topic))
     _check_readable(path)
     size = path.stat().st_size
     fmt = SUPPORTED_SUFFIXES.get(path.suffix.lower())
@@ -634,9 +669,3 @@ def _npz_bytes(path: Path) -> int:
             m = _npy_member(zf, info)
             total += int(np.prod(m.shape, dtype=object)) * (m.dtype.itemsize + 8)
     return total
-
-
-def _tree_size(path: Path) -> int:
-    if path.is_dir():
-        return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
-    return path.stat().st_size
