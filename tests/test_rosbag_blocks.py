@@ -521,6 +521,19 @@ def test_a_fleet_sizes_a_bag_by_its_message_count(tmp_path, run, model, monkeypa
     assert _streamable(bag, model, "idim-ols", {}, {})
 
 
+def test_a_fleet_keeps_a_bags_stamps_when_asked(tmp_path, run, model):
+    """load_options={"resample": False}: the jittered stamps are kept (then refused as not
+    uniform at the default tolerance), not resampled behind the caller's back."""
+    from physid.analysis.fleet import fit_one_log
+
+    bag = _jittered(tmp_path, run, model)
+    names = {"joint_names": model.joint_names}
+    row = fit_one_log("manipulator", bag, "idim-ols", load_options={**names, "resample": False})
+    assert row["status"] == "failed"
+    assert "not uniformly sampled" in row["reason"]
+    assert fit_one_log("manipulator", bag, "idim-ols", load_options=names)["status"] == "ok"
+
+
 def test_estimate_auto_reads_a_small_bag_once(tmp_path, capsys, monkeypatch):
     """estimate --stream auto sizes a bag by its index's message count (identify's rule): a
     small bag is read whole without being scanned in blocks first; above the limit it streams."""

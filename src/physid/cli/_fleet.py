@@ -86,9 +86,11 @@ def _load_options(args, model) -> dict:
     from ._recordings import _model_channel_map, _table_name
 
     table = _model_channel_map(args, model)
+    # without --resample, no "resample" key: a ROS bag read whole is resampled (run_fleet)
+    chosen = {"resample": True} if getattr(args, "resample", False) else {}
     return {
+        **chosen,
         "channels": parse_channel_map(getattr(args, "channel_map", None)) or None,
-        "resample": bool(getattr(args, "resample", False)),
         "uniform_rtol": 1e-3,
         "decimal": getattr(args, "decimal", ".") or ".",
         "delimiter": getattr(args, "delimiter", None),
