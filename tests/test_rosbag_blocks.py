@@ -277,7 +277,7 @@ def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, mod
     with (
         open_blocks(path, joint_names=names) as src,
         pytest.raises(
-            DataFileError, match=r"not uniformly sampled.*jitter: .*resample=True\) reads it whole"
+            DataFileError, match=r"not uniformly sampled from .*jitter .*resample=True\) reads it"
         ),
     ):
         list(src.blocks(500))
@@ -560,3 +560,59 @@ def test_estimate_auto_reads_a_small_bag_once(tmp_path, capsys, monkeypatch):
     assert main(base) == 0
     assert opened == [1]
     assert "streaming" in capsys.readouterr().err
+
+
+def test_a_bag_jittered_from_a_sample_is_named_at_its_first_irregular_interval(
+    tmp_path, run, model
+):
+    """Stamps regular to sample 3000, then jittering by up to ±5 % of the period: the error
+    leads with the jitter, names the first interval off by more than 1e-3 (not the worst) and
+    the memory the whole read takes (3 × 8 bytes × 4000 × 9 values = 864 kB)."""
+    names, q, tau = model.joint_names, run["q"], run["tau"]
+    stamps = run["stamps"].copy()
+    stamps[3000:-1] += np.random.default_rng(5).integers(-50_000, 50_001, 999)
+    path = write_bag(tmp_path / "late.bag", "ros1", names, q, tau, stamps)
+    off = np.abs(np.diff(stamps) - PERIOD) / PERIOD
+    first, worst = int(np.argmax(off > 1e-3)), int(off.argmax())
+    assert 2999 <= first < worst
+    with open_blocks(path, joint_names=names) as src, pytest.raises(DataFileError) as e:
+        list(src.blocks(4000))
+    text = str(e.value)
+    assert f"not uniformly sampled from sample {first}: its stamps jitter (the interval from " \
+        f"sample {first} (t = " in text  # fmt: skip
+    assert "a gap or a jump" not in text
+    assert (
+        "(about 864 kB for its 4000 messages, and the fit's arrays); where the memory is "
+        "short of that, split the bag into shorter runs (rosbag filter, ros2 bag convert)" in text
+    )
+
+
+def test_joint_scheduler_names_its_own_fix_for_a_jittered_bag(tmp_path, run, model, capsys):
+    """--joint --scheduler refuses --resample and --join: its fix is to leave --scheduler out."""
+    bag = _jittered(tmp_path, run, model)
+    code = main(["identify", str(bag), str(bag), "--model", "manipulator", "--method",
+                 "idim-ols", "--joint", "--scheduler", "serial"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "not uniformly sampled from sample" in err
+    assert "With --joint --scheduler each worker reads its log in blocks as it is: leave " \
+        "--scheduler out to fit in this process" in err  # fmt: skip
+    assert "--resample reads it whole" not in err and "--join, in memory" not in err
+
+
+def test_identify_stream_on_words_an_emptied_effort_for_the_command_line(
+    tmp_path, run, model, capsys
+):
+    """A bag whose effort goes empty partway: the fix in the command line's words, and that
+    the in-memory read then lacks the torques."""
+    names = model.joint_names
+    rows = [(names, run["q"][k], [] if k == 2500 else run["tau"][k]) for k in range(4000)]
+    path = _write_rows(tmp_path / "empty", rows)
+    code = main(["identify", str(path), "--model", "manipulator", "--method", "idim-ols",
+                 "--stream", "on", "--block-samples", "1000"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "Fit the bag in memory (leave --stream on out), which drops such a field (then " \
+        "without the torques in effort: fill effort in every message, or take the torques " \
+        "from another topic, --topic /joint_states,/TORQUES)" in err  # fmt: skip
+    assert "load_recording" not in err

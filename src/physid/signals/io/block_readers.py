@@ -415,14 +415,14 @@ class FileBlocks:
             local = float(np.median(steps))  # the interval here: a gap stands out of it
             off = np.abs(steps - local) / local
             if float(off.max()) > rtol:
-                i = int(off.argmax())
+                i = int(np.argmax(off > rtol))  # the first irregular interval
                 raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol)
             raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
 
     def _locate(self, read, size: int, start: int, count: int, drift: _Drift):
         """After a block whose intervals all differ from the record's period: read on to the
-        gap that makes the difference (the whole-file load names the worst interval)."""
+        first interval off the block's own (the whole-file load names the worst interval)."""
         rtol, prev = self._options.uniform_rtol, drift.prev
         for j in range(start, count):
             a, b = j * size, (j + 1) * size if j < count - 1 else self.n_samples
@@ -433,15 +433,17 @@ class FileBlocks:
                 raise self._back(a, float(t[0]), float(prev))
             off = np.abs(steps - drift.local) / drift.local
             if float(off.max()) > rtol:
-                i = int(off.argmax())
+                i = int(np.argmax(off > rtol))  # the first irregular interval
                 raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol)
             prev = t[-1]
+        fix = self._time_hint() or (
+            " Resample it (load_recording(..., resample=True) reads it whole)."
+        )
         raise DataFileError(
             f"{self.path}: time is not uniformly sampled: its intervals drift from "
             f"{drift.local:.6g} s to the record's mean period {self.dt:.6g} s "
             f"((t_last − t_first) / (n − 1)) by more than the tolerance {rtol:g}, without one "
-            "gap to split at. Resample it (load_recording(..., resample=True) reads it whole), "
-            f"or pass uniform_rtol=None to keep the times as they are.{self._time_hint()}"
+            f"gap to split at.{fix} Or pass uniform_rtol=None to keep the times as they are."
         )
 
     def _back(self, a: int, t_a: float, prev: float) -> DataFileError:
@@ -452,15 +454,25 @@ class FileBlocks:
         )
 
     def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
-        # the format's hint on jitter for a step off by under half a period (not a lost sample)
+        """The error of the first irregular interval, from sample ``g``: with the format's hint
+        on jitter first (a ROS bag's) for a step off by under half a period, a gap's otherwise."""
+        interval = (
+            f"the interval from sample {g} (t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s "
+            f"against a period of {period:.6g} s (relative deviation "
+            f"{abs(step - period) / period:.3g}, tolerance {rtol:g})"
+        )
+        hint = self._time_hint()
+        if hint and abs(step - period) < 0.5 * period:  # jitter, not a lost sample
+            return DataFileError(
+                f"{self.path}: time is not uniformly sampled from sample {g}: its stamps jitter "
+                f"({interval}, the first interval this far off); a stream of blocks cannot "
+                f"resample.{hint} Or pass uniform_rtol=None to keep the times as they are."
+            )
         return DataFileError(
-            f"{self.path}: time is not uniformly sampled: the interval from sample {g} "
-            f"(t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s against a period of "
-            f"{period:.6g} s (relative deviation {abs(step - period) / period:.3g}, tolerance "
-            f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
-            "the parts as separate experiments (physid.signals.join_recordings splits files at "
-            "gaps), or pass uniform_rtol=None to keep the "
-            f"times as they are.{self._time_hint() if abs(step - period) < 0.5 * period else ''}"
+            f"{self.path}: time is not uniformly sampled: {interval}: a gap or a jump in the "
+            f"time. Split the file at sample {g + 1} and fit the parts as separate experiments "
+            "(physid.signals.join_recordings splits files at gaps), or pass uniform_rtol=None "
+            "to keep the times as they are."
         )
 
     def _time_hint(self) -> str:
