@@ -7,8 +7,11 @@ the MSD, 2e5 and 8e5 samples) of about 350 bytes per sample for ``--method rls``
 the same estimate, standard errors and verdict. ``--stream auto`` (the default) streams when the
 in-memory fit would need more than `physid._resources.stream_limit` (2 GiB, or a quarter of
 the available memory: about 6 million samples, 1.7 hours at 1 kHz, for rls) and the settings
-stream: below that the in-memory fit is faster (one pass instead of three) and keeps the full histories. ``on``
-streams whenever it can (and says why not otherwise); ``off`` never streams.
+stream: below that the in-memory fit is faster (one pass instead of three) and keeps the full
+histories. A ROS bag's samples are its index's message count (`physid.signals.io.
+in_memory_samples`, the rule of ``identify`` and fleets): a bag below the limit is read whole
+once, not scanned first. ``on`` streams whenever it can (and says why not otherwise); ``off``
+never streams.
 """
 
 from __future__ import annotations

@@ -118,8 +118,8 @@ def open_blocks(
     ------
     DataFileError
         What `load_recording` refuses; several topics of a ROS bag; a v5 ``.mat`` file too
-        large to read whole; and, while blocks are read, a NaN/inf, a time not increasing or a gap (at its
-        sample), a file that changed since it was opened.
+        large to read whole; and, while blocks are read, a NaN/inf, a time not increasing or a
+        gap (at its sample), a file that changed since it was opened.
     InputError, ExpressionError, MissingDependencyError
         As for `load_recording`.
 
