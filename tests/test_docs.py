@@ -84,3 +84,28 @@ def test_the_checker_catches_bad_links(tmp_path):
     assert _problem(doc, "link", "architecture.md#recording-files") is None
     assert _problem(doc, "path", "../shared/ARCHITECTURE.md") is not None
     assert len(DOCS) > 5
+
+
+_FORMAT_WORDS = {
+    "hdf5": "HDF5",
+    "npz": "NPZ",
+    "csv": "CSV",
+    "parquet": "Parquet",
+    "mat": "MATLAB v7.3",
+    "rosbag": "ROS bags",
+}
+
+
+def test_the_docs_name_every_format_read_in_blocks_and_bags_in_fleets():
+    """identifying-a-robot.md's list of formats read in blocks covers `BLOCK_FORMATS`, and the
+    fleet page says how a ROS bag is read (whole and resampled, or streamed when too large)."""
+    from physid.signals.io import BLOCK_FORMATS
+
+    text = " ".join((ROOT / "docs" / "identifying-a-robot.md").read_text().split())
+    listed = re.search(r"(HDF5[^()]*?),? are read in blocks", text)
+    assert listed is not None
+    assert sorted(f for f in BLOCK_FORMATS if _FORMAT_WORDS[f] not in listed.group(1)) == []
+    fleets = " ".join((ROOT / "docs" / "fleets.md").read_text().split())
+    for words in ("## ROS bags in a fleet", "read whole and resampled onto its mean period",
+                  '{"resample": False}', "must be sampled uniformly"):  # fmt: skip
+        assert words in fleets

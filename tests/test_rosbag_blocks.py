@@ -277,7 +277,7 @@ def test_a_stamp_going_back_or_a_gap_is_refused_at_its_sample(tmp_path, run, mod
     with (
         open_blocks(path, joint_names=names) as src,
         pytest.raises(
-            DataFileError, match=r"not uniformly sampled.*jitter: .*resample=True\) reads it whole"
+            DataFileError, match=r"not uniformly sampled from .*jitter .*resample=True\) reads it"
         ),
     ):
         list(src.blocks(500))
@@ -307,7 +307,7 @@ def test_a_fleet_of_bags(bags, model, tmp_path, capsys, monkeypatch):
 
     streamed = []
     fit = stream.fit_streamed
-    monkeypatch.setattr(stream, "streams_better", lambda paths, model, workers=1: (True, 0, 0))
+    monkeypatch.setattr(stream, "streams_better", lambda paths, model, **k: (True, 0, 0))
     monkeypatch.setattr(stream, "fit_streamed", lambda *a, **k: streamed.append(1) or fit(*a, **k))
     out = tmp_path / "fleet"
     code = main(["identify", str(bags["mcap"]), str(bags["ros1"]), "--model", "manipulator",
@@ -465,3 +465,154 @@ def test_estimate_stream_on_reads_a_bag_in_blocks_as_identify_does(tmp_path, cap
     joined = [*base[:5], "/effort,/other", *base[6:], "--stream", "on"]
     assert main(joined) != 0
     assert "--stream on: --topic /effort,/other joins several topics" in capsys.readouterr().err
+
+
+def test_a_bag_is_sized_by_its_index_message_count(bags, model):
+    """4000 messages of 4 positions and 4 efforts (no velocity): three float64 copies of 9
+    values each, and 3 regressors of 4000 × 4 × 8 parameters; whatever the bag's file size."""
+    from physid.estimators.idim.stream import in_memory_peak
+    from physid.signals.io import in_memory_bytes, in_memory_samples
+
+    n_par = len(model.parameter_names)
+    for path in bags.values():
+        assert in_memory_samples(path) == 4000
+        assert in_memory_bytes(path) == 3 * 8 * 4000 * (8 + 1)
+        assert in_memory_peak([path], model) == 3 * 8 * 4000 * 9 + 3 * 4000 * 4 * n_par * 8
+    assert in_memory_samples(bags["ros1"], "/joint_states") == 4000
+    with pytest.raises(DataFileError, match="no topic '/nope'"):
+        in_memory_samples(bags["ros1"], "/nope")
+
+
+def test_identify_auto_fits_a_jittered_bag_in_memory_below_the_limit(
+    tmp_path, run, model, capsys, monkeypatch
+):
+    """With a limit of 8 MB (the fit in memory needs about 3.9 MB; sized from the file, about
+    18 MB), plain identify on a jittered bag reads it whole and resampled, as with --stream
+    off; a limit below the fit's need streams it (and the jitter is refused)."""
+    import physid._resources as resources
+
+    bag = _jittered(tmp_path, run, model)
+    base = ["identify", str(bag), "--model", "manipulator", "--method", "idim-ols", "--json"]
+    assert main([*base, "--stream", "off"]) == 0
+    mem = json.loads(capsys.readouterr().out)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 8_000_000)
+    monkeypatch.setattr(resources, "available_memory", lambda: 10**12)
+    code = main(base)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "block by block" not in captured.err
+    got = json.loads(captured.out)
+    for p, q in zip(mem["base_parameters"], got["base_parameters"], strict=True):
+        assert q["value"] == pytest.approx(p["value"], rel=1e-12)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 3_000_000)
+    assert main(base) != 0
+    assert "fitting block by block (--stream auto)" in capsys.readouterr().err
+
+
+def test_a_fleet_sizes_a_bag_by_its_message_count(tmp_path, run, model, monkeypatch):
+    import physid._resources as resources
+    from physid.analysis.fleet import _streamable
+
+    bag = _jittered(tmp_path, run, model)
+    monkeypatch.setattr(resources, "available_memory", lambda: 10**12)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 8_000_000)
+    assert not _streamable(bag, model, "idim-ols", {}, {})
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 3_000_000)
+    assert _streamable(bag, model, "idim-ols", {}, {})
+
+
+def test_a_fleet_keeps_a_bags_stamps_when_asked(tmp_path, run, model):
+    """load_options={"resample": False}: the jittered stamps are kept (then refused as not
+    uniform at the default tolerance), not resampled behind the caller's back."""
+    from physid.analysis.fleet import fit_one_log
+
+    bag = _jittered(tmp_path, run, model)
+    names = {"joint_names": model.joint_names}
+    row = fit_one_log("manipulator", bag, "idim-ols", load_options={**names, "resample": False})
+    assert row["status"] == "failed"
+    assert "not uniformly sampled" in row["reason"]
+    assert fit_one_log("manipulator", bag, "idim-ols", load_options=names)["status"] == "ok"
+
+
+def test_estimate_auto_reads_a_small_bag_once(tmp_path, capsys, monkeypatch):
+    """estimate --stream auto sizes a bag by its index's message count (identify's rule): a
+    small bag is read whole without being scanned in blocks first; above the limit it streams."""
+    import physid._resources as resources
+    import physid.signals.io as signals_io
+
+    t = np.arange(6000) * 1e-3
+    ux = np.c_[np.sin(10 * t), np.cos(7 * t)]
+    stamps = T0 + np.arange(t.size, dtype=np.int64) * PERIOD
+    bag = write_bag(tmp_path / "msd", "mcap", ["a", "b"], ux, ux, stamps, topics=(), arrays=True)
+    opened = []
+    real = signals_io.open_blocks
+    monkeypatch.setattr(
+        signals_io, "open_blocks", lambda *a, **k: opened.append(1) or real(*a, **k)
+    )
+    monkeypatch.setattr(resources, "available_memory", lambda: 10**12)
+    base = ["estimate", str(bag), "--method", "rls", "--topic", "/effort", "--map",
+            "u=effort.data1,x=effort.data2", "--json"]  # fmt: skip
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 6000 * 400)  # 6000 samples × 400 B: fits
+    assert main(base) == 0
+    assert opened == []
+    capsys.readouterr()
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 6000 * 400 - 1)
+    assert main(base) == 0
+    assert opened == [1]
+    assert "streaming" in capsys.readouterr().err
+
+
+def test_a_bag_jittered_from_a_sample_is_named_at_its_first_irregular_interval(
+    tmp_path, run, model
+):
+    """Stamps regular to sample 3000, then jittering by up to ±5 % of the period: the error
+    leads with the jitter, names the first interval off by more than 1e-3 (not the worst) and
+    the memory the whole read takes (3 × 8 bytes × 4000 × 9 values = 864 kB)."""
+    names, q, tau = model.joint_names, run["q"], run["tau"]
+    stamps = run["stamps"].copy()
+    stamps[3000:-1] += np.random.default_rng(5).integers(-50_000, 50_001, 999)
+    path = write_bag(tmp_path / "late.bag", "ros1", names, q, tau, stamps)
+    off = np.abs(np.diff(stamps) - PERIOD) / PERIOD
+    first, worst = int(np.argmax(off > 1e-3)), int(off.argmax())
+    assert 2999 <= first < worst
+    with open_blocks(path, joint_names=names) as src, pytest.raises(DataFileError) as e:
+        list(src.blocks(4000))
+    text = str(e.value)
+    assert f"not uniformly sampled from sample {first}: its stamps jitter (the interval from " \
+        f"sample {first} (t = " in text  # fmt: skip
+    assert "a gap or a jump" not in text
+    assert (
+        "(about 864 kB for its 4000 messages, and the fit's arrays); where the memory is "
+        "short of that, split the bag into shorter runs (rosbag filter, ros2 bag convert)" in text
+    )
+
+
+def test_joint_scheduler_names_its_own_fix_for_a_jittered_bag(tmp_path, run, model, capsys):
+    """--joint --scheduler refuses --resample and --join: its fix is to leave --scheduler out."""
+    bag = _jittered(tmp_path, run, model)
+    code = main(["identify", str(bag), str(bag), "--model", "manipulator", "--method",
+                 "idim-ols", "--joint", "--scheduler", "serial"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "not uniformly sampled from sample" in err
+    assert "With --joint --scheduler each worker reads its log in blocks as it is: leave " \
+        "--scheduler out to fit in this process" in err  # fmt: skip
+    assert "--resample reads it whole" not in err and "--join, in memory" not in err
+
+
+def test_identify_stream_on_words_an_emptied_effort_for_the_command_line(
+    tmp_path, run, model, capsys
+):
+    """A bag whose effort goes empty partway: the fix in the command line's words, and that
+    the in-memory read then lacks the torques."""
+    names = model.joint_names
+    rows = [(names, run["q"][k], [] if k == 2500 else run["tau"][k]) for k in range(4000)]
+    path = _write_rows(tmp_path / "empty", rows)
+    code = main(["identify", str(path), "--model", "manipulator", "--method", "idim-ols",
+                 "--stream", "on", "--block-samples", "1000"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "Fit the bag in memory (leave --stream on out), which drops such a field (then " \
+        "without the torques in effort: fill effort in every message, or take the torques " \
+        "from another topic, --topic /joint_states,/TORQUES)" in err  # fmt: skip
+    assert "load_recording" not in err

@@ -158,7 +158,8 @@ def _fit(model_ref, path, method, fit_options, load_options, model_options, work
     else:
         load = dict(load_options or {})
         if is_rosbag(path):
-            load["resample"] = True  # a bag's stamps jitter: onto its mean period, as identify
+            # a bag's stamps jitter: onto its mean period, as identify, unless the caller chose
+            load.setdefault("resample", True)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             rec = joint_side(model, load_recording(path, **load))
@@ -200,7 +201,8 @@ def _streamable(path, model, method, fit_options, load_options, workers=1) -> bo
     if obstacle is not None:
         return False
     try:
-        return streams_better([path], model, workers=workers)[0]
+        topic = load_options.get("topic")  # a bag by its index's message count, as identify
+        return streams_better([path], model, workers=workers, topic=topic)[0]
     except PhysidError:
         return False  # the in-memory load says what is wrong with the file
 
@@ -290,7 +292,8 @@ def run_fleet(
         Keywords of `physid.estimators.idim.IDIMEstimator` for every log.
     load_options : mapping, optional
         Keywords of `physid.load_recording` for every log (a ROS bag read whole is resampled
-        onto its mean period, its stamps' jitter smoothed, as ``physid identify`` reads it).
+        onto its mean period, its stamps' jitter smoothed, as ``physid identify`` reads it,
+        unless ``resample`` is given here: ``{"resample": False}`` keeps its stamps).
     scheduler : str or distributed.Client
         ``"local"`` (default: in-process for one or two logs, else a Dask LocalCluster with one
         single-threaded worker per CPU, at most one per log; in-process when Dask is not

@@ -7,8 +7,11 @@ the MSD, 2e5 and 8e5 samples) of about 350 bytes per sample for ``--method rls``
 the same estimate, standard errors and verdict. ``--stream auto`` (the default) streams when the
 in-memory fit would need more than `physid._resources.stream_limit` (2 GiB, or a quarter of
 the available memory: about 6 million samples, 1.7 hours at 1 kHz, for rls) and the settings
-stream: below that the in-memory fit is faster (one pass instead of three) and keeps the full histories. ``on``
-streams whenever it can (and says why not otherwise); ``off`` never streams.
+stream: below that the in-memory fit is faster (one pass instead of three) and keeps the full
+histories. A ROS bag's samples are its index's message count (`physid.signals.io.
+in_memory_samples`, the rule of ``identify`` and fleets): a bag below the limit is read whole
+once, not scanned first. ``on`` streams whenever it can (and says why not otherwise); ``off``
+never streams.
 """
 
 from __future__ import annotations
@@ -58,8 +61,13 @@ def block_source(args, model, method: str):
         raise InputError(f"--stream on: {why}. Drop --stream on to fit in memory.")
     per_sample = BYTES_PER_SAMPLE.get(method, max(BYTES_PER_SAMPLE.values()))
     try:
-        if mode == "auto" and _surely_small(args.file, per_sample):
-            return None
+        if mode == "auto":
+            known = _known_need(args, per_sample)
+            if known is not None and (known <= _limit() or why is not None):
+                _note_cannot(known, why)
+                return None  # a bag by its index's count: not scanned, then read whole
+            if known is None and _surely_small(args.file, per_sample):
+                return None
         src = _open(args, model)
     except ImportError:
         if mode == "on":
@@ -79,11 +87,7 @@ def block_source(args, model, method: str):
         limit = _limit()
         if need <= limit or why is not None:
             _close(src)
-            if why is not None and need > limit:
-                progress(
-                    f"estimate: note: the in-memory fit would need about {format_bytes(need)} "
-                    f"(more than {format_bytes(limit)}) but cannot stream: {why}"
-                )
+            _note_cannot(need, why)
             return None
         progress(
             f"estimate: the in-memory fit would need about {format_bytes(need)} (more than "
@@ -97,6 +101,27 @@ def _limit() -> int:
     from .._resources import stream_limit
 
     return stream_limit()
+
+
+def _known_need(args, per_sample: int) -> int | None:
+    """The in-memory fit's peak [bytes] from the file's index (a ROS bag's message count, the
+    rule of ``identify`` and fleets), or None where the file has no index."""
+    from ..signals.io import in_memory_samples
+
+    n = in_memory_samples(args.file, getattr(args, "topic", None))
+    return None if n is None else per_sample * n
+
+
+def _note_cannot(need: int, why: str | None) -> None:
+    """Says on stderr that a fit above the limit cannot stream (``why``)."""
+    from .._resources import format_bytes
+
+    limit = _limit()
+    if why is not None and need > limit:
+        progress(
+            f"estimate: note: the in-memory fit would need about {format_bytes(need)} "
+            f"(more than {format_bytes(limit)}) but cannot stream: {why}"
+        )
 
 
 def _surely_small(path, per_sample: int) -> bool:

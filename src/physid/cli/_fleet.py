@@ -86,9 +86,11 @@ def _load_options(args, model) -> dict:
     from ._recordings import _model_channel_map, _table_name
 
     table = _model_channel_map(args, model)
+    # without --resample, no "resample" key: a ROS bag read whole is resampled (run_fleet)
+    chosen = {"resample": True} if getattr(args, "resample", False) else {}
     return {
+        **chosen,
         "channels": parse_channel_map(getattr(args, "channel_map", None)) or None,
-        "resample": bool(getattr(args, "resample", False)),
         "uniform_rtol": 1e-3,
         "decimal": getattr(args, "decimal", ".") or ".",
         "delimiter": getattr(args, "delimiter", None),
@@ -193,7 +195,7 @@ def run_joint_on_cluster(args, model, method: str, fit_options: dict):
     """
     from ..analysis.fleet_joint import JOINT_SETTINGS, run_joint
     from ..analysis.sweep_backends import SCHEDULER_TIMEOUT
-    from ..errors import InputError
+    from ..errors import DataFileError, InputError
 
     if method not in ("idim-ols", "idim-wls"):
         raise InputError(
@@ -223,14 +225,36 @@ def run_joint_on_cluster(args, model, method: str, fit_options: dict):
     options = {k: v for k, v in fit_options.items() if k in JOINT_SETTINGS}
     model_options = {"kinetic": args.kinetic} if args.kinetic is not None else {}
     progress(f"identify --joint ({method}) over {len(args.recordings)} logs on {args.scheduler}")
-    return run_joint(
-        args.model,
-        args.recordings,
-        method=method,
-        fit_options=options,
-        load_options=_load_options(args, model),
-        scheduler=args.scheduler,
-        model_options=model_options,
-        scheduler_timeout=args.scheduler_timeout or SCHEDULER_TIMEOUT,
-        block_samples=getattr(args, "block_samples", 65536),
+    try:
+        return run_joint(
+            args.model,
+            args.recordings,
+            method=method,
+            fit_options=options,
+            load_options=_load_options(args, model),
+            scheduler=args.scheduler,
+            model_options=model_options,
+            scheduler_timeout=args.scheduler_timeout or SCHEDULER_TIMEOUT,
+            block_samples=getattr(args, "block_samples", 65536),
+        )
+    except DataFileError as exc:
+        raise _scheduler_fix(exc) from None
+
+
+def _scheduler_fix(exc):
+    """A log's time error under ``--joint --scheduler``, its fixes that mode refuses (resample,
+    join) replaced by the one it has: leave --scheduler out."""
+    import re
+
+    from ..errors import DataFileError
+
+    text = str(exc)
+    if "not uniformly sampled" not in text:
+        return exc
+    refused = ("resample=True", "join_recordings", "uniform_rtol=None", "split the bag")
+    kept = [s for s in re.split(r"(?<=\.) (?=[A-Za-z])", text) if not any(r in s for r in refused)]
+    return DataFileError(
+        " ".join(kept).rstrip(";,. ") + ". With --joint --scheduler each worker reads its log in "
+        "blocks as it is: leave --scheduler out to fit in this process, where --resample reads "
+        "a jittered log whole and resamples it (and --join splits a log at its gaps)."
     )

@@ -5,9 +5,10 @@ An IDIM fit in memory holds the full-rate regressor of the whole record (about
 a streamed fit (`physid.estimators.idim.stream.fit_streamed`) holds a few blocks and the
 accumulated normal equations, whatever the length, and gives the same estimate. ``--stream
 auto`` (the default) streams when the in-memory fit would need more than 2 GiB or a quarter
-of the available memory (`physid.estimators.idim.stream.streams_better`), and the fit is one that streams (IDIM-OLS or -WLS, files that
-can be read in blocks); ``on`` streams whenever it can (and says why when it cannot); ``off``
-never streams.
+of the available memory (`physid.estimators.idim.stream.streams_better`; a ROS bag's samples
+are its index's message count, as for ``estimate`` and fleets), and the fit is one that
+streams (IDIM-OLS or -WLS, files that can be read in blocks); ``on`` streams whenever it can
+(and says why when it cannot); ``off`` never streams.
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ def wants_stream(args, paths, model, method: str) -> bool:
         ``--stream on`` with settings that cannot stream (the reason and the fix).
     """
     from .._resources import format_bytes
-    from ..errors import InputError
+    from ..errors import DataFileError, InputError
     from ..estimators.idim.stream import streams_better
 
     choice = getattr(args, "stream", "auto")
@@ -92,7 +93,10 @@ def wants_stream(args, paths, model, method: str) -> bool:
         return True
     if why is not None:
         return False
-    stream, peak, limit = streams_better(paths, model)
+    try:  # a bag by its index's message count: the rule of estimate and fleets
+        stream, peak, limit = streams_better(paths, model, topic=getattr(args, "topic", None))
+    except DataFileError:
+        return False  # the in-memory read says what is wrong with the file
     if not stream:
         return False
     progress(

@@ -245,35 +245,41 @@ def speed_rms(model, plan: StreamPlan, sources) -> np.ndarray:
     return np.array(out)
 
 
-def in_memory_peak(paths, model) -> int:
+def in_memory_peak(paths, model, *, topic=None) -> int:
     """Estimated peak memory [bytes] of the in-memory IDIM fit of the files ``paths``.
 
     The raw record (`physid.signals.io.in_memory_bytes`) plus `COPIES_IN_MEMORY` copies of the
     full-rate regressor, ``n_samples × n_joints × n_parameters × 8`` bytes (the standard
-    parameters bound the base ones), for the largest file.
+    parameters bound the base ones), for the largest file. The samples are a ROS bag's message
+    count from its index (`physid.signals.io.in_memory_samples`), else bounded by the raw bytes
+    over ``8 × (2 n_joints + 1)`` (t, q and tau at least).
 
     Parameters
     ----------
     paths : sequence of str or Path
     model : ChainModel
+    topic : str, optional
+        A ROS bag's topic(s) (``--topic``).
 
     Returns
     -------
     int
     """
-    from ...signals.io import in_memory_bytes
+    from ...signals.io import in_memory_bytes, in_memory_samples
 
     nj = int(model.n_joints)
     n_par = len(getattr(model, "parameter_names", ())) or 10 * nj
     peak = 0
     for p in paths:
-        raw = in_memory_bytes(p)
-        n_samples = raw // (8 * (2 * nj + 1))  # t, q1..qn, tau1..taun at least
+        raw = in_memory_bytes(p, topic)
+        n_samples = in_memory_samples(p, topic)
+        if n_samples is None:
+            n_samples = raw // (8 * (2 * nj + 1))  # t, q1..qn, tau1..taun at least
         peak = max(peak, raw + COPIES_IN_MEMORY * n_samples * nj * n_par * 8)
     return int(peak)
 
 
-def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
+def streams_better(paths, model, *, workers: int = 1, topic=None) -> tuple[bool, int, int]:
     """Whether the files are better fitted block by block: ``(stream, peak, limit)`` [bytes].
 
     True when `in_memory_peak` exceeds `physid._resources.stream_limit` (2 GiB, or a quarter of
@@ -285,6 +291,8 @@ def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
     model : ChainModel
     workers : int
         Processes fitting at the same time (a fleet's workers share the memory).
+    topic : str, optional
+        A ROS bag's topic(s) (``--topic``).
 
     Returns
     -------
@@ -294,7 +302,7 @@ def streams_better(paths, model, *, workers: int = 1) -> tuple[bool, int, int]:
     """
     from ..._resources import stream_limit
 
-    peak = in_memory_peak(paths, model)
+    peak = in_memory_peak(paths, model, topic=topic)
     limit = stream_limit(workers)
     return peak > limit, peak, limit
 

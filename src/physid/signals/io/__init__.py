@@ -60,7 +60,13 @@ from ..writers import _header_cell as _header_cell
 from ..writers import _split_header_cell as _split_header_cell
 from ..writers import write_recording
 from .assemble import _assemble
-from .block_readers import BLOCK_FORMATS, FileBlocks, in_memory_bytes, open_blocks
+from .block_readers import (
+    BLOCK_FORMATS,
+    FileBlocks,
+    in_memory_bytes,
+    in_memory_samples,
+    open_blocks,
+)
 from .csv_reader import _read_csv
 from .files import _check_csv_only, _check_readable, _format_of, _reading_options
 from .hdf5_reader import _read_hdf5
@@ -86,6 +92,7 @@ __all__ = [
     "FileBlocks",
     "BLOCK_FORMATS",
     "in_memory_bytes",
+    "in_memory_samples",
     "map_recording",
     "save_recording",
     "parse_channel_map",

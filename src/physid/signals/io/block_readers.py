@@ -41,6 +41,7 @@ __all__ = [
     "BLOCK_FORMATS",
     "blocks_obstacle",
     "in_memory_bytes",
+    "in_memory_samples",
     "MAX_WHOLE_MAT_BYTES",
 ]
 
@@ -117,8 +118,8 @@ def open_blocks(
     ------
     DataFileError
         What `load_recording` refuses; several topics of a ROS bag; a v5 ``.mat`` file too
-        large to read whole; and, while blocks are read, a NaN/inf, a time not increasing or a gap (at its
-        sample), a file that changed since it was opened.
+        large to read whole; and, while blocks are read, a NaN/inf, a time not increasing or a
+        gap (at its sample), a file that changed since it was opened.
     InputError, ExpressionError, MissingDependencyError
         As for `load_recording`.
 
@@ -414,14 +415,14 @@ class FileBlocks:
             local = float(np.median(steps))  # the interval here: a gap stands out of it
             off = np.abs(steps - local) / local
             if float(off.max()) > rtol:
-                i = int(off.argmax())
+                i = int(np.argmax(off > rtol))  # the first irregular interval
                 raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol)
             raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
 
     def _locate(self, read, size: int, start: int, count: int, drift: _Drift):
         """After a block whose intervals all differ from the record's period: read on to the
-        gap that makes the difference (the whole-file load names the worst interval)."""
+        first interval off the block's own (the whole-file load names the worst interval)."""
         rtol, prev = self._options.uniform_rtol, drift.prev
         for j in range(start, count):
             a, b = j * size, (j + 1) * size if j < count - 1 else self.n_samples
@@ -432,15 +433,17 @@ class FileBlocks:
                 raise self._back(a, float(t[0]), float(prev))
             off = np.abs(steps - drift.local) / drift.local
             if float(off.max()) > rtol:
-                i = int(off.argmax())
+                i = int(np.argmax(off > rtol))  # the first irregular interval
                 raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol)
             prev = t[-1]
+        fix = self._time_hint() or (
+            " Resample it (load_recording(..., resample=True) reads it whole)."
+        )
         raise DataFileError(
             f"{self.path}: time is not uniformly sampled: its intervals drift from "
             f"{drift.local:.6g} s to the record's mean period {self.dt:.6g} s "
             f"((t_last − t_first) / (n − 1)) by more than the tolerance {rtol:g}, without one "
-            "gap to split at. Resample it (load_recording(..., resample=True) reads it whole), "
-            f"or pass uniform_rtol=None to keep the times as they are.{self._time_hint()}"
+            f"gap to split at.{fix} Or pass uniform_rtol=None to keep the times as they are."
         )
 
     def _back(self, a: int, t_a: float, prev: float) -> DataFileError:
@@ -451,15 +454,25 @@ class FileBlocks:
         )
 
     def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
-        # the format's hint on jitter for a step off by under half a period (not a lost sample)
+        """The error of the first irregular interval, from sample ``g``: with the format's hint
+        on jitter first (a ROS bag's) for a step off by under half a period, a gap's otherwise."""
+        interval = (
+            f"the interval from sample {g} (t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s "
+            f"against a period of {period:.6g} s (relative deviation "
+            f"{abs(step - period) / period:.3g}, tolerance {rtol:g})"
+        )
+        hint = self._time_hint()
+        if hint and abs(step - period) < 0.5 * period:  # jitter, not a lost sample
+            return DataFileError(
+                f"{self.path}: time is not uniformly sampled from sample {g}: its stamps jitter "
+                f"({interval}, the first interval this far off); a stream of blocks cannot "
+                f"resample.{hint} Or pass uniform_rtol=None to keep the times as they are."
+            )
         return DataFileError(
-            f"{self.path}: time is not uniformly sampled: the interval from sample {g} "
-            f"(t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s against a period of "
-            f"{period:.6g} s (relative deviation {abs(step - period) / period:.3g}, tolerance "
-            f"{rtol:g}): a gap or a jump in the time. Split the file at sample {g + 1} and fit "
-            "the parts as separate experiments (physid.signals.join_recordings splits files at "
-            "gaps), or pass uniform_rtol=None to keep the "
-            f"times as they are.{self._time_hint() if abs(step - period) < 0.5 * period else ''}"
+            f"{self.path}: time is not uniformly sampled: {interval}: a gap or a jump in the "
+            f"time. Split the file at sample {g + 1} and fit the parts as separate experiments "
+            "(physid.signals.join_recordings splits files at gaps), or pass uniform_rtol=None "
+            "to keep the times as they are."
         )
 
     def _time_hint(self) -> str:
@@ -555,17 +568,49 @@ def blocks_obstacle(path, topic=None) -> str | None:
     return None
 
 
-def in_memory_bytes(path) -> int:
+def in_memory_samples(path, topic=None) -> int | None:
+    """The samples of ``path`` from its index alone, or None where only its size bounds them.
+
+    A ROS bag: its topic's message count (a ROS 1 bag's index, a ROS 2 bag's metadata.yaml),
+    nothing of the messages read. The one rule by which ``identify``, ``estimate`` and fleets
+    size a bag under ``--stream auto``.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks`.
+
+    Returns
+    -------
+    int or None
+
+    Raises
+    ------
+    DataFileError
+        A bag that cannot be opened, or without the topic.
+    """
+    if not is_rosbag(path):
+        return None
+    from .rosbag_reader import bag_extent
+
+    return bag_extent(Path(path), topic)[0]
+
+
+def in_memory_bytes(path, topic=None) -> int:
     """Estimated bytes `load_recording` would take for ``path``, from its shapes, types and size.
 
     Nothing of the samples is read: HDF5/v7.3 datasets and NPZ members by their declared shape
     and type (the values, then as float64), a v5 ``.mat`` by its variables' declared sizes,
     Parquet by its rows × columns, a CSV file as three times its size (the text, its copy
-    parsed, the table); anything else twice its size.
+    parsed, the table), a ROS bag by its index's message count times the values of its first
+    message (three float64 copies, as its whole read checks); anything else twice its size.
 
     Parameters
     ----------
     path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks` (other files: unused).
 
     Returns
     -------
@@ -579,7 +624,9 @@ def in_memory_bytes(path) -> int:
     """
     path = Path(path)
     if is_rosbag(path):
-        return 2 * _tree_size(path)
+        from .rosbag_reader import bag_extent, read_bytes
+
+        return read_bytes(*bag_extent(path, topic))
     _check_readable(path)
     size = path.stat().st_size
     fmt = SUPPORTED_SUFFIXES.get(path.suffix.lower())
@@ -634,9 +681,3 @@ def _npz_bytes(path: Path) -> int:
             m = _npy_member(zf, info)
             total += int(np.prod(m.shape, dtype=object)) * (m.dtype.itemsize + 8)
     return total
-
-
-def _tree_size(path: Path) -> int:
-    if path.is_dir():
-        return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
-    return path.stat().st_size

@@ -30,6 +30,7 @@ from collections.abc import Iterator
 from itertools import islice
 from pathlib import Path
 
+from ..._resources import format_bytes
 from ...errors import DataFileError
 from .rosbag_reader import (
     _NAMED,
@@ -41,6 +42,7 @@ from .rosbag_reader import (
     _open,
     _topic_list,
     _topic_source,
+    read_bytes,
 )
 from .variables import _Source
 
@@ -75,12 +77,18 @@ class _BagBlocks:
     """
 
     how = "message by message (rosbags AnyReader), decoded a block at a time; one topic"
-    #: Added to a time error of jitter (a step off by under half a period, or a drift), not
-    #: to a lost message's gap.
-    time_hint = (
-        "A ROS bag's stamps may jitter: load_recording(..., resample=True) reads it whole and "
-        "resamples it onto its mean period (in memory, not in blocks)."
-    )
+
+    @property
+    def time_hint(self) -> str:
+        """Added to a time error of jitter (a step off by under half a period, or a drift),
+        not to a lost message's gap: the whole read's fix, and the memory it takes."""
+        need = format_bytes(read_bytes(self.n, self.layout.n_values))
+        return (
+            f"load_recording(..., resample=True) reads it whole and resamples it onto its mean "
+            f"period, in memory (about {need} for its {self.n} messages, and the fit's arrays); "
+            "where the memory is short of that, split the bag into shorter runs (rosbag filter, "
+            "ros2 bag convert)."
+        )
 
     def __init__(self, path: Path, topic, joint_names, mapped):
         self.path = path
@@ -151,11 +159,18 @@ class _BagBlocks:
         if self._decoder.named:
             lost = sorted(self._fields - filled)
             if lost:
+                torque = (
+                    " (then without the torques in effort: fill effort in every message, or "
+                    "take the torques from another topic, topic='/joint_states,/TORQUES')"
+                    if "effort" in lost
+                    else ""
+                )
                 raise DataFileError(
                     f"{self.path}: topic {self.topic!r} fills {lost} in its first messages but "
                     f"leaves it empty in some message of samples {a}..{a + stamps.size - 1}; "
                     "read in blocks, a field the first messages fill must be filled in every "
-                    "message. Fit the bag in memory (load_recording), which drops such a field."
+                    "message. Fit the bag in memory (load_recording), which drops such a "
+                    f"field{torque}."
                 )
             columns = {f: v for f, v in columns.items() if f in self._fields}
         return _topic_source(self._decoder.topic_of(columns, stamps), self.metadata)

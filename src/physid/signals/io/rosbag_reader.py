@@ -457,21 +457,57 @@ class _Decoder:
         return _Topic(self.topic, stamps, values, tuple(self.first), _sources(filled))
 
 
-def _read_topic(path, reader, topic, connections) -> _Topic:
-    """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
-    count = sum(int(c.msgcount) for c in connections)
-    _check_count(path, topic, count)
+def read_bytes(count: int, width: int) -> int:
+    """Bytes the whole read of ``count`` messages of ``width`` values takes: about three
+    float64 copies of each value and of the stamp (the rows, the stacked arrays, the record)."""
+    return 8 * int(count) * (int(width) + 1) * 3
+
+
+def _head_width(path, reader, topic, connections) -> tuple:
+    """Values per message of a topic from its first message: ``(width, what, decoder, head,
+    items)``, ``items`` the messages after ``head`` (a JointState's joints times its filled
+    fields; an array's length)."""
     decoder = _Decoder(path, topic, connections[0].msgtype in _NAMED)
     items = _messages(path, reader, connections)
     head = list(islice(items, 1))
     columns, _ = decoder.decode(reader, head)
     if decoder.named:
-        width, what = len(decoder.first) * len(columns), f"{len(decoder.first)} joints"
-    else:
-        width = decoder.width or 0
-        what = f"{width} values"
+        width = len(decoder.first) * sum(v is not None for v in columns.values())
+        return width, f"{len(decoder.first)} joints", decoder, head, items
+    return decoder.width or 0, f"{decoder.width or 0} values", decoder, head, items
+
+
+def bag_extent(path, topic=None) -> tuple[int, int]:
+    """``(messages, values per message)`` of the topic(s) a bag is read from, from its index
+    (rosbags' connections' ``msgcount``: a ROS 1 bag's index, a ROS 2 bag's metadata.yaml) and
+    its first message, without reading the rest.
+
+    Several topics (joined on their stamps): the most messages of one topic, the values of all.
+
+    Raises
+    ------
+    DataFileError
+        As `read_rosbag` (no such topic, several JointState topics and none chosen, ...).
+    """
+    path = Path(path)
+    reader = _open(path)
+    try:
+        count, width = 0, 0
+        for name, connections in _connections(path, reader, _topic_list(topic)):
+            count = max(count, sum(int(c.msgcount) for c in connections))
+            width += _head_width(path, reader, name, connections)[0]
+        return count, width
+    finally:
+        reader.close()
+
+
+def _read_topic(path, reader, topic, connections) -> _Topic:
+    """The messages of one topic as a `_Topic` (JointState by joint, arrays by index)."""
+    count = sum(int(c.msgcount) for c in connections)
+    _check_count(path, topic, count)
+    width, what, decoder, head, items = _head_width(path, reader, topic, connections)
     check_memory(
-        8.0 * count * (width + 1) * 3,
+        read_bytes(count, width),
         what=f"reading topic {topic!r} of {path} ({count} messages of {what})",
         fix="split the bag (ros2 bag convert / rosbag filter) into shorter runs",
     )
