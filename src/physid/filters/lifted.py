@@ -256,9 +256,10 @@ def decimated_filtfilt(
         they are: the stretches overlap, the previous call's ``first + count·nd`` is this
         call's ``first``); on return, those of the blocks from ``first + count · nd`` on (empty
         when none were lifted), with ``carry["key"]``: the ``nd``, ``sos`` and number of
-        signals they were made with, checked on entry (another raises `InputError`). The forward pass is a recursion continued from the same state
-        over the same samples, so these blocks are bit for bit what this call would compute
-        (``forward_state`` is then not used for them).
+        signals they were made with, checked on entry (another raises `InputError`). The
+        forward pass is a recursion continued from the same state over the same samples, so
+        these blocks are bit for bit what this call would compute (``forward_state`` is then
+        not used for them).
 
     Returns
     -------

@@ -40,9 +40,10 @@ If not, "model" stands and says that setting them aside does not change it. Meas
 quickstart's held-out ``arm6`` record (σ_q = 1e-4 rad, no torque noise, the IDIM-WLS fit of
 the fixed excitation of `tests/test_validate_quickstart_residual.py`, the same with any BLAS
 thread count): the residual is 1.33 % of the torque's spread, the same with the true
-parameters; position noise needs 5.7× the power its bound gives (3.5× allowed); 18 of 462
-equations next to reversals or at low speed stand out (joint 5: 3, 58 % of its residual power,
-31× its other equations' mean square) and without them 2.8× does: "reversal friction"; link
+parameters; position noise needs 5.7× the power its bound gives (3.5× allowed); the residual
+stands out in 18 of its 462 equations, those next to reversals or at low speed (joint 5: 3, 58 %
+of its residual power, 31× its other equations' mean square), and without them 2.8× does:
+"reversal friction"; link
 3's inertial parameters 5 or 20 % off stay "model".
 """
 
@@ -421,12 +422,15 @@ def set_aside_reversals(
         f"joint {j} {100 * sh:.0f} %" for j, sh in zip(joints + 1, info["power_share_per_joint"],
                                                        strict=True)
     )  # fmt: skip
+    # "18 of its 462 equations, those next to ...": the 462 are every kept equation, not the
+    # ones next to reversals
     where = (
-        f"{info['equations']} of {info['of']} equations next to speed reversals or at low "
-        f"speed, which the fit itself leaves out (share of each joint's residual power: {shares})"
+        f"{info['equations']} of its {info['of']} equations, those next to speed reversals or "
+        "at low speed, which the fit itself leaves out (share of each joint's residual power: "
+        f"{shares})"
     )
     if second["explanation"] in ("model", "none"):
-        result["verdict"] += f"; setting aside the {where} does not change this"
+        result["verdict"] += f"; setting aside {where}, does not change this"
         return result
     other_why = {
         "filter": "the filters' colouring of white torque noise",
@@ -437,7 +441,7 @@ def set_aside_reversals(
     result["explanation"] = "reversal friction"
     result["verdict"] = (
         f"against the filters' colouring and position noise, the torque residual "
-        f"({evidence['relative_residual']:.2g} of the torque's spread) stands out in the {where}; "
+        f"({evidence['relative_residual']:.2g} of the torque's spread) stands out in {where}; "
         f"the model explains the others by {other_why}. Nothing to change for this fit; if the "
         "friction law differs (Stribeck, asymmetric Coulomb), use a friction model with a smooth "
         "or stiction term"

@@ -129,13 +129,14 @@ def fit_streamed(
     Notes
     -----
     Peak memory, independent of the record's length: about
-    ``max(block_samples + 1.1·L, 1.5 · block_samples) · (n_joints · p + n_joints) · 8`` bytes
-    of full-rate rows, the longest window's (L: the parallel filter's right margin, ~95·nd
-    full-rate samples, whose forward pass is carried to the next window; the last window is up
-    to 1.5 steps long), the parallel filter's temporaries (lifted in place, from nd = 40 on:
-    ~25/nd of a window's rows; below, a copy of up to 96 columns of the window, and about three
-    more where ``sosfilt`` runs on every sample; an nd = 1 candidate: a copy of a step's rows),
-    plus
+    ``max(block_samples + M + L, 1.5 · block_samples + M) · (n_joints · p + n_joints) · 8``
+    bytes of full-rate rows, the longest window's (M: the left margin, ~12·nd full-rate
+    samples, the masks' reach and the parallel filter's end padding; L: the parallel filter's
+    right margin, ~95·nd full-rate samples, whose forward pass is carried to the next window;
+    the last window is up to 1.5 steps long, plus the left margin), the parallel filter's
+    temporaries (lifted in place, from nd = 40 on: ~25/nd of a window's rows; below, a copy of
+    up to 96 columns of the window, and about three more where ``sosfilt`` runs on every
+    sample; an nd = 1 candidate: a copy of a step's rows), plus
     ``n_candidates · (10 · n_joints · (p+1)² + 2 · n_joints · p²) · 8`` bytes of accumulators and
     ``20000 · n_joints · (p+1) · 8`` bytes of kept rows per candidate.
 
