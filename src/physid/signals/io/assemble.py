@@ -36,7 +36,8 @@ def _assemble(
     variables: dict[str, _Var] = source.variables
     metadata = dict(source.metadata)
     mapping = dict(channels or {})
-    listed = [v for v, var in variables.items() if v not in _RESERVED or var.column]
+    # the file's variables for messages: a column named like a layout key is one, time is not
+    listed = [v for v, var in variables.items() if v not in _RESERVED or var.column and v != "t"]
     found = _Defaults(
         path,
         defaults_source,
