@@ -10,6 +10,7 @@ sources and fleets == the Python fits) and error paths (pytest.raises with the m
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -616,3 +617,24 @@ def test_identify_stream_on_words_an_emptied_effort_for_the_command_line(
         "without the torques in effort: fill effort in every message, or take the torques " \
         "from another topic, --topic /joint_states,/TORQUES)" in err  # fmt: skip
     assert "load_recording" not in err
+
+
+def test_a_topic_without_messages_is_refused_by_its_count_under_auto(tmp_path, capsys):
+    """A /joint_states connection holding no message: identify and estimate under --stream auto
+    and a fleet's row give the count, not a crash in the sizing (the first message's width)."""
+    from physid.analysis.fleet import fit_one_log
+    from physid.signals.io.rosbag_reader import bag_extent
+
+    path = _write_rows(tmp_path / "none", [])
+    count = "topic '/joint_states' holds 0 message(s); physid needs at least 2"
+    with pytest.raises(DataFileError, match=re.escape(count)):
+        bag_extent(path)
+    for argv in (
+        ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"],
+        ["estimate", str(path), "--method", "rls", "--map", "u=effort.a,x=position.a"],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert count in err and "Traceback" not in err
+    row = fit_one_log("manipulator", path, "idim-ols")
+    assert row["status"] == "failed" and count in row["reason"]

@@ -471,6 +471,8 @@ def _head_width(path, reader, topic, connections) -> tuple:
     items = _messages(path, reader, connections)
     head = list(islice(items, 1))
     columns, _ = decoder.decode(reader, head)
+    if decoder.named and decoder.first is None:  # an index counting messages the bag lacks
+        return 0, "0 joints", decoder, head, items
     if decoder.named:
         width = len(decoder.first) * sum(v is not None for v in columns.values())
         return width, f"{len(decoder.first)} joints", decoder, head, items
@@ -494,7 +496,9 @@ def bag_extent(path, topic=None) -> tuple[int, int]:
     try:
         count, width = 0, 0
         for name, connections in _connections(path, reader, _topic_list(topic)):
-            count = max(count, sum(int(c.msgcount) for c in connections))
+            n = sum(int(c.msgcount) for c in connections)
+            _check_count(path, name, n)  # before the first message's width: there may be none
+            count = max(count, n)
             width += _head_width(path, reader, name, connections)[0]
         return count, width
     finally:
