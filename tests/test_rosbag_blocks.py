@@ -248,7 +248,8 @@ def test_a_field_left_empty_after_the_first_messages_is_named_with_its_block(tmp
         pytest.raises(
             DataFileError,
             match=r"fills \['effort'\] in its first messages but leaves it empty in some "
-            r"message of samples 600\.\.999; .* Fit the bag in memory",
+            r"message of samples 600\.\.999; .* fill effort in every message\. Or read the bag "
+            r"whole \(load_recording\)",
         ),
     ):
         list(src.blocks(300))
@@ -601,22 +602,43 @@ def test_joint_scheduler_names_its_own_fix_for_a_jittered_bag(tmp_path, run, mod
     assert "--resample reads it whole" not in err and "--join, in memory" not in err
 
 
-def test_identify_stream_on_words_an_emptied_effort_for_the_command_line(
-    tmp_path, run, model, capsys
+def test_an_emptied_effort_is_worded_for_each_way_the_command_line_reads_a_bag(
+    tmp_path, run, model, capsys, monkeypatch
 ):
-    """A bag whose effort goes empty partway: the fix in the command line's words, and that
-    the in-memory read then lacks the torques."""
+    """A bag whose effort goes empty partway: the fix first (fill effort in every message);
+    --stream on and --stream auto (above the limit) add the whole read as a flag of theirs
+    (--stream off, the user may never have passed --stream); a fleet and --joint --scheduler,
+    which take neither --stream nor joined topics, only the fill."""
+    import physid._resources as resources
+    import physid.estimators.idim.stream as stream
+
     names = model.joint_names
     rows = [(names, run["q"][k], [] if k == 2500 else run["tau"][k]) for k in range(4000)]
     path = _write_rows(tmp_path / "empty", rows)
-    code = main(["identify", str(path), "--model", "manipulator", "--method", "idim-ols",
-                 "--stream", "on", "--block-samples", "1000"])  # fmt: skip
+    base = ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"]
+    fill = "must be filled in every message: fill effort in every message."
+    whole = (
+        "Or read the bag whole (--stream off), which drops such a field (and with effort the "
+        "torques: take them from another topic, --topic /joint_states,/TORQUES)."
+    )
+    assert main([*base, "--stream", "on", "--block-samples", "1000"]) == 2
     err = capsys.readouterr().err
-    assert code != 0
-    assert "Fit the bag in memory (leave --stream on out), which drops such a field (then " \
-        "without the torques in effort: fill effort in every message, or take the torques " \
-        "from another topic, --topic /joint_states,/TORQUES)" in err  # fmt: skip
-    assert "load_recording" not in err
+    assert fill in err and whole in err and "load_recording" not in err
+    monkeypatch.setattr(resources, "available_memory", lambda: 10**12)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
+    assert main(base) == 2
+    err = capsys.readouterr().err
+    assert "(--stream auto)" in err and fill in err and whole in err
+    assert "leave --stream on out" not in err
+    monkeypatch.setattr(stream, "streams_better", lambda paths, model, **k: (True, 0, 0))
+    out = tmp_path / "fleet"
+    assert main([*base, "--each", "--out", str(out), "--json", "--scheduler", "serial"]) == 1
+    (row,) = json.loads(capsys.readouterr().out)["rows"]
+    assert row["reason"].endswith(fill), row["reason"]
+    code = main([*base[:2], str(path), *base[2:], "--joint", "--scheduler", "serial"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.rstrip().endswith(fill), err
+    assert "--stream" not in err and "--topic" not in err
 
 
 def test_a_topic_without_messages_is_refused_by_its_count_under_auto(tmp_path, capsys):
