@@ -660,3 +660,26 @@ def test_a_topic_without_messages_is_refused_by_its_count_under_auto(tmp_path, c
         assert count in err and "Traceback" not in err
     row = fit_one_log("manipulator", path, "idim-ols")
     assert row["status"] == "failed" and count in row["reason"]
+
+
+def test_a_lost_message_keeps_its_split_under_joint_scheduler_and_stream_on(
+    tmp_path, run, model, capsys
+):
+    """One message lost at sample 2000: the fix is the split at sample 2000, with no --join
+    (refused with one file; with --joint it joins logs as channels) and no --resample."""
+    names = model.joint_names
+    gap = np.concatenate([run["stamps"][:2000], run["stamps"][2001:]])
+    path = write_bag(tmp_path / "gap", "mcap", names, run["q"][:3999], run["tau"][:3999], gap)
+    base = ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"]
+    split = (
+        "a gap or a jump in the time. Split the file at sample 2000 and fit the parts as "
+        "separate experiments."
+    )
+    for argv in (
+        [*base[:2], str(path), *base[2:], "--joint", "--scheduler", "serial"],
+        [*base, "--stream", "on"],
+    ):
+        assert main(argv) == 2
+        (err,) = [s for s in capsys.readouterr().err.splitlines() if "error:" in s]
+        assert split in err, err
+        assert "--join" not in err and "join_recordings" not in err and "--resample" not in err
