@@ -427,7 +427,8 @@ def test_identify_stream_on_refuses_joined_topics_and_names_the_fix_for_jitter(
     capsys.readouterr()
     assert main([*base, "--stream", "on"]) != 0
     err = capsys.readouterr().err
-    assert "not uniformly sampled" in err and "--resample reads it whole and resamples" in err
+    assert "not uniformly sampled" in err
+    assert "--resample without --stream on reads it whole and resamples" in err
 
 
 def test_a_fleet_reads_a_jittered_bag_resampled_as_identify_does(tmp_path, run, model, capsys):
@@ -683,3 +684,19 @@ def test_a_lost_message_keeps_its_split_under_joint_scheduler_and_stream_on(
         (err,) = [s for s in capsys.readouterr().err.splitlines() if "error:" in s]
         assert split in err, err
         assert "--join" not in err and "join_recordings" not in err and "--resample" not in err
+
+
+def test_a_lone_step_of_a_bags_stamps_is_a_jump_not_jitter(tmp_path, run, model):
+    """Regular stamps but one interval of 1.4 periods (from sample 1999): a jump in the time,
+    named with its split, not jitter to resample."""
+    names = model.joint_names
+    stamps = run["stamps"].copy()
+    stamps[2000:] += 4 * PERIOD // 10
+    path = write_bag(tmp_path / "jump", "mcap", names, run["q"], run["tau"], stamps)
+    for size in (4000, 500):
+        with open_blocks(path, joint_names=names) as src, pytest.raises(DataFileError) as e:
+            list(src.blocks(size))
+        text = str(e.value)
+        assert "from sample 1999 (t = 1.999 s) to sample 2000 is 0.0014 s" in text, text
+        assert "a gap or a jump in the time. Split the file at sample 2000" in text
+        assert "jitter" not in text and "resample" not in text

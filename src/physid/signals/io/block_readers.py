@@ -416,7 +416,8 @@ class FileBlocks:
             off = np.abs(steps - local) / local
             if float(off.max()) > rtol:
                 i = int(np.argmax(off > rtol))  # the first irregular interval
-                raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol)
+                one = _lone(off > rtol, i)
+                raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol, one)
             raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
 
@@ -434,7 +435,8 @@ class FileBlocks:
             off = np.abs(steps - drift.local) / drift.local
             if float(off.max()) > rtol:
                 i = int(np.argmax(off > rtol))  # the first irregular interval
-                raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol)
+                one = _lone(off > rtol, i)
+                raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol, one)
             prev = t[-1]
         fix = self._time_hint() or (
             " Resample it (load_recording(..., resample=True) reads it whole)."
@@ -453,16 +455,17 @@ class FileBlocks:
             f"split the file at sample {a})."
         )
 
-    def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
+    def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float, one=False):
         """The error of the first irregular interval, from sample ``g``: with the format's hint
-        on jitter first (a ROS bag's) for a step off by under half a period, a gap's otherwise."""
+        on jitter first (a ROS bag's) for a step off by under half a period among others off,
+        a gap's otherwise (a lost sample, or ``one``: a lone step, a jump in the time)."""
         interval = (
             f"the interval from sample {g} (t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s "
             f"against a period of {period:.6g} s (relative deviation "
             f"{abs(step - period) / period:.3g}, tolerance {rtol:g})"
         )
         hint = self._time_hint()
-        if hint and abs(step - period) < 0.5 * period:  # jitter, not a lost sample
+        if hint and not one and abs(step - period) < 0.5 * period:  # jitter: no lost sample
             return DataFileError(
                 f"{self.path}: time is not uniformly sampled from sample {g}: its stamps jitter "
                 f"({interval}, the first interval this far off); a stream of blocks cannot "
@@ -681,3 +684,9 @@ def _npz_bytes(path: Path) -> int:
             m = _npy_member(zf, info)
             total += int(np.prod(m.shape, dtype=object)) * (m.dtype.itemsize + 8)
     return total
+
+
+def _lone(irregular: np.ndarray, i: int) -> bool:
+    """Whether interval ``i``, the first of ``irregular``, is the only one there (not jitter),
+    and not the block's last (the next block may go on jittering)."""
+    return bool(i < irregular.size - 1 and np.count_nonzero(irregular) == 1)
