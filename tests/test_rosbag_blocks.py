@@ -700,3 +700,29 @@ def test_a_lone_step_of_a_bags_stamps_is_a_jump_not_jitter(tmp_path, run, model)
         assert "from sample 1999 (t = 1.999 s) to sample 2000 is 0.0014 s" in text, text
         assert "a gap or a jump in the time. Split the file at sample 2000" in text
         assert "jitter" not in text and "resample" not in text
+
+
+def test_a_bag_is_sized_from_one_opening_and_counted_without_a_message_decoded(
+    bags, model, monkeypatch
+):
+    """in_memory_samples decodes no message; in_memory_peak opens the bag once (its first
+    message decoded once) for the same sizes as in_memory_bytes and in_memory_samples."""
+    import physid.signals.io.rosbag_reader as reader
+    from physid.estimators.idim.stream import in_memory_peak
+    from physid.signals.io import in_memory_bytes, in_memory_extent, in_memory_samples
+
+    path = bags["mcap"]
+    n_par = len(model.parameter_names)
+    assert in_memory_extent(path) == (in_memory_bytes(path), in_memory_samples(path))
+    assert in_memory_extent(path) == (3 * 8 * 4000 * 9, 4000)
+    opened, decoded = [], []
+    real_open, real_decode = reader._open, reader._Decoder.decode
+    monkeypatch.setattr(reader, "_open", lambda p: opened.append(p) or real_open(p))
+    monkeypatch.setattr(
+        reader._Decoder, "decode", lambda self, *a: decoded.append(1) or real_decode(self, *a)
+    )
+    assert in_memory_samples(path) == 4000
+    assert (len(opened), decoded) == (1, [])
+    opened.clear()
+    assert in_memory_peak([path], model) == 3 * 8 * 4000 * 9 + 3 * 4000 * 4 * n_par * 8
+    assert (len(opened), decoded) == (1, [1])

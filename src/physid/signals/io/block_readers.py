@@ -42,6 +42,7 @@ __all__ = [
     "blocks_obstacle",
     "in_memory_bytes",
     "in_memory_samples",
+    "in_memory_extent",
     "MAX_WHOLE_MAT_BYTES",
 ]
 
@@ -575,7 +576,7 @@ def in_memory_samples(path, topic=None) -> int | None:
     """The samples of ``path`` from its index alone, or None where only its size bounds them.
 
     A ROS bag: its topic's message count (a ROS 1 bag's index, a ROS 2 bag's metadata.yaml),
-    nothing of the messages read. The one rule by which ``identify``, ``estimate`` and fleets
+    no message decoded. The one rule by which ``identify``, ``estimate`` and fleets
     size a bag under ``--stream auto``.
 
     Parameters
@@ -597,13 +598,42 @@ def in_memory_samples(path, topic=None) -> int | None:
         return None
     from .rosbag_reader import bag_extent
 
-    return bag_extent(Path(path), topic)[0]
+    return bag_extent(Path(path), topic, width=False)[0]
+
+
+def in_memory_extent(path, topic=None) -> tuple[int, int | None]:
+    """`in_memory_bytes` and `in_memory_samples` of ``path`` at once (a ROS bag opened once).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks` (other files: unused).
+
+    Returns
+    -------
+    nbytes : int
+        As `in_memory_bytes` [bytes].
+    samples : int or None
+        As `in_memory_samples` (None: not a ROS bag).
+
+    Raises
+    ------
+    DataFileError
+        As `in_memory_bytes`.
+    """
+    if not is_rosbag(path):
+        return in_memory_bytes(path, topic), None
+    from .rosbag_reader import bag_extent, read_bytes
+
+    count, values = bag_extent(Path(path), topic)
+    return read_bytes(count, values), count
 
 
 def in_memory_bytes(path, topic=None) -> int:
     """Estimated bytes `load_recording` would take for ``path``, from its shapes, types and size.
 
-    Nothing of the samples is read: HDF5/v7.3 datasets and NPZ members by their declared shape
+    No sample is read (of a ROS bag, its first message alone is decoded): HDF5/v7.3 datasets and NPZ members by their declared shape
     and type (the values, then as float64), a v5 ``.mat`` by its variables' declared sizes,
     Parquet by its rows × columns, a CSV file as three times its size (the text, its copy
     parsed, the table), a ROS bag by its index's message count times the values of its first
