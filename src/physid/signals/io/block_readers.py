@@ -633,11 +633,12 @@ def in_memory_extent(path, topic=None) -> tuple[int, int | None]:
 def in_memory_bytes(path, topic=None) -> int:
     """Estimated bytes `load_recording` would take for ``path``, from its shapes, types and size.
 
-    No sample is read (of a ROS bag, its first message alone is decoded): HDF5/v7.3 datasets and NPZ members by their declared shape
-    and type (the values, then as float64), a v5 ``.mat`` by its variables' declared sizes,
-    Parquet by its rows × columns, a CSV file as three times its size (the text, its copy
-    parsed, the table), a ROS bag by its index's message count times the values of its first
-    message (three float64 copies, as its whole read checks); anything else twice its size.
+    No sample is read (of a ROS bag, its first message alone is decoded): HDF5/v7.3 datasets and
+    NPZ members by their declared shape and type (the values, then as float64), a v5 ``.mat`` by
+    its variables' declared sizes, Parquet by its rows × columns, a CSV file as three times its
+    size (the text, its copy parsed, the table), a ROS bag by its index's message count times
+    the values of its first message (three float64 copies, as its whole read checks); anything
+    else twice its size.
 
     Parameters
     ----------
