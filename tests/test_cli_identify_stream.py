@@ -131,7 +131,7 @@ def test_a_time_gap_met_while_streaming_is_worded_for_the_command_line(tmp_path,
     np.savetxt(path, np.column_stack([t, q, q]), delimiter=",", header=header, comments="")
     code, _, err = _identify(capsys, str(path), "--method", "idim-ols", "--stream", "on")
     assert code == 2 and "Split the file at sample 1200" in err
-    assert "(--join, in memory, splits files at gaps)" in err
+    assert "--join" not in err  # refused with one file
     assert "uniform_rtol" not in err and "physid.signals" not in err
 
 

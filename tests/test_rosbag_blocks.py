@@ -10,6 +10,7 @@ sources and fleets == the Python fits) and error paths (pytest.raises with the m
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -247,7 +248,8 @@ def test_a_field_left_empty_after_the_first_messages_is_named_with_its_block(tmp
         pytest.raises(
             DataFileError,
             match=r"fills \['effort'\] in its first messages but leaves it empty in some "
-            r"message of samples 600\.\.999; .* Fit the bag in memory",
+            r"message of samples 600\.\.999; .* fill effort in every message\. Or read the bag "
+            r"whole \(load_recording\)",
         ),
     ):
         list(src.blocks(300))
@@ -425,7 +427,8 @@ def test_identify_stream_on_refuses_joined_topics_and_names_the_fix_for_jitter(
     capsys.readouterr()
     assert main([*base, "--stream", "on"]) != 0
     err = capsys.readouterr().err
-    assert "not uniformly sampled" in err and "--resample reads it whole and resamples" in err
+    assert "not uniformly sampled" in err
+    assert "--resample without --stream on reads it whole and resamples" in err
 
 
 def test_a_fleet_reads_a_jittered_bag_resampled_as_identify_does(tmp_path, run, model, capsys):
@@ -600,19 +603,126 @@ def test_joint_scheduler_names_its_own_fix_for_a_jittered_bag(tmp_path, run, mod
     assert "--resample reads it whole" not in err and "--join, in memory" not in err
 
 
-def test_identify_stream_on_words_an_emptied_effort_for_the_command_line(
-    tmp_path, run, model, capsys
+def test_an_emptied_effort_is_worded_for_each_way_the_command_line_reads_a_bag(
+    tmp_path, run, model, capsys, monkeypatch
 ):
-    """A bag whose effort goes empty partway: the fix in the command line's words, and that
-    the in-memory read then lacks the torques."""
+    """A bag whose effort goes empty partway: the fix first (fill effort in every message);
+    --stream on and --stream auto (above the limit) add the whole read as a flag of theirs
+    (--stream off, the user may never have passed --stream); a fleet and --joint --scheduler,
+    which take neither --stream nor joined topics, only the fill."""
+    import physid._resources as resources
+    import physid.estimators.idim.stream as stream
+
     names = model.joint_names
     rows = [(names, run["q"][k], [] if k == 2500 else run["tau"][k]) for k in range(4000)]
     path = _write_rows(tmp_path / "empty", rows)
-    code = main(["identify", str(path), "--model", "manipulator", "--method", "idim-ols",
-                 "--stream", "on", "--block-samples", "1000"])  # fmt: skip
+    base = ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"]
+    fill = "must be filled in every message: fill effort in every message."
+    whole = (
+        "Or read the bag whole (--stream off), which drops such a field (and with effort the "
+        "torques: take them from another topic, --topic /joint_states,/TORQUES)."
+    )
+    assert main([*base, "--stream", "on", "--block-samples", "1000"]) == 2
     err = capsys.readouterr().err
-    assert code != 0
-    assert "Fit the bag in memory (leave --stream on out), which drops such a field (then " \
-        "without the torques in effort: fill effort in every message, or take the torques " \
-        "from another topic, --topic /joint_states,/TORQUES)" in err  # fmt: skip
-    assert "load_recording" not in err
+    assert fill in err and whole in err and "load_recording" not in err
+    monkeypatch.setattr(resources, "available_memory", lambda: 10**12)
+    monkeypatch.setattr(resources, "STREAM_ABOVE", 1024)
+    assert main(base) == 2
+    err = capsys.readouterr().err
+    assert "(--stream auto)" in err and fill in err and whole in err
+    assert "leave --stream on out" not in err
+    monkeypatch.setattr(stream, "streams_better", lambda paths, model, **k: (True, 0, 0))
+    out = tmp_path / "fleet"
+    assert main([*base, "--each", "--out", str(out), "--json", "--scheduler", "serial"]) == 1
+    (row,) = json.loads(capsys.readouterr().out)["rows"]
+    assert row["reason"].endswith(fill), row["reason"]
+    code = main([*base[:2], str(path), *base[2:], "--joint", "--scheduler", "serial"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.rstrip().endswith(fill), err
+    assert "--stream" not in err and "--topic" not in err
+
+
+def test_a_topic_without_messages_is_refused_by_its_count_under_auto(tmp_path, capsys):
+    """A /joint_states connection holding no message: identify and estimate under --stream auto
+    and a fleet's row give the count, not a crash in the sizing (the first message's width)."""
+    from physid.analysis.fleet import fit_one_log
+    from physid.signals.io.rosbag_reader import bag_extent
+
+    path = _write_rows(tmp_path / "none", [])
+    count = "topic '/joint_states' holds 0 message(s); physid needs at least 2"
+    with pytest.raises(DataFileError, match=re.escape(count)):
+        bag_extent(path)
+    for argv in (
+        ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"],
+        ["estimate", str(path), "--method", "rls", "--map", "u=effort.a,x=position.a"],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert count in err and "Traceback" not in err
+    row = fit_one_log("manipulator", path, "idim-ols")
+    assert row["status"] == "failed" and count in row["reason"]
+
+
+def test_a_lost_message_keeps_its_split_under_joint_scheduler_and_stream_on(
+    tmp_path, run, model, capsys
+):
+    """One message lost at sample 2000: the fix is the split at sample 2000, with no --join
+    (refused with one file; with --joint it joins logs as channels) and no --resample."""
+    names = model.joint_names
+    gap = np.concatenate([run["stamps"][:2000], run["stamps"][2001:]])
+    path = write_bag(tmp_path / "gap", "mcap", names, run["q"][:3999], run["tau"][:3999], gap)
+    base = ["identify", str(path), "--model", "manipulator", "--method", "idim-ols"]
+    split = (
+        "a gap or a jump in the time. Split the file at sample 2000 and fit the parts as "
+        "separate experiments."
+    )
+    for argv in (
+        [*base[:2], str(path), *base[2:], "--joint", "--scheduler", "serial"],
+        [*base, "--stream", "on"],
+    ):
+        assert main(argv) == 2
+        (err,) = [s for s in capsys.readouterr().err.splitlines() if "error:" in s]
+        assert split in err, err
+        assert "--join" not in err and "join_recordings" not in err and "--resample" not in err
+
+
+def test_a_lone_step_of_a_bags_stamps_is_a_jump_not_jitter(tmp_path, run, model):
+    """Regular stamps but one interval of 1.4 periods (from sample 1999): a jump in the time,
+    named with its split, not jitter to resample."""
+    names = model.joint_names
+    stamps = run["stamps"].copy()
+    stamps[2000:] += 4 * PERIOD // 10
+    path = write_bag(tmp_path / "jump", "mcap", names, run["q"], run["tau"], stamps)
+    for size in (4000, 500):
+        with open_blocks(path, joint_names=names) as src, pytest.raises(DataFileError) as e:
+            list(src.blocks(size))
+        text = str(e.value)
+        assert "from sample 1999 (t = 1.999 s) to sample 2000 is 0.0014 s" in text, text
+        assert "a gap or a jump in the time. Split the file at sample 2000" in text
+        assert "jitter" not in text and "resample" not in text
+
+
+def test_a_bag_is_sized_from_one_opening_and_counted_without_a_message_decoded(
+    bags, model, monkeypatch
+):
+    """in_memory_samples decodes no message; in_memory_peak opens the bag once (its first
+    message decoded once) for the same sizes as in_memory_bytes and in_memory_samples."""
+    import physid.signals.io.rosbag_reader as reader
+    from physid.estimators.idim.stream import in_memory_peak
+    from physid.signals.io import in_memory_bytes, in_memory_extent, in_memory_samples
+
+    path = bags["mcap"]
+    n_par = len(model.parameter_names)
+    assert in_memory_extent(path) == (in_memory_bytes(path), in_memory_samples(path))
+    assert in_memory_extent(path) == (3 * 8 * 4000 * 9, 4000)
+    opened, decoded = [], []
+    real_open, real_decode = reader._open, reader._Decoder.decode
+    monkeypatch.setattr(reader, "_open", lambda p: opened.append(p) or real_open(p))
+    monkeypatch.setattr(
+        reader._Decoder, "decode", lambda self, *a: decoded.append(1) or real_decode(self, *a)
+    )
+    assert in_memory_samples(path) == 4000
+    assert (len(opened), decoded) == (1, [])
+    opened.clear()
+    assert in_memory_peak([path], model) == 3 * 8 * 4000 * 9 + 3 * 4000 * 4 * n_par * 8
+    assert (len(opened), decoded) == (1, [1])

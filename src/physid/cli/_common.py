@@ -343,9 +343,13 @@ _CLI_WORDS = (
     (re.compile(r" ?\(or uniform_rtol=None to keep the time vector as it is\)"), ""),
     (re.compile(r",? or pass uniform_rtol=None to keep the times as they are"), ""),  # blocks
     (re.compile(r" Or pass uniform_rtol=None to keep the times as they are\."), ""),
-    (re.compile(r"in memory \(load_recording\)"), "in memory (leave --stream on out)"),  # bags
-    (re.compile(r"physid\.signals\.join_recordings splits"), "--join, in memory, splits"),
-    (re.compile(r"load_recording\(\.\.\., resample=True\) reads"), "--resample reads"),
+    (re.compile(r"read the bag whole \(load_recording\)"), "read the bag whole (--stream off)"),
+    # --join refuses one file, --joint --join joins logs as channels: a gap's fix is the split
+    (re.compile(r" \(physid\.signals\.join_recordings splits files at gaps\)"), ""),
+    (
+        re.compile(r"load_recording\(\.\.\., resample=True\) reads"),
+        "--resample without --stream on reads",
+    ),
     (re.compile(r",? or uniform_rtol=None to keep the time vector as it is"), ""),
     # a verb without --noise-std (simulate msd): only the input can be changed
     (re.compile(r", or give the noise as a standard deviation instead \(noise_std=\.\.\.\)"), ""),

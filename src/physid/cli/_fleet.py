@@ -7,7 +7,14 @@ file is read), the fleet runs in `physid.analysis.fleet.run_fleet`, and the outp
 
 from __future__ import annotations
 
+import re
+
 from ._common import check_output_folder, cli_words, print_json, progress
+
+# the fixes of a time or field error that --each and --joint --scheduler refuse
+_WHOLE_READ = re.compile(r" Or read the bag whole \(load_recording\)[^.]*\.")
+_KEEP_TIMES = re.compile(r",? or pass uniform_rtol=None to keep the times as they are")
+_JOIN_SPLITS = re.compile(r" \(physid\.signals\.join_recordings splits files at gaps\)")
 
 # Options of a single fit that a fleet cannot honour: flag -> (attribute, value meaning "not
 # given", why). A silently ignored flag is a wrong answer.
@@ -148,7 +155,7 @@ def run_each(args, model, method: str, fit_options: dict) -> int:
         scheduler_timeout=args.scheduler_timeout or SCHEDULER_TIMEOUT,
     )
     for row in result.rows:  # the reasons in the command line's words
-        row["reason"] = cli_words(row["reason"])
+        row["reason"] = in_blocks_words(row["reason"])
     from ..report.fleet import write_fleet_report
 
     paths = write_fleet_report(result, args.out)
@@ -242,19 +249,31 @@ def run_joint_on_cluster(args, model, method: str, fit_options: dict):
 
 
 def _scheduler_fix(exc):
-    """A log's time error under ``--joint --scheduler``, its fixes that mode refuses (resample,
-    join) replaced by the one it has: leave --scheduler out."""
-    import re
-
+    """A log's error under ``--joint --scheduler``, less the fixes that mode refuses (reading
+    the bag whole, resample, join, keeping the times): a gap keeps its split; jitter gets the
+    one fix it has, leave --scheduler out."""
     from ..errors import DataFileError
 
     text = str(exc)
+    if _WHOLE_READ.search(text):  # a field emptied partway: filling it is the fix left
+        return DataFileError(_WHOLE_READ.sub("", text))
     if "not uniformly sampled" not in text:
         return exc
-    refused = ("resample=True", "join_recordings", "uniform_rtol=None", "split the bag")
+    for dropped in (_KEEP_TIMES, _JOIN_SPLITS):
+        text = dropped.sub("", text)
+    refused = ("resample=True", "uniform_rtol=None", "split the bag")
     kept = [s for s in re.split(r"(?<=\.) (?=[A-Za-z])", text) if not any(r in s for r in refused)]
+    text = " ".join(kept).rstrip(";,. ") + "."
+    if "resample=True" not in str(exc):
+        return DataFileError(text)
     return DataFileError(
-        " ".join(kept).rstrip(";,. ") + ". With --joint --scheduler each worker reads its log in "
-        "blocks as it is: leave --scheduler out to fit in this process, where --resample reads "
-        "a jittered log whole and resamples it (and --join splits a log at its gaps)."
+        text + " With --joint --scheduler each worker reads its log in blocks as it is: leave "
+        "--scheduler out to fit in this process, where --resample reads a jittered log whole "
+        "and resamples it."
     )
+
+
+def in_blocks_words(reason: str) -> str:
+    """A fleet's reason for a log read in blocks, in the command line's words, less the fix
+    a fleet refuses (reading the bag whole: fleets take no --stream nor joined --topic)."""
+    return cli_words(_WHOLE_READ.sub("", reason))

@@ -252,7 +252,7 @@ def in_memory_peak(paths, model, *, topic=None) -> int:
     The raw record (`physid.signals.io.in_memory_bytes`) plus `COPIES_IN_MEMORY` copies of the
     full-rate regressor, ``n_samples × n_joints × n_parameters × 8`` bytes (the standard
     parameters bound the base ones), for the largest file. The samples are a ROS bag's message
-    count from its index (`physid.signals.io.in_memory_samples`), else bounded by the raw bytes
+    count from its index (`physid.signals.io.in_memory_extent`), else bounded by the raw bytes
     over ``8 × (2 n_joints + 1)`` (t, q and tau at least).
 
     Parameters
@@ -266,14 +266,13 @@ def in_memory_peak(paths, model, *, topic=None) -> int:
     -------
     int
     """
-    from ...signals.io import in_memory_bytes, in_memory_samples
+    from ...signals.io import in_memory_extent
 
     nj = int(model.n_joints)
     n_par = len(getattr(model, "parameter_names", ())) or 10 * nj
     peak = 0
     for p in paths:
-        raw = in_memory_bytes(p, topic)
-        n_samples = in_memory_samples(p, topic)
+        raw, n_samples = in_memory_extent(p, topic)  # a bag opened once
         if n_samples is None:
             n_samples = raw // (8 * (2 * nj + 1))  # t, q1..qn, tau1..taun at least
         peak = max(peak, raw + COPIES_IN_MEMORY * n_samples * nj * n_par * 8)

@@ -64,6 +64,7 @@ from .block_readers import (
     BLOCK_FORMATS,
     FileBlocks,
     in_memory_bytes,
+    in_memory_extent,
     in_memory_samples,
     open_blocks,
 )
@@ -93,6 +94,7 @@ __all__ = [
     "BLOCK_FORMATS",
     "in_memory_bytes",
     "in_memory_samples",
+    "in_memory_extent",
     "map_recording",
     "save_recording",
     "parse_channel_map",

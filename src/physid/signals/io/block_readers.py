@@ -42,6 +42,7 @@ __all__ = [
     "blocks_obstacle",
     "in_memory_bytes",
     "in_memory_samples",
+    "in_memory_extent",
     "MAX_WHOLE_MAT_BYTES",
 ]
 
@@ -416,7 +417,8 @@ class FileBlocks:
             off = np.abs(steps - local) / local
             if float(off.max()) > rtol:
                 i = int(np.argmax(off > rtol))  # the first irregular interval
-                raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol)
+                one = _lone(off > rtol, i)
+                raise self._gap(first + i, float(full[i]), float(steps[i]), local, rtol, one)
             raise _Drift(local, float(t[-1]))
         return self.t0 + self.dt * k
 
@@ -434,7 +436,8 @@ class FileBlocks:
             off = np.abs(steps - drift.local) / drift.local
             if float(off.max()) > rtol:
                 i = int(np.argmax(off > rtol))  # the first irregular interval
-                raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol)
+                one = _lone(off > rtol, i)
+                raise self._gap(a - 1 + i, float(full[i]), float(steps[i]), drift.local, rtol, one)
             prev = t[-1]
         fix = self._time_hint() or (
             " Resample it (load_recording(..., resample=True) reads it whole)."
@@ -453,16 +456,17 @@ class FileBlocks:
             f"split the file at sample {a})."
         )
 
-    def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float):
+    def _gap(self, g: int, t_at: float, step: float, period: float, rtol: float, one=False):
         """The error of the first irregular interval, from sample ``g``: with the format's hint
-        on jitter first (a ROS bag's) for a step off by under half a period, a gap's otherwise."""
+        on jitter first (a ROS bag's) for a step off by under half a period among others off,
+        a gap's otherwise (a lost sample, or ``one``: a lone step, a jump in the time)."""
         interval = (
             f"the interval from sample {g} (t = {t_at:.6g} s) to sample {g + 1} is {step:.6g} s "
             f"against a period of {period:.6g} s (relative deviation "
             f"{abs(step - period) / period:.3g}, tolerance {rtol:g})"
         )
         hint = self._time_hint()
-        if hint and abs(step - period) < 0.5 * period:  # jitter, not a lost sample
+        if hint and not one and abs(step - period) < 0.5 * period:  # jitter: no lost sample
             return DataFileError(
                 f"{self.path}: time is not uniformly sampled from sample {g}: its stamps jitter "
                 f"({interval}, the first interval this far off); a stream of blocks cannot "
@@ -572,7 +576,7 @@ def in_memory_samples(path, topic=None) -> int | None:
     """The samples of ``path`` from its index alone, or None where only its size bounds them.
 
     A ROS bag: its topic's message count (a ROS 1 bag's index, a ROS 2 bag's metadata.yaml),
-    nothing of the messages read. The one rule by which ``identify``, ``estimate`` and fleets
+    no message decoded. The one rule by which ``identify``, ``estimate`` and fleets
     size a bag under ``--stream auto``.
 
     Parameters
@@ -594,17 +598,47 @@ def in_memory_samples(path, topic=None) -> int | None:
         return None
     from .rosbag_reader import bag_extent
 
-    return bag_extent(Path(path), topic)[0]
+    return bag_extent(Path(path), topic, width=False)[0]
+
+
+def in_memory_extent(path, topic=None) -> tuple[int, int | None]:
+    """`in_memory_bytes` and `in_memory_samples` of ``path`` at once (a ROS bag opened once).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    topic : str, optional
+        A ROS bag's topic(s), as `open_blocks` (other files: unused).
+
+    Returns
+    -------
+    nbytes : int
+        As `in_memory_bytes` [bytes].
+    samples : int or None
+        As `in_memory_samples` (None: not a ROS bag).
+
+    Raises
+    ------
+    DataFileError
+        As `in_memory_bytes`.
+    """
+    if not is_rosbag(path):
+        return in_memory_bytes(path, topic), None
+    from .rosbag_reader import bag_extent, read_bytes
+
+    count, values = bag_extent(Path(path), topic)
+    return read_bytes(count, values), count
 
 
 def in_memory_bytes(path, topic=None) -> int:
     """Estimated bytes `load_recording` would take for ``path``, from its shapes, types and size.
 
-    Nothing of the samples is read: HDF5/v7.3 datasets and NPZ members by their declared shape
-    and type (the values, then as float64), a v5 ``.mat`` by its variables' declared sizes,
-    Parquet by its rows × columns, a CSV file as three times its size (the text, its copy
-    parsed, the table), a ROS bag by its index's message count times the values of its first
-    message (three float64 copies, as its whole read checks); anything else twice its size.
+    No sample is read (of a ROS bag, its first message alone is decoded): HDF5/v7.3 datasets and
+    NPZ members by their declared shape and type (the values, then as float64), a v5 ``.mat`` by
+    its variables' declared sizes, Parquet by its rows × columns, a CSV file as three times its
+    size (the text, its copy parsed, the table), a ROS bag by its index's message count times
+    the values of its first message (three float64 copies, as its whole read checks); anything
+    else twice its size.
 
     Parameters
     ----------
@@ -681,3 +715,9 @@ def _npz_bytes(path: Path) -> int:
             m = _npy_member(zf, info)
             total += int(np.prod(m.shape, dtype=object)) * (m.dtype.itemsize + 8)
     return total
+
+
+def _lone(irregular: np.ndarray, i: int) -> bool:
+    """Whether interval ``i``, the first of ``irregular``, is the only one there (not jitter),
+    and not the block's last (the next block may go on jittering)."""
+    return bool(i < irregular.size - 1 and np.count_nonzero(irregular) == 1)

@@ -160,8 +160,8 @@ class _BagBlocks:
             lost = sorted(self._fields - filled)
             if lost:
                 torque = (
-                    " (then without the torques in effort: fill effort in every message, or "
-                    "take the torques from another topic, topic='/joint_states,/TORQUES')"
+                    " (and with effort the torques: take them from another topic, "
+                    "topic='/joint_states,/TORQUES')"
                     if "effort" in lost
                     else ""
                 )
@@ -169,8 +169,8 @@ class _BagBlocks:
                     f"{self.path}: topic {self.topic!r} fills {lost} in its first messages but "
                     f"leaves it empty in some message of samples {a}..{a + stamps.size - 1}; "
                     "read in blocks, a field the first messages fill must be filled in every "
-                    "message. Fit the bag in memory (load_recording), which drops such a "
-                    f"field{torque}."
+                    f"message: fill {' and '.join(lost)} in every message. Or read the bag whole "
+                    f"(load_recording), which drops such a field{torque}."
                 )
             columns = {f: v for f, v in columns.items() if f in self._fields}
         return _topic_source(self._decoder.topic_of(columns, stamps), self.metadata)

@@ -471,16 +471,19 @@ def _head_width(path, reader, topic, connections) -> tuple:
     items = _messages(path, reader, connections)
     head = list(islice(items, 1))
     columns, _ = decoder.decode(reader, head)
+    if decoder.named and decoder.first is None:  # an index counting messages the bag lacks
+        return 0, "0 joints", decoder, head, items
     if decoder.named:
         width = len(decoder.first) * sum(v is not None for v in columns.values())
         return width, f"{len(decoder.first)} joints", decoder, head, items
     return decoder.width or 0, f"{decoder.width or 0} values", decoder, head, items
 
 
-def bag_extent(path, topic=None) -> tuple[int, int]:
+def bag_extent(path, topic=None, *, width: bool = True) -> tuple[int, int]:
     """``(messages, values per message)`` of the topic(s) a bag is read from, from its index
     (rosbags' connections' ``msgcount``: a ROS 1 bag's index, a ROS 2 bag's metadata.yaml) and
-    its first message, without reading the rest.
+    its first message, without reading the rest (``width=False``: the index alone, no message
+    decoded, the values given as 0).
 
     Several topics (joined on their stamps): the most messages of one topic, the values of all.
 
@@ -492,11 +495,13 @@ def bag_extent(path, topic=None) -> tuple[int, int]:
     path = Path(path)
     reader = _open(path)
     try:
-        count, width = 0, 0
+        count, values = 0, 0
         for name, connections in _connections(path, reader, _topic_list(topic)):
-            count = max(count, sum(int(c.msgcount) for c in connections))
-            width += _head_width(path, reader, name, connections)[0]
-        return count, width
+            n = sum(int(c.msgcount) for c in connections)
+            _check_count(path, name, n)  # before the first message's width: there may be none
+            count = max(count, n)
+            values += _head_width(path, reader, name, connections)[0] if width else 0
+        return count, values
     finally:
         reader.close()
 
