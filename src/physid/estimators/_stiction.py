@@ -31,6 +31,8 @@ import re
 
 import numpy as np
 
+from ..signals.noise import third_difference_sigma
+
 __all__: list[str] = []
 
 #: The default rule: sticking shown by the data (see the module docstring).
@@ -109,9 +111,7 @@ def position_noise(q) -> tuple[np.ndarray, np.ndarray]:
     sigma, quantum : ndarray, shape (n_joints,) [rad]
     """
     q = np.asarray(q, dtype=float)
-    d3 = np.diff(q, n=3, axis=0)
-    mad = np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0)
-    sigma = 1.4826 * mad / math.sqrt(20.0)
+    sigma = third_difference_sigma(q)
     d1 = np.abs(np.diff(q, axis=0))
     quantum = np.zeros(q.shape[1])
     for j in range(q.shape[1]):  # per joint, not per sample

@@ -27,6 +27,7 @@ from scipy import signal
 
 from ..._validate import check_int
 from ...errors import InputError, SamplingError, ShapeError, arg
+from ...signals.noise import third_difference_sigma
 from .._stiction import (
     NOISE_BAND,
     STICK_AUTO,
@@ -310,7 +311,7 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
         y = x if carry is None else np.concatenate([carry, x])
         y3 = y[max(c - 3, 0) :]  # each difference once: the carry supplies the ones across cuts
         if y3.shape[0] >= 4:  # position_noise's and torque_noise_sigma's σ of the block
-            sigma = _robust_sigma(y3)
+            sigma = third_difference_sigma(y3)
             sig_q.append(sigma[:nj])
             sig_t.append(sigma[nj:])
         d1 = np.abs(np.diff(y[max(c - 1, 0) :, :nj], axis=0))
@@ -347,59 +348,6 @@ def _survey(source, k: int, nj: int, spectrum: bool, block: int):
         tau_sigma=np.median(np.array(sig_t), axis=0),
     )
     return stats, welch
-
-
-def _robust_sigma(x) -> np.ndarray:
-    """The MAD of the third difference over √20 of each column of one block: `position_noise`'s
-    σ of positions [rad], `verdict.torque_noise_sigma` of torques [N·m], bit for bit (their
-    ``1.4826 · median(|d₃ − median(d₃)|) / √20``, the medians by `median_rows`)."""
-    d3 = np.ascontiguousarray(np.diff(x, n=3, axis=0).T)  # (columns, samples): rows contiguous
-    d3 -= median_rows(d3)[:, None]
-    np.abs(d3, out=d3)
-    return 1.4826 * median_rows(d3) / math.sqrt(20.0)
-
-
-def median_rows(rows) -> np.ndarray:
-    """Each row's median: ``np.median(rows, axis=1)`` bit for bit, in about half its time.
-
-    Each row's middle order statistics are selected among the values between two bounds taken
-    from a sorted sample of the row (every ``n // 1024``-th value, ±2√m sample ranks around its
-    middle): counting the values below the lower bound gives their ranks, and only the ~10 %
-    between the bounds are partitioned. Where the bounds miss (a rank outside them), the whole
-    row is partitioned; where a value is neither below, between nor above them (NaN), the row's
-    median is `np.median`'s (NaN). The mean of the two middle values of an even count is
-    ``(a + b) / 2``, as `np.median` computes it.
-
-    Parameters
-    ----------
-    rows : ndarray, shape (k, n)
-        Values (finite for the speed-up), each row contiguous.
-
-    Returns
-    -------
-    ndarray, shape (k,)
-    """
-    n = rows.shape[1]
-    h = n // 2
-    ranks = [h - 1, h] if n % 2 == 0 else [h]
-    out = np.empty(rows.shape[0])
-    for j, row in enumerate(rows):  # per column of the block (14 for a 7-DOF arm)
-        sample = np.sort(row[:: max(1, n // 1024)])
-        m = sample.size
-        w = int(2.0 * math.sqrt(m)) + 2
-        lo, hi = sample[max(m // 2 - w, 0)], sample[min(m // 2 + w, m - 1)]
-        below = int(np.count_nonzero(row < lo))
-        between = row[(row >= lo) & (row <= hi)]
-        if below + between.size + int(np.count_nonzero(row > hi)) != n:  # a NaN: no order
-            out[j] = np.median(row)
-            continue
-        if below <= ranks[0] and below + between.size > ranks[-1]:
-            at = [r - below for r in ranks]
-            v = np.partition(between, at)[at]
-        else:  # the bounds missed a middle rank
-            v = np.partition(row, ranks)[ranks]
-        out[j] = (v[0] + v[1]) / 2.0 if v.size == 2 else v[0]
-    return out
 
 
 def motionless(stats: SourceStats) -> np.ndarray:

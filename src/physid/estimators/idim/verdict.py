@@ -16,6 +16,8 @@ import math
 
 import numpy as np
 
+from ...signals.noise import third_difference_sigma
+
 __all__ = [
     "torque_noise_floor",
     "torque_verdict",
@@ -85,8 +87,7 @@ def torque_noise_sigma(tau) -> np.ndarray:
     -------
     ndarray, shape (n_joints,) [N·m]
     """
-    d3 = np.diff(tau, n=3, axis=0)
-    return 1.4826 * np.median(np.abs(d3 - np.median(d3, axis=0)), axis=0) / math.sqrt(20)
+    return third_difference_sigma(tau)
 
 
 def noise_floor(sigma, decimate: int) -> np.ndarray:
