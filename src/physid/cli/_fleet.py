@@ -9,12 +9,10 @@ from __future__ import annotations
 
 import re
 
-from ._common import check_output_folder, cli_words, print_json, progress
+from ._common import JOIN_SPLITS, KEEP_TIMES, check_output_folder, cli_words, print_json, progress
 
 # the fixes of a time or field error that --each and --joint --scheduler refuse
 _WHOLE_READ = re.compile(r" Or read the bag whole \(load_recording\)[^.]*\.")
-_KEEP_TIMES = re.compile(r",? or pass uniform_rtol=None to keep the times as they are")
-_JOIN_SPLITS = re.compile(r" \(physid\.signals\.join_recordings splits files at gaps\)")
 
 # Options of a single fit that a fleet cannot honour: flag -> (attribute, value meaning "not
 # given", why). A silently ignored flag is a wrong answer.
@@ -259,7 +257,7 @@ def _scheduler_fix(exc):
         return DataFileError(_WHOLE_READ.sub("", text))
     if "not uniformly sampled" not in text:
         return exc
-    for dropped in (_KEEP_TIMES, _JOIN_SPLITS):
+    for dropped in (KEEP_TIMES, JOIN_SPLITS):
         text = dropped.sub("", text)
     refused = ("resample=True", "uniform_rtol=None", "split the bag")
     kept = [s for s in re.split(r"(?<=\.) (?=[A-Za-z])", text) if not any(r in s for r in refused)]
