@@ -25,6 +25,7 @@ read in blocks, and is refused with the fix.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections import deque
 from collections.abc import Iterator
 from itertools import islice
@@ -134,9 +135,7 @@ class _BagBlocks:
         self.n, self._raw_bytes = n, biggest
         self._head = self._decoder.decode(reader, head)
         self._fields = {f for f, v in self._head[0].items() if v is not None}
-        ends = _Decoder(self.path, self.topic, named, first=self._decoder.first)
-        ends.width = self._decoder.width
-        ends.seen = n - 2
+        ends = dataclasses.replace(self._decoder, seen=n - 2)  # its joints and width
         try:
             self._tail = ends.decode(reader, list(tail))
         except DataFileError:
@@ -190,10 +189,7 @@ class _BagBlocks:
             # the connections of this reader (those of the scan's reader select nothing here)
             connections = [c for c in reader.connections if c.topic == self.topic]
             items = _messages(self.path, reader, connections)
-            decoder = _Decoder(
-                self.path, self.topic, self._decoder.named, first=self._decoder.first
-            )
-            decoder.width = self._decoder.width
+            decoder = dataclasses.replace(self._decoder, seen=0)  # the scan's joints and width
             state = {"pos": 0}
 
             def read(a, b):
