@@ -658,9 +658,7 @@ def in_memory_bytes(path, topic=None) -> int:
     """
     path = Path(path)
     if is_rosbag(path):
-        from .rosbag_reader import bag_extent, read_bytes
-
-        return read_bytes(*bag_extent(path, topic))
+        return in_memory_extent(path, topic)[0]
     _check_readable(path)
     size = path.stat().st_size
     fmt = SUPPORTED_SUFFIXES.get(path.suffix.lower())
