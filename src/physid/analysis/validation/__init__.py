@@ -316,30 +316,23 @@ def _validate_chain(loaded, recording, max_lag, notes, series, controller=None):
     notes.append(note)
     what = "filtered, decimated rows" if _is_idim(loaded) else "filtered samples"
     if _enough_for_residual(tau_f.shape[0], max_lag, what, notes):
-        residual = residual_analysis(tau_hat - tau_f, max_lag=max_lag)
+        error = tau_hat - tau_f
+        residual = residual_analysis(error, max_lag=max_lag)
         residual["of"] = "inverse-model torque error (filtered)"
         if rows is not None:  # IDIM: against the filters' colouring, position noise, the model
-            explain_inverse_residual(
-                residual,
-                tau_hat - tau_f,
-                tau_f,
-                nd=rows.decimate,
-                index=index,
-                kept=kept,
-                position_noise=_position_noise_draws(loaded, recording, rows, index, kept),
-            )
+            where = {"nd": rows.decimate, "index": index, "kept": kept}
+            draws = _position_noise_draws(loaded, recording, rows, index, kept)
+            explain_inverse_residual(residual, error, tau_f, position_noise=draws, **where)
             if residual["explanation"] == "model" and reversal is not None:
                 residual = set_aside_reversals(
                     residual,
-                    tau_hat - tau_f,
+                    error,
                     tau_f,
-                    nd=rows.decimate,
-                    index=index,
-                    kept=kept,
                     reversal=reversal,
                     position_noise=lambda k: _position_noise_draws(
                         loaded, recording, rows, index, k
                     ),
+                    **where,
                 )
     return rel, fits, out_rel, residual
 
