@@ -27,7 +27,12 @@ from physid.estimators._stiction import (
 )
 from physid.estimators.idim import IDIMEstimator, base_regressor_info, idim_rows
 from physid.estimators.idim.choose import decimate_candidates, pick
-from physid.estimators.idim.verdict import iv_verdict, torque_verdict
+from physid.estimators.idim.verdict import (
+    SILENT_FLOOR,
+    iv_verdict,
+    noise_gain,
+    torque_verdict,
+)
 from physid.simulate.closed_loop import simulate_closed_loop
 
 DATA = Path(__file__).parent / "data"
@@ -176,6 +181,30 @@ def test_verdict_judges_the_residual_against_the_noise_floor():
     ok, sentence = torque_verdict(tau, bad, np.array([0.01, 0.02]), 0.2, 0.5)
     assert not ok
     assert "0.9 on tau1" in sentence and "torque-noise floor" in sentence
+
+
+def test_a_torque_filtered_before_logging_shows_no_noise_floor():
+    n = 600
+    s = np.linspace(0, 30, n)
+    tau = np.column_stack([20.0 * np.sin(s), 0.3 * np.cos(0.7 * s)])
+    # joint 2's residual as large as its torque (nothing explains it), well below 5 % of tau1
+    e = np.column_stack([0.02 * np.sin(3 * s), 0.3 * np.sin(1.3 * s)])
+    rms2 = float(np.sqrt(np.mean(tau[:, 1] ** 2)))
+    # a noise std at 3e-6 of the torque (what a 2 Hz filter before logging leaves): no floor,
+    # so the small joint is excused, and the sentence says why
+    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-6 * rms2]), 0.2, 0.5)
+    assert ok and "tau2" in sentence and "No floor" in sentence and "filtered before" in sentence
+    # a real sensor's noise (3e-3 of the torque): the same residual is 300x the floor, a failure
+    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-3 * rms2]), 0.2, 0.5)
+    assert not ok and "on tau2" in sentence
+    # the floor a parallel filter carries stands for a raw noise 1/sqrt(gain) larger: the same
+    # filtered floor is silent at nd 1 and a sensor's at nd 100
+    gain = noise_gain(100)
+    assert 0.005 < gain < 0.05  # about 1.6/nd: the filter passes 0.8/nd of the band
+    floor = 0.5 * SILENT_FLOOR * rms2
+    assert torque_verdict(tau, e, np.array([1e-3, floor]), 0.2, 0.5)[0]
+    assert floor / np.sqrt(gain) > SILENT_FLOOR * rms2
+    assert not torque_verdict(tau, e, np.array([1e-3, floor]), 0.2, 0.5, decimate=100)[0]
 
 
 def test_iv_that_is_stable_but_not_at_tol_is_not_a_failure():

@@ -371,7 +371,9 @@ class IDIMEstimator(EstimatorMixin):
         (`physid.estimators.idim.verdict`)."""
         e = rows.tau - rows.W @ beta
         floor = torque_noise_floor(recs, rows.W.shape[1], rows.decimate)
-        ok, sentence = torque_verdict(rows.tau, e, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT)
+        ok, sentence = torque_verdict(
+            rows.tau, e, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT, decimate=rows.decimate
+        )
         if not ok:
             sentence += (
                 " Check the channel map (q and tau of each joint, their units and signs), do "

@@ -343,7 +343,9 @@ def _verdict(plan, c, est, sums, cond, nd, why, n_stuck):
     sigma = np.max(np.array([s.tau_sigma for s in plan.sources]), axis=0)
     floor = noise_floor(sigma, nd)
     # rows with |τ| + |e| > 0: every equation kept (a dropped one is zero on both sides)
-    ok, sentence = torque_verdict_sums(e2, t2, kept, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT)
+    ok, sentence = torque_verdict_sums(
+        e2, t2, kept, floor, REL_ERROR_FAIL, REL_ERROR_FAIL_JOINT, decimate=nd
+    )
     if not ok:
         sentence += (
             " Check the channel map (q and tau of each joint, their units and signs), do "
