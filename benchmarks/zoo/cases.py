@@ -723,15 +723,20 @@ def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
 FLEX_COUNTS = 2**20  # per motor turn
 
 
-def _flex_records(arm, seed, duration, rng):
+def _flex_records(arm, seed, duration, rng, ripple=0.0):
     """(motor-side log, joint-side log, noise-free joint-side record, τ = N kt i) of the
     elastic arm; the joint side is the motor's (q = θ/N), as an encoder on the motor reads it."""
     h = 2e-4
     t = np.arange(int(round(duration / h))) * h
     r = fourier_reference(t, ARM2_Q0, np.random.default_rng(seed), period=10.0)
-    substeps = 2 if max(arm.stiffness) < 1e5 else 8  # the stiff check's modes: ωh < 0.4
-    _, phi, _, _, theta, cur = arm.simulate(r, h, ARM2_KP, ARM2_KD, FLEX_COUNTS, substeps)
-    i_log = ARM2_ADC_I * np.round((cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I)
+    w = 2 * np.pi * arm.modes(ARM2_Q0)["free"][-1]  # rad/s, the fastest mode
+    substeps = max(2, int(np.ceil(h * w / 0.4)))  # RK4 at ω dt < 0.4 (stiffer variants)
+    dist = ripple * np.random.default_rng(seed + 1000).standard_normal(r.shape) if ripple else None
+    sim = arm.simulate(r, h, ARM2_KP, ARM2_KD, FLEX_COUNTS, substeps, disturbance=dist)
+    _, phi, _, _, theta, cur = sim
+    i_log = ARM2_ADC_I * np.round(
+        (cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I
+    )
     kn = arm.arm.ratio * arm.arm.kt
     meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": "elastic 2-link arm, RK4"}
     motor = physid.Recording.from_columns(
@@ -745,9 +750,10 @@ def _flex_records(arm, seed, duration, rng):
     return motor, joint, clean, kn * cur
 
 
-def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0) -> Case:
+def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0) -> Case:
     """(h) the arm of (g) with elastic joints (`flexible.FlexibleTwoLink`), logged on the motor
-    side; ``stiffness_scale`` multiplies K (and D by its square root: the same damping ratio)."""
+    side; ``stiffness_scale`` multiplies K (and D by its square root: the same damping ratio);
+    ``ripple`` [A]: σ of a white current the drives add to the command (0: none)."""
     base = FlexibleTwoLink()
     s = float(stiffness_scale)
     arm = FlexibleTwoLink(
@@ -760,8 +766,8 @@ def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0) -> Case:
     tail = f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{arm.arm.kt}, {arm.arm.kt}]\n"
     drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
     model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
-    ptrain, train, clean, _ = _flex_records(arm, 82, train_s, rng)
-    ptest, test, _, tau = _flex_records(arm, 83, test_s, rng)
+    ptrain, train, clean, _ = _flex_records(arm, 82, train_s, rng, ripple)
+    ptest, test, _, tau = _flex_records(arm, 83, test_s, rng, ripple)
     pm = pin.buildModelFromUrdf(str(urdf))
     modes = arm.modes(ARM2_Q0)
     return Case(

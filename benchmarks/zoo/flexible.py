@@ -18,17 +18,19 @@ the rigid arm with rotor inertia Ja as armature and joint-side viscous Fv and Co
 values of `truth_of(..., arm.armature, arm.fv, arm.fc)`. Above the modes the motor moves
 without the link and the motor current carries Ja φ̈ only.
 
-Joint modes, default stiffness K = (3550, 400) N·m/rad (`modes`, linearised at the zoo's rest
+Joint modes, default stiffness K = (3000, 250) N·m/rad (`modes`, linearised at the zoo's rest
 pose q = (0.3, 0.6) rad with gravity's stiffness, D = 0): the coupled 4-DOF model's elastic
-modes at 17.9 and 26.7 Hz (undamped); with the motors locked (φ fixed) the link modes at
-11.6 and 21.0 Hz. Per joint, decoupled: shoulder locked √(K1/M11)/2π = 15.0 Hz, free
-√(K1 (1/M11 + 1/Ja1))/2π = 26.0 Hz; elbow 17.7 Hz and 20.3 Hz. D = (2.0, 0.3) N·m·s/rad,
-about 5 % of critical for each joint's free mode. ``tests/test_zoo_flexible.py`` checks these
-against the simulator's linearisation and a free vibration.
+modes at 17.2 and 30.7 Hz (undamped); with the motors locked (φ fixed) the link modes at
+10.6 and 26.1 Hz; the two slow modes (motors free, gravity's stiffness) at 0.32 and 0.48 Hz.
+Per joint, decoupled (M12 = 0, no gravity): shoulder locked √(K1/M11)/2π = 13.7 Hz, free
+√(K1 (1/M11 + 1/Ja1))/2π = 23.8 Hz; elbow 14.0 and 16.1 Hz; the inertia coupling M12 spreads
+them. D = (1.5, 0.4) N·m·s/rad: damping ratios 0.071 and 0.076 of the two elastic modes.
+``tests/test_zoo_flexible.py`` checks these against the simulator's own linearisation and a
+free vibration it integrates.
 
 Integrated by fixed-step RK4 (1e-4 s) with the current held over each controller period (2e-4
 s). The inner loop is scalar Python: a state of 8 numbers is faster in floats than in numpy
-arrays of length 2; a 20 s record takes about 25 s.
+arrays of length 2; a 20 s record takes about 5 s.
 """
 
 from __future__ import annotations
@@ -71,8 +73,9 @@ class FlexibleTwoLink:
         ja = self.arm.armature
         k = np.diag(self.stiffness)
         e = 1e-6
-        gq = np.array([(self.gravity(q0 + e * d) - self.gravity(q0 - e * d))[0] / (2 * e)
-                       for d in np.eye(2)]).T  # ∂g/∂q
+        gq = np.array(
+            [(self.gravity(q0 + e * d) - self.gravity(q0 - e * d))[0] / (2 * e) for d in np.eye(2)]
+        ).T  # ∂g/∂q
         m4 = np.zeros((4, 4))
         m4[:2, :2], m4[2:, 2:] = ml, np.diag(ja)
         k4 = np.block([[k + gq, -k], [-k, k]])
@@ -81,12 +84,18 @@ class FlexibleTwoLink:
         c4 = np.zeros((4, 4))
         dd = np.diag(self.damping)
         c4[:2, :2], c4[:2, 2:], c4[2:, :2], c4[2:, 2:] = dd, -dd, -dd, dd
-        a8 = np.block([[np.zeros((4, 4)), np.eye(4)], [-np.linalg.solve(m4, k4), -np.linalg.solve(m4, c4)]])
+        a8 = np.block(
+            [[np.zeros((4, 4)), np.eye(4)], [-np.linalg.solve(m4, k4), -np.linalg.solve(m4, c4)]]
+        )
         lam = np.linalg.eigvals(a8)
         lam = lam[lam.imag > 2 * np.pi * 2.0]  # the elastic pairs (the pendulum modes are < 1 Hz)
         lam = lam[np.argsort(lam.imag)]
-        return {"free": w4[2:] / (2 * np.pi), "locked": wl / (2 * np.pi),
-                "pendulum": w4[:2] / (2 * np.pi), "zeta": -lam.real / np.abs(lam)}
+        return {
+            "free": w4[2:] / (2 * np.pi),
+            "locked": wl / (2 * np.pi),
+            "pendulum": w4[:2] / (2 * np.pi),
+            "zeta": -lam.real / np.abs(lam),
+        }
 
     def _deriv(self, s, tm):
         """ds/dt for s = (q1, q2, φ1, φ2, q̇1, q̇2, φ̇1, φ̇2) under motor torques tm = N kt i
@@ -108,7 +117,11 @@ class FlexibleTwoLink:
         a22 = i2 + m2 * c2 * c2
         h = -m2 * l1 * c2 * s2
         c12 = math.cos(q1 + q2)
-        b1 = e1 - h * (2 * v1 * v2 + v2 * v2) + G * ((m1 * c1 + m2 * l1) * math.cos(q1) + m2 * c2 * c12)
+        b1 = (
+            e1
+            - h * (2 * v1 * v2 + v2 * v2)
+            + G * ((m1 * c1 + m2 * l1) * math.cos(q1) + m2 * c2 * c12)
+        )
         b2 = e2 + h * v1 * v1 + G * m2 * c2 * c12
         det = a11 * a22 - a12 * a12
         f1 = a.fc[0] * math.tanh(w1 / a.eps) + a.fv[0] * w1
@@ -123,11 +136,12 @@ class FlexibleTwoLink:
         """One RK4 step of dt [s] from state s (8-tuple) with motor torques tm held."""
         f = self._deriv
         k1 = f(s, tm)
-        k2 = f(tuple(x + 0.5 * dt * y for x, y in zip(s, k1)), tm)
-        k3 = f(tuple(x + 0.5 * dt * y for x, y in zip(s, k2)), tm)
-        k4 = f(tuple(x + dt * y for x, y in zip(s, k3)), tm)
+        k2 = f(tuple(x + 0.5 * dt * y for x, y in zip(s, k1, strict=True)), tm)
+        k3 = f(tuple(x + 0.5 * dt * y for x, y in zip(s, k2, strict=True)), tm)
+        k4 = f(tuple(x + dt * y for x, y in zip(s, k3, strict=True)), tm)
         return tuple(
-            x + dt / 6 * (a + 2 * b + 2 * c + d) for x, a, b, c, d in zip(s, k1, k2, k3, k4)
+            x + dt / 6 * (a + 2 * b + 2 * c + d)
+            for x, a, b, c, d in zip(s, k1, k2, k3, k4, strict=True)
         )
 
     def energy(self, s) -> float:
@@ -147,10 +161,12 @@ class FlexibleTwoLink:
         p = np.asarray(q0, float) + g / np.asarray(self.stiffness)
         return (float(q0[0]), float(q0[1]), float(p[0]), float(p[1]), 0.0, 0.0, 0.0, 0.0)
 
-    def simulate(self, r, h, kp, kd, counts, substeps=2, i_max=5.0, settle=1.0):
+    def simulate(self, r, h, kp, kd, counts, substeps=2, i_max=5.0, settle=1.0, disturbance=None):
         """PD loop at period h [s] on the motor encoder (``counts`` per motor turn), read on the
         joint side: τ = Kp (r − φ̃) − Kd (φ̃ − φ̃_prev)/h, i = τ/(N kt) clipped to ±i_max [A],
-        held over the period; RK4 with ``substeps`` steps per period. Starts at rest at r[0]
+        held over the period; RK4 with ``substeps`` steps per period. ``disturbance`` (n, 2)
+        [A], optional: a current the drive adds to the command (ripple, current-loop noise),
+        part of the current the motor carries and the one returned. Starts at rest at r[0]
         (springs deflected) and holds it for ``settle`` s. Returns link angles q, motor angles
         φ = θ/N, their speeds (n, 2) each, the motor encoder θ̃ = N φ̃ [rad, motor side] and the
         current i (n, 2) [A]."""
@@ -171,6 +187,8 @@ class FlexibleTwoLink:
                         -i_max), i_max)
                 for j in (0, 1)
             ]  # fmt: skip
+            if k >= 0 and disturbance is not None:
+                cur = [cur[0] + disturbance[k, 0], cur[1] + disturbance[k, 1]]
             if k >= 0:
                 X[k], ENC[k], CUR[k] = s, pq, cur
             tm = (kn * cur[0], kn * cur[1])
