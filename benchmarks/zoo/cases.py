@@ -45,6 +45,10 @@ Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never
     ``physid identify log.csv --model arm.toml`` would; the recipe gets q = θm/100 and
     τ = 100·kt·i. Fourier reference (10 s period, 5 harmonics), 20 s, held out 10 s.
     Its truth's Coulomb column is Fc: the Stribeck hump is in no estimator's model.
+(h) The arm of (g) with elastic joints (`flexible.FlexibleTwoLink`, Spong's reduced model: a
+    spring and damper between each gear and its link; joint modes 17.2 / 30.7 Hz), viscous and
+    Coulomb friction on the motors, PD at 5 kHz on 2^20 counts/turn motor encoders, logged
+    and read like (g). The truth is the low-frequency limit: the rigid arm with armature N²Jm.
 (aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
 
 Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
