@@ -45,6 +45,10 @@ Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never
     ``physid identify log.csv --model arm.toml`` would; the recipe gets q = θm/100 and
     τ = 100·kt·i. Fourier reference (10 s period, 5 harmonics), 20 s, held out 10 s.
     Its truth's Coulomb column is Fc: the Stribeck hump is in no estimator's model.
+(h) The arm of (g) with elastic joints (`flexible.FlexibleTwoLink`, Spong's reduced model: a
+    spring and damper between each gear and its link; joint modes 17.2 / 30.7 Hz), viscous and
+    Coulomb friction on the motors, PD at 5 kHz on 2^20 counts/turn motor encoders, logged
+    and read like (g). The truth is the low-frequency limit: the rigid arm with armature N²Jm.
 (aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
 
 Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
@@ -85,6 +89,7 @@ import pinocchio as pin
 import physid
 
 from .drives import LinearDrive, TwoLink
+from .flexible import FlexibleTwoLink
 
 ROOT = Path(__file__).resolve().parents[2]
 ARM6_URDF = ROOT / "src" / "physid" / "models" / "data" / "arm6.urdf"
@@ -719,6 +724,78 @@ def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
     )
 
 
+FLEX_COUNTS = 2**20  # per motor turn
+
+
+def _flex_records(arm, seed, duration, rng, ripple=0.0):
+    """(motor-side log, joint-side log, noise-free joint-side record, τ = N kt i) of the
+    elastic arm; the joint side is the motor's (q = θ/N), as an encoder on the motor reads it."""
+    h = 2e-4
+    t = np.arange(int(round(duration / h))) * h
+    r = fourier_reference(t, ARM2_Q0, np.random.default_rng(seed), period=10.0)
+    w = 2 * np.pi * arm.modes(ARM2_Q0)["free"][-1]  # rad/s, the fastest mode
+    substeps = max(2, int(np.ceil(h * w / 0.4)))  # RK4 at ω dt < 0.4 (stiffer variants)
+    dist = ripple * np.random.default_rng(seed + 1000).standard_normal(r.shape) if ripple else None
+    sim = arm.simulate(r, h, ARM2_KP, ARM2_KD, FLEX_COUNTS, substeps, disturbance=dist)
+    _, phi, _, _, theta, cur = sim
+    i_log = ARM2_ADC_I * np.round(
+        (cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I
+    )
+    kn = arm.arm.ratio * arm.arm.kt
+    meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": "elastic 2-link arm, RK4"}
+    motor = physid.Recording.from_columns(
+        t, {"qm": theta, "im": i_log, "r": r}, {"qm": "rad", "im": "A", "r": "rad"}, meta
+    )
+    units = {"q": "rad", "tau": "N·m", "r": "rad"}
+    joint = physid.Recording.from_columns(
+        t, {"q": theta / arm.arm.ratio, "tau": kn * i_log, "r": r}, units, meta
+    )
+    clean = physid.Recording.from_columns(t, {"q": phi, "tau": kn * cur, "r": r}, units, meta)
+    return motor, joint, clean, kn * cur
+
+
+def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0) -> Case:
+    """(h) the arm of (g) with elastic joints (`flexible.FlexibleTwoLink`), logged on the motor
+    side; ``stiffness_scale`` multiplies K (and D by its square root: the same damping ratio);
+    ``ripple`` [A]: σ of a white current the drives add to the command (0: none)."""
+    base = FlexibleTwoLink()
+    s = float(stiffness_scale)
+    arm = FlexibleTwoLink(
+        stiffness=tuple(s * k for k in base.stiffness),
+        damping=tuple(np.sqrt(s) * d for d in base.damping),
+    )
+    rng = np.random.default_rng(81)
+    urdf = arm.arm.urdf(_scratch() / "two_link_elastic.urdf")
+    n = arm.arm.ratio
+    tail = f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{arm.arm.kt}, {arm.arm.kt}]\n"
+    drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
+    model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
+    ptrain, train, clean, _ = _flex_records(arm, 82, train_s, rng, ripple)
+    ptest, test, _, tau = _flex_records(arm, 83, test_s, rng, ripple)
+    pm = pin.buildModelFromUrdf(str(urdf))
+    modes = arm.modes(ARM2_Q0)
+    return Case(
+        key="h",
+        title="2-link arm with elastic joints, motor side (100:1), 5 kHz",
+        urdf=urdf,
+        physid_model=model,
+        train=train,
+        test=test,
+        test_tau_true=tau,
+        train_clean=clean,
+        truth=truth_of(pm, arm.arm.armature, np.asarray(arm.arm.fv), np.asarray(arm.arm.fc)),
+        bandwidth_hz=0.5,  # 5 harmonics of a 10 s period
+        armature=True,
+        physid_train=ptrain,
+        physid_test=ptest,
+        note="joint modes "
+        + "/".join(f"{x:.3g}" for x in modes["free"])
+        + " Hz (motors locked "
+        + "/".join(f"{x:.3g}" for x in modes["locked"])
+        + " Hz); rigid truth: armature N²Jm, Fv, Fc on the motor; physid reads qm, im",
+    )
+
+
 BUILDERS = {
     "a": case_a,
     "b": case_b,
@@ -728,6 +805,7 @@ BUILDERS = {
     "e2": case_kuka,
     "f": case_linear_drive,
     "g": case_two_link_motor,
+    "h": case_flexible_arm,
 }
 
 
