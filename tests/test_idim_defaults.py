@@ -165,20 +165,20 @@ def test_verdict_judges_the_residual_against_the_noise_floor():
     tau = np.column_stack([10.0 * np.sin(np.linspace(0, 20, n)), 0.01 * np.ones(n)])
     # joint 2: a small torque, its residual pure noise of the floor's size: relative error ≫ 0.5
     e = np.column_stack([0.01 * rng.standard_normal(n), 0.02 * rng.standard_normal(n)])
-    ok, sentence = torque_verdict(tau, e, np.array([0.01, 0.02]), 0.2, 0.5)
+    ok, sentence = torque_verdict(tau, e, np.array([0.01, 0.02]), 0.2, 0.5, decimate=1)
     assert ok and "tau2" in sentence and "floor" in sentence
     # the same residual with no noise in the record: a small joint (below 5 % of tau1) is
     # still not a failure on its own
-    ok, _ = torque_verdict(tau, e, np.array([0.0, 0.0]), 0.2, 0.5)
+    ok, _ = torque_verdict(tau, e, np.array([0.0, 0.0]), 0.2, 0.5, decimate=1)
     assert ok
     # where the record does show a floor, a small joint's residual 10x above it is a failure
     # however small the joint (a wrist whose coupled motor the model leaves out)
-    ok, sentence = torque_verdict(tau, e, np.array([0.01, 0.002]), 0.2, 0.5)
+    ok, sentence = torque_verdict(tau, e, np.array([0.01, 0.002]), 0.2, 0.5, decimate=1)
     assert not ok and "on tau2" in sentence
     # a residual as large as the torque, far above the floor: a failure that says what it
     # compared
     bad = np.column_stack([tau[:, 0] * 0.9, e[:, 1]])
-    ok, sentence = torque_verdict(tau, bad, np.array([0.01, 0.02]), 0.2, 0.5)
+    ok, sentence = torque_verdict(tau, bad, np.array([0.01, 0.02]), 0.2, 0.5, decimate=1)
     assert not ok
     assert "0.9 on tau1" in sentence and "torque-noise floor" in sentence
 
@@ -192,17 +192,22 @@ def test_a_torque_filtered_before_logging_shows_no_noise_floor():
     rms2 = float(np.sqrt(np.mean(tau[:, 1] ** 2)))
     # a noise std at 3e-6 of the torque (what a 2 Hz filter before logging leaves): no floor,
     # so the small joint is excused, and the sentence says why
-    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-6 * rms2]), 0.2, 0.5)
+    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-6 * rms2]), 0.2, 0.5, decimate=1)
     assert ok and "tau2" in sentence and "No floor" in sentence and "filtered before" in sentence
     # a real sensor's noise (3e-3 of the torque): the same residual is 300x the floor, a failure
-    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-3 * rms2]), 0.2, 0.5)
+    ok, sentence = torque_verdict(tau, e, np.array([1e-3, 3e-3 * rms2]), 0.2, 0.5, decimate=1)
     assert not ok and "on tau2" in sentence
+    # no floor, but a residual above 5 % of the largest torque: a failure that says there was
+    # no floor to judge it by
+    big = np.column_stack([e[:, 0], 3.0 * np.sin(1.3 * s)])
+    ok, sentence = torque_verdict(tau, big, np.array([1e-3, 3e-6 * rms2]), 0.2, 0.5, decimate=1)
+    assert not ok and "on tau2" in sentence and "no torque-noise floor" in sentence
     # the floor a parallel filter carries stands for a raw noise 1/sqrt(gain) larger: the same
     # filtered floor is silent at nd 1 and a sensor's at nd 100
     gain = noise_gain(100)
     assert 0.005 < gain < 0.05  # about 1.6/nd: the filter passes 0.8/nd of the band
     floor = 0.5 * SILENT_FLOOR * rms2
-    assert torque_verdict(tau, e, np.array([1e-3, floor]), 0.2, 0.5)[0]
+    assert torque_verdict(tau, e, np.array([1e-3, floor]), 0.2, 0.5, decimate=1)[0]
     assert floor / np.sqrt(gain) > SILENT_FLOOR * rms2
     assert not torque_verdict(tau, e, np.array([1e-3, floor]), 0.2, 0.5, decimate=100)[0]
 

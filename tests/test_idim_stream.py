@@ -263,6 +263,45 @@ def test_a_weakly_identified_record_fails_streamed_as_in_memory(tmp_path):
     assert streamed.success is False and "Weakly identified" in streamed.message
 
 
+def _with_wrist_torque(rec, amplitude, cutoff_hz=None, noise=0.0, seed=5):
+    """``rec`` with a torque on joint 4 that no model explains (a sinusoid of ``amplitude`` times
+    its rms), optionally every torque low-passed at ``cutoff_hz`` (4th-order Butterworth,
+    zero phase: filtered before logging) or with white noise of ``noise`` times its rms."""
+    from scipy import signal
+
+    names, t = list(rec.names), np.asarray(rec.t)
+    x = np.asarray(rec.data, dtype=float).copy()
+    cols = [names.index(f"tau{j + 1}") for j in range(4)]
+    rms = np.sqrt(np.mean(x[:, cols] ** 2, axis=0))
+    x[:, cols[3]] += amplitude * rms[3] * np.sin(2 * np.pi * 0.9 * t + 0.3)
+    if cutoff_hz is not None:
+        b, a = signal.butter(4, 2.0 * cutoff_hz * (t[1] - t[0]))
+        x[:, cols] = signal.filtfilt(b, a, x[:, cols], axis=0)
+    if noise:
+        x[:, cols] += noise * rms * np.random.default_rng(seed).standard_normal((t.size, 4))
+    return Recording(t, x, names, list(rec.units))
+
+
+def test_a_torque_filtered_before_logging_is_judged_alike_streamed_and_in_memory(arm, rec):
+    # the wrist's unexplained torque: relative error above 0.5 but below 5 % of the largest
+    # joint's torque; the log's torques filtered at 10 Hz show no noise floor (their noise is
+    # ~1e-7 of their rms), so the wrist is excused, streamed as in memory
+    pre = _with_wrist_torque(rec, 2.0, cutoff_hz=10.0)
+    ref = _fit(arm, pre)
+    got = fit_streamed(arm, ArrayBlocks(pre), block_samples=1000, progress=False)
+    _same(ref, got)
+    assert ref.success and "tau4: relative error above 0.5" in ref.message
+    assert "No floor" in ref.message
+    # a noise-free record is judged the same way; with 1 % white noise on the torques the record
+    # shows a floor, and the same wrist residual, far above it, fails the fit
+    assert _fit(arm, _with_wrist_torque(rec, 2.0)).success
+    noisy = _with_wrist_torque(rec, 2.0, noise=0.01)
+    ref = _fit(arm, noisy)
+    got = fit_streamed(arm, ArrayBlocks(noisy), block_samples=1000, progress=False)
+    _same(ref, got)
+    assert not ref.success and "on tau4" in ref.message and "torque-noise floor of" in ref.message
+
+
 def test_parallel_filter_state_is_carried_through_windows_without_rows(arm, rec):
     # windows of 100 samples are shorter than the filters' edge: many hold no decimated row of
     # the largest nd, and the forward state must still pass through them

@@ -35,23 +35,14 @@ def _lossless(**kw):
 
 
 def test_mode_frequencies_are_the_stated_ones():
-    """The docstring's numbers, and the per-joint decoupled formulas for the rigid-link
-    limits: locked √(K/M_jj), free √(K (1/M_jj + 1/Ja))."""
+    """The docstring's numbers (the linearisation itself is checked against the simulator's
+    equations in the next test)."""
     arm = FlexibleTwoLink()
     m = arm.modes(Q0)
     np.testing.assert_allclose(m["free"], [17.2, 30.7], atol=0.05)
     np.testing.assert_allclose(m["locked"], [10.6, 26.1], atol=0.05)
     assert np.all(m["pendulum"] < 1.0)
     np.testing.assert_allclose(m["zeta"], [0.071, 0.076], atol=0.002)
-    # a diagonal arm (no coupling inertia, no gravity) has the decoupled frequencies exactly
-    ml = arm.links.mass_matrix(Q0)[0]
-    k, ja = np.asarray(arm.stiffness), arm.arm.armature
-    kd = np.diag(k)
-    m4 = np.diag([ml[0, 0], ml[1, 1], *ja])
-    k4 = np.block([[kd, -kd], [-kd, kd]])
-    w = np.sort(np.sqrt(np.abs(np.linalg.eigvals(np.linalg.solve(m4, k4)))))[2:] / (2 * np.pi)
-    free = np.sqrt(k * (1 / np.diag(ml) + 1 / ja)) / (2 * np.pi)
-    np.testing.assert_allclose(w, np.sort(free), rtol=1e-9)
 
 
 def test_simulator_linearisation_has_the_models_modes():
@@ -160,7 +151,7 @@ def _slow_torque_error(stiffness_scale):
 def test_low_frequency_motion_is_the_rigid_arm_with_armature():
     """0.1 Hz, ±0.6 rad: the motor torque is pinocchio's rnea with armature N² Jm plus Fv φ̇ +
     Fc tanh(φ̇/ε) at the motor angles within 1 % per joint; the rest is the static deflection
-    K⁻¹ g (2–3 mrad), so 100 times stiffer springs leave 100 times less (within a factor 3)."""
+    K⁻¹ g (about 3 mrad), so 100 times stiffer springs leave 100 times less (within a factor 3)."""
     soft = _slow_torque_error(1.0)
     stiff = _slow_torque_error(100.0)
     assert np.all(soft < 0.01), soft

@@ -13,8 +13,8 @@ joint side (friction_m(θ̇) = (Fv φ̇ + Fc tanh(φ̇/ε))/N, ε = 1e-3 rad/s o
 the motor, before the spring.
 
 The rigid model the estimators fit. At frequencies well below the joint modes φ = q (up to
-the static deflection K⁻¹ e, 2.5 mrad at the loaded shoulder) and the two equations add up to
-the rigid arm with rotor inertia Ja as armature and joint-side viscous Fv and Coulomb Fc, the
+the static deflection K⁻¹ e: at rest 2.8 mrad at the shoulder, 3.7 mrad at the elbow) and the
+two equations add up to the rigid arm with rotor inertia Ja as armature and joint-side viscous Fv and Coulomb Fc, the
 values of `truth_of(..., arm.armature, arm.fv, arm.fc)`. Above the modes the motor moves
 without the link and the motor current carries Ja φ̈ only.
 
