@@ -130,7 +130,11 @@ def robots_dir() -> Path:
 
 
 _DROP = ("visual", "collision")  # inside links
-_DROP_TOP = ("gazebo", "transmission", "ros2_control")  # top-level elements the dynamics do not need
+_DROP_TOP = (
+    "gazebo",
+    "transmission",
+    "ros2_control",
+)  # top-level elements the dynamics do not need
 
 
 def clean_urdf(arm: Arm, folder: Path) -> Path:
@@ -233,7 +237,9 @@ def simulate_mujoco(urdf, arm: Arm, r, dt, *, gravity_compensation=False, settle
         d.qfrc_applied[:] = tau
         mujoco.mj_step(m, d)
     if not np.all(np.isfinite(Q)) or np.abs(Q - r).max() > 0.5:
-        raise RuntimeError(f"{arm.key}: simulation diverged (max |r − q| {np.abs(Q - r).max():.3g})")
+        raise RuntimeError(
+            f"{arm.key}: simulation diverged (max |r − q| {np.abs(Q - r).max():.3g})"
+        )
     return Q, V, T
 
 
@@ -274,8 +280,16 @@ def _run(sim, urdf, arm, r, every, rng, **measure):
     t = np.arange(r.shape[0])[keep] * zc.DT_SIM
     rec = _measure(t, Q[keep], T[keep], r[keep], arm, rng, **measure)
     clean = _measure(
-        t, Q[keep], T[keep], r[keep], arm, rng, sigma_q=0.0, torque_noise=0.0,
-        source=measure.get("source", ""), extra=measure.get("extra"),
+        t,
+        Q[keep],
+        T[keep],
+        r[keep],
+        arm,
+        rng,
+        sigma_q=0.0,
+        torque_noise=0.0,
+        source=measure.get("source", ""),
+        extra=measure.get("extra"),
     )
     return rec, T[keep], clean
 
