@@ -137,11 +137,30 @@ _DROP_TOP = (
 )  # top-level elements the dynamics do not need
 
 
-def clean_urdf(arm: Arm, folder: Path) -> Path:
+def _snap_right_angles(robot, tol):
+    """Joint-origin ``rpy`` angles within ``tol`` rad of a multiple of π/2 set to it exactly
+    (xarm7.urdf writes 1.5708 for π/2: 3.7e-6 rad off, its axes 1 and 2 are not quite at a
+    right angle, which makes Ia2 and ZZ2 separable by 1e-6 of the torque only)."""
+    for joint in robot.findall("joint"):
+        origin = joint.find("origin")
+        if origin is None or origin.get("rpy") is None:
+            continue
+        rpy = np.array([float(x) for x in origin.get("rpy").split()])
+        k = np.round(rpy / (np.pi / 2))
+        near = np.abs(rpy - k * np.pi / 2) < tol
+        rpy[near] = k[near] * np.pi / 2
+        origin.set("rpy", " ".join(repr(float(x)) for x in rpy))
+
+
+def clean_urdf(arm: Arm, folder: Path, *, snap_right_angles=0.0) -> Path:
     """Write ``arm``'s URDF without geometry, gazebo/transmission/dynamics elements, its
-    non-arm joints fixed, to ``folder/<key>.urdf``; returns the path (rewritten each call)."""
+    non-arm joints fixed, to ``folder/<key>.urdf``; returns the path (rewritten each call).
+    ``snap_right_angles`` [rad] > 0: joint-origin angles that close to a multiple of π/2 are
+    set to it (the file's suffix is then ``_snapped``)."""
     tree = ET.parse(robots_dir() / arm.path)
     robot = tree.getroot()
+    if snap_right_angles > 0:
+        _snap_right_angles(robot, snap_right_angles)
     for el in [e for e in robot if e.tag in _DROP_TOP]:
         robot.remove(el)
     for link in robot.findall("link"):
@@ -162,7 +181,7 @@ def clean_urdf(arm: Arm, folder: Path) -> Path:
     if sorted(found) != sorted(arm.joints):
         raise ValueError(f"{arm.path}: arm joints {arm.joints}, found {found}")
     folder.mkdir(parents=True, exist_ok=True)
-    out = folder / f"{arm.key}.urdf"
+    out = folder / f"{arm.key}{'_snapped' if snap_right_angles > 0 else ''}.urdf"
     tree.write(out, encoding="utf-8", xml_declaration=True)
     return out
 
@@ -294,12 +313,14 @@ def _run(sim, urdf, arm, r, every, rng, **measure):
     return rec, T[keep], clean
 
 
-def _case(key, title, arm, sim, references, every, *, seed, bandwidth_hz, note="", **measure):
+def _case(
+    key, title, arm, sim, references, every, *, seed, bandwidth_hz, note="", snap=0.0, **measure
+):
     """A collection case: the cleaned URDF, its sidecar, the two records, the truth."""
     why = collection_available() or (zc.mujoco_available() if sim.startswith("mujoco") else "")
     if why:
         return zc.Case(key, title, Path(arm.path), "", skipped=why)
-    urdf = clean_urdf(arm, zc._scratch() / "collection")
+    urdf = clean_urdf(arm, zc._scratch() / "collection", snap_right_angles=snap)
     drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
     model = zc._sidecar(urdf, {j: drive for j in arm.joints})
     rng = np.random.default_rng(seed)
@@ -380,8 +401,9 @@ def case_panda_sim(train_s=16.0, test_s=10.0) -> zc.Case:
     )
 
 
-def case_xarm7(train_s=20.0, test_s=12.0) -> zc.Case:
-    """(k) xArm7 by pinocchio, viscous + Coulomb (tanh) friction, point-to-point with rests."""
+def case_xarm7(train_s=20.0, test_s=12.0, snap_right_angles=0.0) -> zc.Case:
+    """(k) xArm7 by pinocchio, viscous + Coulomb (tanh) friction, point-to-point with rests
+    (``snap_right_angles`` [rad]: see `clean_urdf`; 0 keeps the collection's 1.5708)."""
     arm = ARMS["xarm7"]
     q0 = np.asarray(arm.q0)
     refs = [
@@ -391,7 +413,8 @@ def case_xarm7(train_s=20.0, test_s=12.0) -> zc.Case:
     return _case(
         "k",
         f"xArm7 (example-robot-data) pinocchio, viscous+Coulomb (tanh), point-to-point with "
-        f"rests ({train_s:g} s / {test_s:g} s)",
+        f"rests ({train_s:g} s / {test_s:g} s)"
+        + (", right angles snapped" if snap_right_angles else ""),
         arm,
         "pinocchio",
         refs,
@@ -401,5 +424,7 @@ def case_xarm7(train_s=20.0, test_s=12.0) -> zc.Case:
         sigma_q=zc.SIGMA_Q,
         torque_noise=zc.TORQUE_NOISE,
         source="pinocchio aba, RK4",
-        note=f"Coulomb smoothed: Fc·tanh(q̇/{zc.COULOMB_SMOOTHING:g} rad/s)",
+        snap=snap_right_angles,
+        note=f"Coulomb smoothed: Fc·tanh(q̇/{zc.COULOMB_SMOOTHING:g} rad/s)"
+        + ("" if snap_right_angles else "; the URDF's rpy 1.5708 (π/2 − 3.7e-6) kept"),
     )
