@@ -166,3 +166,26 @@ def test_short_collection_cases_build_with_a_truth():
     assert physid.load_model(case.physid_model).joint_names == collection.ARMS["panda"].joints
     assert case.train.metadata["gravity_compensation"] is True
     assert {"i", "j", "k"} <= set(cases.BUILDERS)
+
+
+def test_xarm7_rounded_right_angle_adds_a_barely_separable_base_parameter(tmp_path):
+    # xarm7.urdf writes rpy 1.5708 for π/2 (3.7e-6 rad off): Ia2 and ZZ2 then separate by
+    # ~1e-6 of the torque, one base parameter more than the exact robot has
+    arm = collection.ARMS["xarm7"]
+    shipped = collection.clean_urdf(arm, tmp_path)
+    snapped = collection.clean_urdf(arm, tmp_path, snap_right_angles=1e-4)
+    assert "1.5708 " in shipped.read_text(encoding="utf-8")
+    assert "1.5707963267948966" in snapped.read_text(encoding="utf-8")
+    assert Recipe(shipped, armature=True).n_base == Recipe(snapped, armature=True).n_base + 1 == 63
+
+
+def test_cases_are_skipped_with_the_reason_without_the_collection(monkeypatch):
+    def missing(name):
+        raise collection.importlib.metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(collection.importlib.metadata, "distribution", missing)
+    assert "pip install" in collection.collection_available()
+    case = collection.case_ur5(train_s=1.0, test_s=1.0)
+    assert case.skipped.startswith("example-robot-data not installed") and case.train is None
+    with pytest.raises(RuntimeError, match="example-robot-data not installed"):
+        collection.robots_dir()
