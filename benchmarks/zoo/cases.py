@@ -78,6 +78,7 @@ same friction columns the recipe uses.
 
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import tempfile
@@ -798,14 +799,8 @@ def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0
 
 
 def _collection(name):
-    """A builder of ``collection.py`` (example-robot-data arms, cases i–k), imported when called."""
-
-    def build():
-        from . import collection
-
-        return getattr(collection, name)()
-
-    return build
+    """A case of ``collection.py`` (example-robot-data arms), imported when built."""
+    return lambda: getattr(importlib.import_module(f"{__package__}.collection"), name)()
 
 
 BUILDERS = {
