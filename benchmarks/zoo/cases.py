@@ -49,6 +49,7 @@ Simulated cases (the motion and the torques come from pinocchio or MuJoCo, never
     spring and damper between each gear and its link; joint modes 17.2 / 30.7 Hz), viscous and
     Coulomb friction on the motors, PD at 5 kHz on 2^20 counts/turn motor encoders, logged
     and read like (g). The truth is the low-frequency limit: the rigid arm with armature N²Jm.
+(i)–(k) Arms of the example-robot-data collection (UR5, Panda, xArm7): see ``collection.py``.
 (aq) Quick mode: case (a) with an 8 s identification record and a 6 s held-out one.
 
 Real logs, read at run time from ``../shared/data/real-robots/`` next to the repository (or
@@ -77,6 +78,7 @@ same friction columns the recipe uses.
 
 from __future__ import annotations
 
+import importlib
 import os
 import subprocess
 import tempfile
@@ -796,6 +798,11 @@ def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0
     )
 
 
+def _collection(name):
+    """A case of ``collection.py`` (example-robot-data arms), imported when built."""
+    return lambda: getattr(importlib.import_module(f"{__package__}.collection"), name)()
+
+
 BUILDERS = {
     "a": case_a,
     "b": case_b,
@@ -806,6 +813,9 @@ BUILDERS = {
     "f": case_linear_drive,
     "g": case_two_link_motor,
     "h": case_flexible_arm,
+    "i": _collection("case_ur5"),
+    "j": _collection("case_panda_sim"),
+    "k": _collection("case_xarm7"),
 }
 
 
