@@ -17,7 +17,7 @@ $(VENV)/.core: pyproject.toml | $(BIN)/python
 	touch $@
 
 $(VENV)/.full: pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e ".[dev,peers,dask,parquet]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,peers,dask,parquet,zoo]"
 	touch $@ $(VENV)/.core
 
 demo: $(VENV)/.core
