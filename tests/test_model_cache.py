@@ -11,6 +11,7 @@ import numpy as np
 import physid
 from _helpers import DATA, PLANAR2
 from physid.models import _base_cache, _cache
+from physid.models.base import RANK_RTOL
 
 # ---------------------------------------------------------- generated sources and shared libraries
 PENDULUM = """
@@ -134,14 +135,16 @@ def test_tampered_or_foreign_cache_entries_are_not_used(tmp_path, monkeypatch):
     # another model's entry under this model's key: its stored content differs, not used
     arm3 = _fresh(DATA / "arm3_prismatic.urdf")
     foreign = arm3.base_parameters()
-    key = _base_cache.base_cache_key(_base_cache.base_content(m, n_states=None, seed=0, rtol=1e-9))
-    content3 = _base_cache.base_content(arm3, n_states=None, seed=0, rtol=1e-9)
+    key = _base_cache.base_cache_key(
+        _base_cache.base_content(m, n_states=None, seed=0, rtol=RANK_RTOL)
+    )
+    content3 = _base_cache.base_content(arm3, n_states=None, seed=0, rtol=RANK_RTOL)
     assert _cache.save_entry("base", key, _base_cache._to_data(foreign, content3))
     m2 = _fresh(PLANAR2)
     assert m2.base_parameters().n_base == good.n_base
     assert not m2.base_from_cache
     # even with the content forged to match, the foreign matrix fails the regressor check
-    content = _base_cache.base_content(m2, n_states=None, seed=0, rtol=1e-9)
+    content = _base_cache.base_content(m2, n_states=None, seed=0, rtol=RANK_RTOL)
     assert _cache.save_entry("base", key, _base_cache._to_data(foreign, content))
     m3 = _fresh(PLANAR2)
     np.testing.assert_array_equal(m3.base_parameters().base_matrix, good.base_matrix)

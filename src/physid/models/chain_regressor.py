@@ -136,7 +136,7 @@ class _LinearInParameters:
         return Y.transpose(2, 0, 1).copy()
 
     def base_parameters(
-        self, params=None, *, n_states: int | None = None, seed: int = 0, rtol: float = 1e-9
+        self, params=None, *, n_states: int | None = None, seed: int = 0, rtol: float | None = None
     ) -> BaseParameters:
         """Identifiable combinations of the parameters (base parameters).
 
@@ -156,10 +156,14 @@ class _LinearInParameters:
             Random states used (default max(30, 3·n_beta)).
         seed : int
             Seed of the random states.
-        rtol : float
-            Rank threshold on |R_ii| / |R_00|.
+        rtol : float, optional
+            Rank threshold on |R_ii| / |R_00| (default `physid.models.base.RANK_RTOL`).
         """
         import scipy.linalg
+
+        from .base import RANK_RTOL
+
+        rtol = RANK_RTOL if rtol is None else rtol
 
         d = self._regressor_data()
         names = self.beta_names

@@ -453,7 +453,7 @@ class RigidBodyModel(ChainModel):
             "exponents": np.eye(n),
         }
 
-    def base_parameters(self, params=None, *, n_states=None, seed=0, rtol=1e-9):
+    def base_parameters(self, params=None, *, n_states=None, seed=0, rtol=None):
         """Base parameters: QR with column pivoting of Y stacked over random states.
 
         Cached: in memory on the model (the same object for the same settings) and on disk in
@@ -470,15 +470,19 @@ class RigidBodyModel(ChainModel):
             Random states (default max(60, 2·n_parameters / n_joints + 20), as
             `physid.models.base.base_parameters_of_regressor`).
         seed : int
-        rtol : float
-            Rank threshold on |R_kk| / |R_00| of the column-scaled regressor.
+        rtol : float, optional
+            Rank threshold on |R_kk| / |R_00| of the column-scaled regressor (default
+            `physid.models.base.RANK_RTOL`, 1e-4: a column the others reproduce that closely is
+            regrouped into them).
 
         Returns
         -------
         physid.models.base.BaseParameters
         """
         from ._base_cache import cached_base_parameters
-        from .base import base_parameters_of_regressor
+        from .base import RANK_RTOL, base_parameters_of_regressor
+
+        rtol = RANK_RTOL if rtol is None else rtol
 
         key = (None if n_states is None else int(n_states), int(seed), float(rtol))
         memo = getattr(self, "_base_cache", None)
