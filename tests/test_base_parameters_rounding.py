@@ -46,12 +46,26 @@ def _model(folder, angle: str):
     return physid.load_model(side)
 
 
-def test_an_angle_rounded_in_the_file_has_the_exact_robots_base_parameters(tmp_path):
+def test_an_angle_rounded_in_the_file_has_the_exact_robots_base_parameters(tmp_path, monkeypatch):
+    monkeypatch.setenv("PHYSID_CACHE_DIR", str(tmp_path / "cache"))
     exact = _model(tmp_path, repr(np.pi / 2)).base_parameters()
     model = _model(tmp_path, "1.5708")  # 3.7e-6 rad off
     rounded = model.base_parameters()
     assert rounded.n_base == exact.n_base == 19
     assert rounded.independent == exact.independent
+    # the same names: Ia2 joins ZZ2 alone, not (at the level of its residual) every column
+    assert rounded.base_names == exact.base_names
+    zz2 = rounded.base_names.index("ZZ2R")
+    assert {
+        n for n, c in zip(model.regressor_names, rounded.base_matrix[zz2], strict=True) if c
+    } == {
+        "ZZ2",
+        "Ia2",
+        "m3",
+    }
+    # the disk cache takes the regrouped set back in another process
+    again = _model(tmp_path, "1.5708")
+    assert again.base_parameters().base_names == exact.base_names and again.base_from_cache
     # the regrouping holds to the rounding: ‖Y − Y_kept K‖ about 1e-6 of the largest column
     rng = np.random.default_rng(4)
     q, qd, qdd = rng.uniform(-2, 2, (50, 3)), rng.normal(size=(50, 3)), rng.normal(size=(50, 3))
@@ -61,11 +75,11 @@ def test_an_angle_rounded_in_the_file_has_the_exact_robots_base_parameters(tmp_p
     assert 1e-9 < err < 0.1 * RANK_RTOL
 
 
-@pytest.mark.parametrize(("angle", "n_base"), [("1.5708", 20), ("1.5", 20)])
+@pytest.mark.parametrize(("angle", "n_base"), [("1.5708", 20), ("1.5698", 20), ("1.5", 20)])
 def test_the_strict_rank_counts_the_rounding_and_a_real_angle_keeps_its_parameter(
     tmp_path, angle, n_base
 ):
     model = _model(tmp_path, angle)
     assert model.base_parameters(rtol=1e-9).n_base == n_base
-    if angle == "1.5":  # 0.07 rad off a right angle: a different robot, resolved by any record
+    if angle != "1.5708":  # 1e-3 and 0.07 rad off a right angle: Ia2 stays its own parameter
         assert model.base_parameters().n_base == n_base

@@ -20,16 +20,18 @@ __all__ = [
     "base_parameters_of_regressor",
     "format_combination",
     "qr_base",
+    "regrouping",
 ]
 
 #: Rank threshold of the base parameters: a regressor column that the others reproduce to within
 #: this fraction of its norm (|R_kk| / |R_00| of the column-scaled QR with pivoting) is regrouped
-#: into them. No recording resolves such a difference (it would take torques resolved to better
-#: than 1e-4), while geometry rounded in a file would otherwise make it a base parameter of its
-#: own: the xArm7 URDF of example-robot-data writes 1.5708 for π/2, and its Ia2 column is then
-#: the ZZ2 column to 4.5e-6, a condition number of 2e7 for any recording. The exact geometries of
-#: the benchmark zoo (arm6, UR5, Panda, the xArm7 with exact right angles) keep no column below
-#: 0.4 and regroup none above 2e-15.
+#: into them (`regrouping`). Such a column costs any fit a condition number of at least 1e4 for a
+#: difference of that size, while geometry rounded in a file would otherwise make it a base
+#: parameter of its own: the xArm7 URDF of example-robot-data writes 1.5708 for π/2, and its Ia2
+#: column is then the ZZ2 column to 4.5e-6, a condition number of 2e7 for any recording. The
+#: exact URDF arms of the benchmark zoo (arm6, UR5, Panda, the xArm7 with exact right angles)
+#: keep no column below 0.4 and regroup none above 1e-14; the symbolic manipulator model keeps
+#: its smallest at 0.028.
 RANK_RTOL = 1e-4
 
 
@@ -115,10 +117,45 @@ def qr_base(Y, rtol: float = RANK_RTOL, order=None):
     K = np.zeros((rank, n_cols))
     K[np.arange(rank), ind] = 1.0
     if dep.size and rank:
-        C, *_ = np.linalg.lstsq(Y[:, ind], Y[:, dep], rcond=None)
+        C = regrouping(Y, ind, dep, rtol)
         C[np.abs(C) < 1e-10 * max(1.0, float(np.abs(C).max()))] = 0.0
         K[:, dep] = C
     return ind, K, zero
+
+
+def regrouping(Y, ind, dep, rtol: float = RANK_RTOL) -> np.ndarray:
+    """C with ``Y[:, dep] ≈ Y[:, ind] C``: how each dependent column regroups into the kept ones.
+
+    An exactly dependent column gets its least-squares (exact) coefficients. A column the kept
+    ones reproduce only to within ``rtol`` (rounded geometry) would get least-squares
+    coefficients spread over every kept column at the level of its residual (1e-9 to 1e-6 on a
+    URDF that writes 1.5708 for π/2), which would regroup it, in name and expression, into
+    all of them; there the coefficients whose contribution ``|C_ij|·‖Y_i‖`` is below
+    ``rtol·‖Y_j‖`` are dropped and the others fitted again.
+
+    Parameters
+    ----------
+    Y : ndarray, shape (n_rows, n_cols)
+        The stacked regressor.
+    ind, dep : ndarray of int
+        The kept and the dependent columns.
+    rtol : float
+        The rank threshold the base set was chosen with.
+
+    Returns
+    -------
+    ndarray, shape (len(ind), len(dep))
+    """
+    Yi, Yd = Y[:, ind], Y[:, dep]
+    C, *_ = np.linalg.lstsq(Yi, Yd, rcond=None)
+    n_ind, n_dep = np.linalg.norm(Yi, axis=0), np.linalg.norm(Yd, axis=0)
+    residual = np.linalg.norm(Yd - Yi @ C, axis=0)
+    for k in np.flatnonzero(residual > 1e-9 * n_dep):  # per approximately dependent column
+        keep = np.abs(C[:, k]) * n_ind >= rtol * n_dep[k]
+        C[:, k] = 0.0
+        if keep.any():
+            C[keep, k] = np.linalg.lstsq(Yi[:, keep], Yd[:, k], rcond=None)[0]
+    return C
 
 
 #: Khalil's preference within a link: the parameters regrouped into others come last.

@@ -161,7 +161,7 @@ class _LinearInParameters:
         """
         import scipy.linalg
 
-        from .base import RANK_RTOL
+        from .base import RANK_RTOL, regrouping
 
         rtol = RANK_RTOL if rtol is None else rtol
 
@@ -184,8 +184,8 @@ class _LinearInParameters:
         K = np.zeros((rank, nb))
         K[np.arange(rank), ind] = 1.0
         if dep.size:
-            # W_dep = W_ind C (exact), so τ = W_ind (β_ind + C β_dep)
-            C, *_ = np.linalg.lstsq(Y[:, ind], Y[:, dep], rcond=None)
+            # W_dep = W_ind C (exact, or to within rtol), so τ = W_ind (β_ind + C β_dep)
+            C = regrouping(Y, ind, dep, rtol)
             C[np.abs(C) < 1e-10] = 0.0
             K[:, dep] = C
         order = np.argsort(ind)  # list base parameters in β order
