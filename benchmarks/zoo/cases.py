@@ -336,16 +336,31 @@ def mujoco_matches_pinocchio(n=20, seed=3) -> float:
 
 # ----------------------------------------------------------------------------- records
 def _record(
-    t, q, tau, r, rng, *, sigma_q=SIGMA_Q, torque_noise=TORQUE_NOISE, counts=None, source=""
+    t,
+    q,
+    tau,
+    r,
+    rng,
+    *,
+    sigma_q=SIGMA_Q,
+    torque_noise=TORQUE_NOISE,
+    counts=None,
+    source="",
+    gains=(KP, KD),
+    extra=None,
 ):
-    """The measured record: q + noise (or quantised), τ + white noise of a fraction of its rms."""
+    """The measured record: q + white noise σ_q (then quantised to ``counts`` per turn if
+    given), τ + white noise of ``torque_noise`` × each joint's rms; the PD ``gains`` (kp, kd),
+    ``source`` and ``extra`` in its metadata."""
     qm = q + sigma_q * rng.standard_normal(q.shape) if sigma_q else q.copy()
     if counts:
         step = 2 * np.pi / counts
         qm = np.round(qm / step) * step
     rms = np.sqrt(np.mean(tau**2, axis=0))
     taum = tau + torque_noise * rms * rng.standard_normal(tau.shape)
-    meta = {"kp": KP.tolist(), "kd": KD.tolist(), "source": source}
+    kp, kd = gains
+    meta = {"kp": list(np.asarray(kp, float)), "kd": list(np.asarray(kd, float)), "source": source}
+    meta.update(extra or {})
     units = {"q": "rad", "tau": "N·m", "r": "rad"}
     return physid.Recording.from_columns(t, {"q": qm, "tau": taum, "r": r}, units, meta)
 

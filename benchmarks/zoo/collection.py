@@ -39,8 +39,6 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-import physid
-
 from . import cases as zc
 
 PACKAGE = "example-robot-data"
@@ -263,17 +261,20 @@ def simulate_mujoco(urdf, arm: Arm, r, dt, *, gravity_compensation=False, settle
 
 
 def _measure(t, q, tau, r, arm, rng, *, sigma_q, torque_noise, counts=None, source="", extra=None):
-    """The measured record: q + white noise σ_q (then quantised to ``counts`` per turn if
-    given), τ + white noise of ``torque_noise`` × each joint's rms."""
-    qm = q + sigma_q * rng.standard_normal(q.shape) if sigma_q else q.copy()
-    if counts:
-        step = 2 * np.pi / counts
-        qm = np.round(qm / step) * step
-    rms = np.sqrt(np.mean(tau**2, axis=0))
-    taum = tau + torque_noise * rms * rng.standard_normal(tau.shape)
-    meta = {"kp": list(arm.kp), "kd": list(arm.kd), "source": source, **(extra or {})}
-    units = {"q": "rad", "tau": "N·m", "r": "rad"}
-    return physid.Recording.from_columns(t, {"q": qm, "tau": taum, "r": r}, units, meta)
+    """The measured record (`benchmarks.zoo.cases._record`) with the arm's PD gains."""
+    return zc._record(
+        t,
+        q,
+        tau,
+        r,
+        rng,
+        sigma_q=sigma_q,
+        torque_noise=torque_noise,
+        counts=counts,
+        source=source,
+        gains=(arm.kp, arm.kd),
+        extra=extra,
+    )
 
 
 def _run(sim, urdf, arm, r, every, rng, **measure):
