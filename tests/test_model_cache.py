@@ -4,6 +4,7 @@ derived again, never executed or trusted."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -151,3 +152,24 @@ def test_tampered_or_foreign_cache_entries_are_not_used(tmp_path, monkeypatch):
     assert not m3.base_from_cache
     assert not _base_cache.verify_base(m3, foreign)
     assert _base_cache.verify_base(m3, good)
+
+
+def test_a_small_tamper_of_a_regrouping_coefficient_is_rejected(tmp_path, monkeypatch):
+    # the check allows a regrouped column up to 1e-3 of its own norm (the rank threshold's
+    # slack), not a coefficient moved by 1e-2 of the column it regroups
+    monkeypatch.setenv("PHYSID_CACHE_DIR", str(tmp_path))
+    m = _fresh(PLANAR2)
+    good = m.base_parameters()
+    from physid.models.base import _random_states
+
+    K = np.array(good.base_matrix, dtype=float)
+    ind = np.asarray(good.independent_index)
+    q, qd, qdd = _random_states(m, 8, np.random.default_rng(3), m.limits)
+    Y = np.asarray(m.regressor(q, qd, qdd), dtype=float).reshape(-1, K.shape[1])
+    norms = np.linalg.norm(Y, axis=0)
+    row, col = next((r, c) for r, c in zip(*np.nonzero(K), strict=True) if c not in set(ind))
+    bad = K.copy()
+    bad[row, col] += 1e-2 * norms[col] / norms[ind[row]]
+    tampered = dataclasses.replace(good, base_matrix=bad)
+    assert _base_cache.verify_base(m, good, rank_rtol=RANK_RTOL)
+    assert not _base_cache.verify_base(m, tampered, rank_rtol=RANK_RTOL)

@@ -116,6 +116,7 @@ def qr_base(Y, rtol: float = RANK_RTOL, order=None):
     dep = np.setdiff1d(np.arange(n_cols), ind)
     K = np.zeros((rank, n_cols))
     K[np.arange(rank), ind] = 1.0
+    dep = np.setdiff1d(dep, zero)  # a column with no effect regroups into nothing: K is 0 there
     if dep.size and rank:
         C = regrouping(Y, ind, dep, rtol)
         C[np.abs(C) < 1e-10 * max(1.0, float(np.abs(C).max()))] = 0.0
@@ -126,12 +127,13 @@ def qr_base(Y, rtol: float = RANK_RTOL, order=None):
 def regrouping(Y, ind, dep, rtol: float = RANK_RTOL) -> np.ndarray:
     """C with ``Y[:, dep] ≈ Y[:, ind] C``: how each dependent column regroups into the kept ones.
 
-    An exactly dependent column gets its least-squares (exact) coefficients. A column the kept
-    ones reproduce only to within ``rtol`` (rounded geometry) would get least-squares
-    coefficients spread over every kept column at the level of its residual (1e-9 to 1e-6 on a
-    URDF that writes 1.5708 for π/2), which would regroup it, in name and expression, into
-    all of them; there the coefficients whose contribution ``|C_ij|·‖Y_i‖`` is below
-    ``rtol·‖Y_j‖`` are dropped and the others fitted again.
+    An exactly dependent column (least-squares residual at most 1e-9 of its norm) gets its
+    least-squares coefficients. A column the kept ones reproduce only to within ``rtol``
+    (rounded geometry) would get least-squares coefficients spread over every kept column at the
+    level of its residual (1e-9 to 1e-6 on a URDF that writes 1.5708 for π/2), which would
+    regroup it, in name and expression, into all of them; there the smallest contributions
+    ``|C_ij|·‖Y_i‖`` are dropped while their sum stays below ``rtol·‖Y_j‖``, and the others
+    fitted again (so the residual stays within the threshold).
 
     Parameters
     ----------
@@ -151,7 +153,11 @@ def regrouping(Y, ind, dep, rtol: float = RANK_RTOL) -> np.ndarray:
     n_ind, n_dep = np.linalg.norm(Yi, axis=0), np.linalg.norm(Yd, axis=0)
     residual = np.linalg.norm(Yd - Yi @ C, axis=0)
     for k in np.flatnonzero(residual > 1e-9 * n_dep):  # per approximately dependent column
-        keep = np.abs(C[:, k]) * n_ind >= rtol * n_dep[k]
+        contribution = np.abs(C[:, k]) * n_ind
+        order = np.argsort(contribution)
+        small = order[np.cumsum(contribution[order]) < rtol * n_dep[k]]
+        keep = np.ones(len(ind), dtype=bool)
+        keep[small] = False
         C[:, k] = 0.0
         if keep.any():
             C[keep, k] = np.linalg.lstsq(Yi[:, keep], Yd[:, k], rcond=None)[0]

@@ -119,10 +119,15 @@ def noise_floor(sigma, decimate: int) -> np.ndarray:
     return np.asarray(sigma) * math.sqrt(noise_gain(decimate))
 
 
-@functools.lru_cache(maxsize=64)
 def noise_gain(decimate: int) -> float:
     """White-noise power gain of the parallel filter of ``decimate`` (1 for nd = 1): the
     variance of unit white noise after it."""
+    return _noise_gain(int(decimate))
+
+
+@functools.lru_cache(maxsize=64)
+def _noise_gain(decimate: int) -> float:
+    """`noise_gain`, memoised per integer nd."""
     if decimate <= 1:
         return 1.0
     from scipy import signal
@@ -233,7 +238,7 @@ def torque_verdict_sums(
                 + (
                     " No floor: the torque's noise is below "
                     f"{SILENT_FLOOR:g} of its rms, so it was filtered before it was logged "
-                    "(or simulated without noise)."
+                    "(or simulated without noise, or quantised coarser than its noise)."
                     if np.any(silent & excused)
                     else ""
                 )
