@@ -690,19 +690,37 @@ def _arm2_records(seed, duration, rng):
     t = np.arange(int(round(duration / h))) * h
     r = fourier_reference(t, ARM2_Q0, np.random.default_rng(seed), period=10.0)
     q, _, theta, cur = ARM2.simulate(r, h, ARM2_KP, ARM2_KD, ARM2_COUNTS)
+    return _motor_logs(ARM2, t, r, q, theta, cur, rng, "2-link arm, RK4")
+
+
+def _motor_logs(arm, t, r, q, theta, cur, rng, source):
+    """The logs of a geared 2-link arm ``arm`` (`drives.TwoLink`) from its simulated link angles
+    ``q``, motor angles ``theta`` and currents ``cur``: (motor-side log ``qm``, ``im`` with the
+    current through a 12-bit ADC and σ 5 mA, joint-side log q = θ/N, τ = N kt i, noise-free
+    joint-side record, noise-free τ)."""
     i_log = np.round((cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I)
     i_log = i_log * ARM2_ADC_I
-    kn = ARM2.ratio * ARM2.kt
-    meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": "2-link arm, RK4"}
+    kn = arm.ratio * arm.kt
+    meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": source}
     motor = physid.Recording.from_columns(
         t, {"qm": theta, "im": i_log, "r": r}, {"qm": "rad", "im": "A", "r": "rad"}, meta
     )
     units = {"q": "rad", "tau": "N·m", "r": "rad"}
     joint = physid.Recording.from_columns(
-        t, {"q": theta / ARM2.ratio, "tau": kn * i_log, "r": r}, units, meta
+        t, {"q": theta / arm.ratio, "tau": kn * i_log, "r": r}, units, meta
     )
     clean = physid.Recording.from_columns(t, {"q": q, "tau": kn * cur, "r": r}, units, meta)
     return motor, joint, clean, kn * cur
+
+
+def _motor_side_model(arm, urdf) -> str:
+    """A sidecar of ``urdf`` for a geared 2-link arm ``arm``: armature, viscous and Coulomb
+    columns per joint and a ``[transmission]`` (gear ratios, torque constants), through which
+    physid reads the motor-side log."""
+    n, kt = arm.ratio, arm.kt
+    tail = f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{kt}, {kt}]\n"
+    drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
+    return _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
 
 
 def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
@@ -710,12 +728,7 @@ def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
     (``train_s``, ``test_s``: the records' durations [s]; shorter ones for tests)."""
     rng = np.random.default_rng(71)
     urdf = ARM2.urdf(_scratch() / "two_link.urdf")
-    n = ARM2.ratio
-    tail = (
-        f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{ARM2.kt}, {ARM2.kt}]\n"
-    )
-    drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
-    model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
+    model = _motor_side_model(ARM2, urdf)
     ptrain, train, clean, _ = _arm2_records(72, train_s, rng)
     ptest, test, _, tau = _arm2_records(73, test_s, rng)
     pm = pin.buildModelFromUrdf(str(urdf))
@@ -755,20 +768,7 @@ def _flex_records(arm, seed, duration, rng, ripple=0.0):
     dist = ripple * np.random.default_rng(seed + 1000).standard_normal(r.shape) if ripple else None
     sim = arm.simulate(r, h, ARM2_KP, ARM2_KD, FLEX_COUNTS, substeps, disturbance=dist)
     _, phi, _, _, theta, cur = sim
-    i_log = ARM2_ADC_I * np.round(
-        (cur + ARM2_SIGMA_I * rng.standard_normal(cur.shape)) / ARM2_ADC_I
-    )
-    kn = arm.arm.ratio * arm.arm.kt
-    meta = {"kp": ARM2_KP.tolist(), "kd": ARM2_KD.tolist(), "source": "elastic 2-link arm, RK4"}
-    motor = physid.Recording.from_columns(
-        t, {"qm": theta, "im": i_log, "r": r}, {"qm": "rad", "im": "A", "r": "rad"}, meta
-    )
-    units = {"q": "rad", "tau": "N·m", "r": "rad"}
-    joint = physid.Recording.from_columns(
-        t, {"q": theta / arm.arm.ratio, "tau": kn * i_log, "r": r}, units, meta
-    )
-    clean = physid.Recording.from_columns(t, {"q": phi, "tau": kn * cur, "r": r}, units, meta)
-    return motor, joint, clean, kn * cur
+    return _motor_logs(arm.arm, t, r, phi, theta, cur, rng, "elastic 2-link arm, RK4")
 
 
 def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0) -> Case:
@@ -783,10 +783,7 @@ def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0
     )
     rng = np.random.default_rng(81)
     urdf = arm.arm.urdf(_scratch() / "two_link_elastic.urdf")
-    n = arm.arm.ratio
-    tail = f"\n[transmission]\ngear_ratios = [{n}, {n}]\ntorque_constants = [{arm.arm.kt}, {arm.arm.kt}]\n"
-    drive = {"armature": 0.0, "viscous": 0.0, "coulomb": 0.0}
-    model = _sidecar(urdf, {"shoulder": drive, "elbow": drive}, tail)
+    model = _motor_side_model(arm.arm, urdf)
     ptrain, train, clean, _ = _flex_records(arm, 82, train_s, rng, ripple)
     ptest, test, _, tau = _flex_records(arm, 83, test_s, rng, ripple)
     pm = pin.buildModelFromUrdf(str(urdf))
