@@ -210,3 +210,25 @@ def test_recipe_recovers_two_link_truth_from_noise_free_record_away_from_stribec
     np.testing.assert_allclose(beta[rest], truth[rest], rtol=0.01)
     np.testing.assert_allclose(beta[weak], truth[weak], rtol=0.03)
     np.testing.assert_allclose(beta[zero], 0.0, atol=2e-3)  # kg·m
+
+
+def test_recipe_fit_on_a_span_is_the_fit_of_the_rows_inside_it(two_link_case):
+    """``Recipe.fit(span=...)`` (what `benchmarks/zoo/span.py` compares with physid's rows):
+    the whole span gives the plain fit; a shorter one the OLS of exactly the rows inside it."""
+    c = two_link_case
+    rc = Recipe(c.urdf, armature=True)
+    cut = 5 * c.bandwidth_hz
+    plain = rc.fit(c.train, cut)
+    rows = rc.rows(c.train, cut)
+    whole = rc.fit(c.train, cut, span=(rows.t[0], rows.t[-1]))
+    np.testing.assert_array_equal(whole.beta, plain.beta)
+    assert whole.n_rows == plain.n_rows == rows.t.size
+    t0, t1 = rows.t[0] + 2.0, rows.t[-1] - 1.0
+    inside = (rows.t >= t0) & (rows.t <= t1)
+    part = rc.fit(c.train, cut, span=(t0, t1))
+    assert part.n_rows == int(inside.sum()) < plain.n_rows
+    ols = np.linalg.lstsq(
+        rows.W[inside].reshape(-1, rc.n_base), rows.tau[inside].ravel(), rcond=None
+    )
+    np.testing.assert_allclose(part.beta, ols[0], rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(part.beta - plain.beta)) > 0  # a different fit, not the same one

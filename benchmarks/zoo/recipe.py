@@ -163,17 +163,22 @@ class Recipe:
         tau = np.asarray(rec.select([f"tau{j + 1}" for j in range(self.nj)]))
         return filtfilt(b, a, tau, axis=0)
 
-    def fit(self, rec, cutoff_hz) -> RecipeFit:
+    def fit(self, rec, cutoff_hz, span=None) -> RecipeFit:
+        """OLS on the rows of ``rec``; ``span = (t0, t1)`` [s] keeps only the rows in it (to
+        compare with another method on the time its rows cover)."""
         r = self.rows(rec, cutoff_hz)
-        W = r.W.reshape(-1, self.n_base)
-        y = r.tau.ravel()
+        keep = slice(None) if span is None else (r.t >= span[0]) & (r.t <= span[1])
+        W = r.W[keep].reshape(-1, self.n_base)
+        y = r.tau[keep].ravel()
         beta, *_ = np.linalg.lstsq(W, y, rcond=None)
         dof = max(1, W.shape[0] - W.shape[1])
         s2 = float(np.sum((W @ beta - y) ** 2) / dof)
         cov = s2 * np.linalg.pinv(W.T @ W)
         scale = np.linalg.norm(W, axis=0)
         cond = float(np.linalg.cond(W / np.where(scale > 0, scale, 1.0)))
-        return RecipeFit(beta, np.sqrt(np.diag(cov)), cutoff_hz, self.decimate_, len(r.t), cond)
+        return RecipeFit(
+            beta, np.sqrt(np.diag(cov)), cutoff_hz, self.decimate_, len(y) // self.nj, cond
+        )
 
     def predict(self, fit: RecipeFit, rec):
         """τ̂ on the held-out record's rows: (t, τ̂, τ filtered) at the kept samples."""
