@@ -731,26 +731,39 @@ def case_two_link_motor(train_s=20.0, test_s=10.0) -> Case:
     model = _motor_side_model(ARM2, urdf)
     ptrain, train, clean, _ = _arm2_records(72, train_s, rng)
     ptest, test, _, tau = _arm2_records(73, test_s, rng)
-    pm = pin.buildModelFromUrdf(str(urdf))
-    return Case(
-        key="g",
-        title="2-link arm, motor currents through gears (100:1), Stribeck, 5 kHz",
-        urdf=urdf,
-        physid_model=model,
-        train=train,
-        test=test,
-        test_tau_true=tau,
-        train_clean=clean,
-        truth=truth_of(pm, ARM2.armature, np.asarray(ARM2.fv), np.asarray(ARM2.fc)),
-        bandwidth_hz=0.5,  # 5 harmonics of a 10 s period
-        armature=True,
-        physid_train=ptrain,
-        physid_test=ptest,
-        note="Stribeck friction (static "
+    note = (
+        "Stribeck friction (static "
         + "/".join(f"{x:g}" for x in ARM2.fs)
         + " N·m, Coulomb "
         + "/".join(f"{x:g}" for x in ARM2.fc)
-        + " N·m) modelled by every estimator as Coulomb + viscous; physid reads qm, im",
+        + " N·m) modelled by every estimator as Coulomb + viscous; physid reads qm, im"
+    )
+    title = "2-link arm, motor currents through gears (100:1), Stribeck, 5 kHz"
+    return _motor_side_case(
+        "g", title, ARM2, urdf, model, (ptrain, train, clean), (ptest, test, tau), note
+    )
+
+
+def _motor_side_case(key, title, arm, urdf, model, train, test, note) -> Case:
+    """A 2-link arm's case logged on the motor side: ``train`` = (motor log, joint-side record,
+    noise-free joint-side record), ``test`` = (motor log, joint-side record, τ without noise);
+    the truth is the rigid arm's (armature N²Jm, Fv, Fc)."""
+    pm = pin.buildModelFromUrdf(str(urdf))
+    return Case(
+        key=key,
+        title=title,
+        urdf=urdf,
+        physid_model=model,
+        train=train[1],
+        test=test[1],
+        test_tau_true=test[2],
+        train_clean=train[2],
+        truth=truth_of(pm, arm.armature, np.asarray(arm.fv), np.asarray(arm.fc)),
+        bandwidth_hz=0.5,  # 5 harmonics of a 10 s period
+        armature=True,
+        physid_train=train[0],
+        physid_test=test[0],
+        note=note,
     )
 
 
@@ -786,27 +799,17 @@ def case_flexible_arm(train_s=20.0, test_s=10.0, stiffness_scale=1.0, ripple=0.0
     model = _motor_side_model(arm.arm, urdf)
     ptrain, train, clean, _ = _flex_records(arm, 82, train_s, rng, ripple)
     ptest, test, _, tau = _flex_records(arm, 83, test_s, rng, ripple)
-    pm = pin.buildModelFromUrdf(str(urdf))
     modes = arm.modes(ARM2_Q0)
-    return Case(
-        key="h",
-        title="2-link arm with elastic joints, motor side (100:1), 5 kHz",
-        urdf=urdf,
-        physid_model=model,
-        train=train,
-        test=test,
-        test_tau_true=tau,
-        train_clean=clean,
-        truth=truth_of(pm, arm.arm.armature, np.asarray(arm.arm.fv), np.asarray(arm.arm.fc)),
-        bandwidth_hz=0.5,  # 5 harmonics of a 10 s period
-        armature=True,
-        physid_train=ptrain,
-        physid_test=ptest,
-        note="joint modes "
+    note = (
+        "joint modes "
         + "/".join(f"{x:.3g}" for x in modes["free"])
         + " Hz (motors locked "
         + "/".join(f"{x:.3g}" for x in modes["locked"])
-        + " Hz); rigid truth: armature N²Jm, Fv, Fc on the motor; physid reads qm, im",
+        + " Hz); rigid truth: armature N²Jm, Fv, Fc on the motor; physid reads qm, im"
+    )
+    title = "2-link arm with elastic joints, motor side (100:1), 5 kHz"
+    return _motor_side_case(
+        "h", title, arm.arm, urdf, model, (ptrain, train, clean), (ptest, test, tau), note
     )
 
 
