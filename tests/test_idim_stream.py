@@ -460,9 +460,9 @@ def test_one_window_record_with_a_leftover_chunk_equals_in_memory_to_rounding(mo
     assert len(calls) == 1 and calls[0][1] is True and calls[0][0] >= chunks[0]
     _same(ref, got, beta_rtol=1e-9)  # a parameter of 6e-4: 4e-10 of it (2e-13 absolute)
     b1, b2 = ref.beta_vector(), got.beta_vector()
-    # measured (any BLAS thread count): 2.4e-13; 1.8e-12 in chunks of COLUMNS (IN_PLACE_ND
-    # set above nd)
-    assert np.linalg.norm(b2 - b1) / np.linalg.norm(b1) < 5e-13
+    # measured: 2.4e-13 with earlier builds, 1.5e-12 with numpy 2.4.6 and scipy 1.17.1:
+    # rounding, which cannot tell the path; the spies above check that it is one lifted call
+    assert np.linalg.norm(b2 - b1) / np.linalg.norm(b1) < 5e-12
 
 
 def test_a_column_that_becomes_live_mid_record_clears_the_carried_blocks(arm, rec, monkeypatch):
