@@ -96,7 +96,8 @@ class IDIMEstimator(EstimatorMixin):
     half_width : int, optional
         FIR half-width M of the physid filter.
     decimate : int or "auto"
-        Parallel-filter decimation factor nd.
+        Parallel-filter decimation factor nd; "auto": chosen by a cross-validated torque error
+        among the spectrum rule's and lower parallel bands (`idim_rows`).
     stderr : {"filtered", "hac", "iid"}
         ``"filtered"`` (default): white torque noise per joint passed through the known parallel
         filter and decimation, so the decimated residual's correlation ``ρ_l`` is the filter's

@@ -282,7 +282,7 @@ def _all_rows(model, info, arrays, dts, filters, nds, stick):
     if len(nds) == 1:
         return nds[0], stacked[nds[0]], m_used, ""
     lengths = [a[0].size for a in arrays]
-    common = stacked[min(nds)]
+    common = stacked[max(nds)]  # judged in the most smoothed band (`choose`'s docstring)
     ev = (common[0], common[1], common[3], common[2])
     errors = [
         cross_validated_error((s[0], s[1], s[3], s[2]), ev, lengths) for s in stacked.values()
@@ -322,10 +322,11 @@ def idim_rows(
     decimate : int or "auto"
         nd; "auto": chosen by the data among ``floor(f π / cutoff)`` for f in 1.6 (the
         parallel filter's cut-off 0.8 π / nd at half the state filter's, where the FIR bank is
-        flat) and 0.8, each lowered when fewer than 20 equations per base parameter would
-        remain: the one with the lower 5-fold cross-validated torque error
-        (`physid.estimators.idim.choose`; the first stays unless another is 2 % better).
-        Without torques (``torque=False``) the first.
+        flat), 0.8 and 3.2, 6.4, 12.8, 25.6 (octaves down to 1/32 of the state filter's
+        cut-off), each lowered when fewer than 20 equations per base parameter would remain:
+        the one with the lowest 5-fold cross-validated torque error, judged on the rows of the
+        most smoothing candidate (`physid.estimators.idim.choose`; the first stays unless
+        another is 2 % better). Without torques (``torque=False``) the first.
     torque : bool
         False: a recording may lack ``tau1..taun`` (for a prediction from the motion alone);
         ``tau`` of the rows is then zero.

@@ -65,7 +65,7 @@ def _e2(Rj, beta):
 def _cv_errors(plan: StreamPlan, moments: RowMoments):
     """`choose.cross_validated_error` of every candidate from the fold factors."""
     nds = list(plan.candidates)
-    ev = moments.candidates[min(nds)]
+    ev = moments.candidates[max(nds)]  # the in-memory fit's evaluation rows (`choose`)
     Re = _merge_classes(ev.R)  # (FOLDS, nj, p+1, p+1)
     errors = []
     p = plan.n_base
