@@ -151,3 +151,15 @@ def test_text_output(files, capsys):
     out = capsys.readouterr().out
     assert code == 0
     assert "condition number" in out and "m1*l1**2" in out
+
+
+def test_decimate_auto_on_the_command_line_is_the_default(files, capsys):
+    paths, _, _ = files
+    argv = ["identify", str(paths[0]), "--model", "manipulator", "--method", "idim-ols"]
+    code_default, default, _ = run_json(capsys, argv)
+    code_auto, auto, _ = run_json(capsys, argv + ["--decimate", "auto"])
+    assert code_default == code_auto == 0
+    assert "chosen by a 5-fold cross-validated torque error" in auto["message"]
+    assert auto["decimate"] == default["decimate"] > 1
+    values = [[b["value"] for b in out["base_parameters"]] for out in (default, auto)]
+    np.testing.assert_array_equal(values[0], values[1])

@@ -179,9 +179,10 @@ def test_case_h_motor_log_reads_as_the_recipes_joint_record():
 
 def test_automatic_decimation_keeps_the_joint_modes_out_of_the_first_link_inertia():
     """With a current ripple exciting the joint modes, the spectrum puts the state filter's
-    cut-off at 477 Hz; the spectrum rule's decimation (parallel band 238 Hz) fits the modes and
-    puts the first link's inertia Iyy1R about 50 % low. `decimate="auto"` judges its candidates
-    on the most smoothed rows and picks a band 8× lower (nd 67 of 8, 37 Hz): within 5 %."""
+    cut-off at 477 Hz; the spectrum rule's decimation (nd 8, parallel band 0.4·5000/8 = 250 Hz)
+    fits the modes and puts the first link's inertia Iyy1R about 50 % low. `decimate="auto"`
+    judges its candidates on the most smoothed rows and picks a band 8× lower (nd 67, 30 Hz,
+    on this 10 s record): within 5 %."""
     from benchmarks.zoo import compare
     from benchmarks.zoo.recipe import Recipe
 

@@ -72,7 +72,7 @@ CASES = [
             "ten",
         ],
         2,
-        r"--decimate expects a positive integer",
+        r"--decimate expects a positive integer or auto",
     ),
     (
         "idim-consistent-needs-rigid-bodies",

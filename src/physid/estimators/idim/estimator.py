@@ -97,7 +97,8 @@ class IDIMEstimator(EstimatorMixin):
         FIR half-width M of the physid filter.
     decimate : int or "auto"
         Parallel-filter decimation factor nd; "auto": chosen by a cross-validated torque error
-        among the spectrum rule's and lower parallel bands (`idim_rows`).
+        among the spectrum rule's band, the state filter's own and the octaves below it down to
+        1/32 of it (`physid.estimators.idim.choose`).
     stderr : {"filtered", "hac", "iid"}
         ``"filtered"`` (default): white torque noise per joint passed through the known parallel
         filter and decimation, so the decimated residual's correlation ``ρ_l`` is the filter's
