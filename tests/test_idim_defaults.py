@@ -265,7 +265,9 @@ def test_torque_changes_are_prediction_moves_in_units_of_the_estimates_spread():
 def test_decimation_candidates_and_the_choice():
     # the spectrum rule's, the state filter's cut-off, then octaves down to Ω/32
     assert decimate_candidates(0.1, 100_000, 10, 2) == [50, 25, 100, 201, 402, 604]
-    assert decimate_candidates(0.1, 20_000, 10, 2) == [50, 25, 100, 120]  # the last two capped
+    assert decimate_candidates(0.1, 20_000, 10, 2) == [50, 25, 100, 120]  # the last three capped
+    # a state filter dropping 5000 samples at each end leaves 10 000: the cap is 10 000 / 124
+    assert decimate_candidates(0.1, 20_000, 10, 2, edge=5000) == [50, 25, 80]
     assert decimate_candidates(0.1, 2_000, 10, 2) == [12]  # capped to keep 20 rows per parameter
     assert pick([50, 25], [0.0100, 0.0099])[0] == 50  # within 2 %: the spectrum rule stays
     nd, why = pick([50, 25], [0.0100, 0.0090])

@@ -495,3 +495,20 @@ def test_a_column_that_becomes_live_mid_record_clears_the_carried_blocks(arm, re
     fresh = fit_streamed(arm, ArrayBlocks(late), decimate=nd, block_samples=500, progress=False)
     assert np.array_equal(got.beta_vector(), fresh.beta_vector())
     _same(_fit(arm, late, decimate=nd), got)
+
+
+def test_a_long_state_filter_given_explicitly_caps_the_automatic_decimation(arm):
+    """A half-width that leaves 1600 of 4000 samples: every candidate still fits (before, the
+    largest assumed the default filter's three quarters and was refused), alike streamed."""
+    rec = _run(arm, 4.0)
+    settings = dict(cutoff=0.5, half_width=1200)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = IDIMEstimator(arm, **settings).fit(rec).result_
+        got = fit_streamed(arm, rec, block_samples=1024, progress=False, **settings)
+    assert "chosen by a 5-fold cross-validated torque error" in ref.message
+    judged = int(ref.message.split("judged on the rows of decimate ")[1].split(";")[0])
+    # 1600 samples after the filter, 24·nd lost to the parallel filter's ends, ≥ 50 rows left
+    assert 24 * judged + 50 * judged <= 1600 and ref.n_rows >= 50
+    assert got.decimate == ref.decimate and got.n_rows == ref.n_rows
+    np.testing.assert_allclose(got.beta_vector(), ref.beta_vector(), rtol=1e-9)

@@ -28,8 +28,8 @@ __all__ = ["decimate_candidates", "cross_validated_error", "pick", "FOLDS", "FAC
 #: rule's (the parallel cut-off 0.8π/nd at Ω/2), the state filter's cut-off, then every octave
 #: below down to Ω/32. Measured on the zoo (benchmarks/zoo/README.md): down to Ω/32 the
 #: elastic arm with a current ripple keeps a 15 Hz band at its 477 Hz cut-off (nd 134, below
-#: its 17 Hz joint mode), its base parameters' mean error 0.0293 → 0.0034; further down (to
-#: the rows' limit, nd 536) they gain a little more (0.00155) and its held-out prediction
+#: its 17 Hz joint mode), its base parameters' mean error 0.0293 → 0.0034; further down (two
+#: more octaves, nd 536) they gain a little more (0.00155) and its held-out prediction
 #: loses (0.1106 → 0.1185, the recipe 0.1175).
 FACTORS = (1.6, 0.8, 3.2, 6.4, 12.8, 25.6)
 #: Folds of the cross-validation.
@@ -38,7 +38,9 @@ FOLDS = 5
 MARGIN = 0.02
 
 
-def decimate_candidates(cutoff: float, n_shortest: int, n_base: int, nj: int) -> list[int]:
+def decimate_candidates(
+    cutoff: float, n_shortest: int, n_base: int, nj: int, edge: int = 0
+) -> list[int]:
     """The decimation factors tried (distinct, the spectrum rule's first).
 
     Parameters
@@ -49,12 +51,17 @@ def decimate_candidates(cutoff: float, n_shortest: int, n_base: int, nj: int) ->
         Samples of the shortest recording.
     n_base, nj : int
         Base parameters and joints (at least 20 equations per base parameter are kept).
+    edge : int, optional
+        Samples the state filter drops at each end [samples] (its half-width M, or the
+        Butterworth states' edge). The default half-width drops at most a quarter of the
+        record, which bounds the samples left from below; a longer filter given explicitly
+        leaves fewer, and the largest candidate must still fit in them.
 
     Returns
     -------
     list of int
     """
-    n_min = 0.75 * n_shortest  # after the state filter
+    n_min = min(0.75 * n_shortest, n_shortest - 2.0 * edge)  # after the state filter
     rows_needed = max(20.0 * n_base / nj, 50.0)
     cap = int(n_min / (rows_needed + 24.0))
     out: list[int] = []

@@ -23,13 +23,28 @@ __all__ = ["states", "auto_cutoff", "default_half_width", "DIFFERENTIATIONS"]
 DIFFERENTIATIONS = ("physid", "butterworth")
 
 
+def butterworth_edge(cutoff: float) -> int:
+    """Samples of the Butterworth filter's transient left out at each end [samples].
+
+    Parameters
+    ----------
+    cutoff : float [rad/sample]
+
+    Returns
+    -------
+    int
+        ``ceil(6π/Ω)``: three periods of the cut-off (the central differences drop one more).
+    """
+    return int(math.ceil(6.0 * np.pi / cutoff))
+
+
 def butterworth_states(q: np.ndarray, dt: float, cutoff: float, order: int = 4):
     """Zero-phase Butterworth (filtfilt) and central differences: the robotics standard.
 
     q̇_i = (q_{i+1} − q_{i−1}) / 2Δ,  q̈_i = (q_{i+1} − 2 q_i + q_{i−1}) / Δ²  on the filtered q.
     """
     sos = signal.butter(order, cutoff / np.pi, output="sos")
-    edge = int(math.ceil(6.0 * np.pi / cutoff))  # the filter's transient at both ends
+    edge = butterworth_edge(cutoff)  # the filter's transient at both ends
     qf = signal.sosfiltfilt(sos, q, axis=0, padlen=min(q.shape[0] - 1, edge))
     qd = (qf[2:] - qf[:-2]) / (2.0 * dt)
     qdd = (qf[2:] - 2.0 * qf[1:-1] + qf[:-2]) / dt**2
@@ -126,7 +141,7 @@ def states(q, dt, differentiation, cutoff, half_width):
         value, first, second = (f.apply(q) for f in bank)
         idx = np.arange(m, q.shape[0] - m)
         return idx, value, first, second, m
-    edge = int(math.ceil(6.0 * np.pi / cutoff))
+    edge = butterworth_edge(cutoff)
     if q.shape[0] < 2 * edge + 10:
         raise SamplingError(
             f"the recording has {q.shape[0]} samples; the Butterworth state filter at "

@@ -37,7 +37,13 @@ from .._stiction import (
 from .base_parameters import BaseInfo, base_regressor, base_regressor_info, write_in_place
 from .choose import cross_validated_error, decimate_candidates, pick
 from .decimation import decimation_edge, parallel_decimate
-from .filtering import DIFFERENTIATIONS, auto_cutoff, default_half_width, states
+from .filtering import (
+    DIFFERENTIATIONS,
+    auto_cutoff,
+    butterworth_edge,
+    default_half_width,
+    states,
+)
 
 __all__ = ["IDIMRows", "idim_rows"]
 
@@ -366,7 +372,9 @@ def idim_rows(
         # one M for every recording (the instruments of IDIM-IV and `validate` reuse it)
         half_width = default_half_width(cutoff, n_shortest)
     if isinstance(decimate, str) and decimate == "auto" and torque:
-        nds = decimate_candidates(cutoff, n_shortest, info.n_base, nj)
+        # samples the state filter drops at each end (Butterworth: and the central difference)
+        edge = half_width if differentiation == "physid" else butterworth_edge(cutoff) + 1
+        nds = decimate_candidates(cutoff, n_shortest, info.n_base, nj, edge)
     else:
         nds = [_resolve_decimate(decimate, cutoff, n_shortest, info.n_base, nj)]
     stick_threshold = check_stick_threshold(stick_threshold)

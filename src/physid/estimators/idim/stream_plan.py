@@ -40,7 +40,7 @@ from .._stiction import (
 )
 from .base_parameters import base_regressor_info
 from .choose import decimate_candidates
-from .filtering import DIFFERENTIATIONS, default_half_width
+from .filtering import DIFFERENTIATIONS, butterworth_edge, default_half_width
 from .rows import _resolve_cutoff, _resolve_decimate
 from .uncertainty import STDERR_METHODS
 
@@ -504,14 +504,15 @@ def plan_from_surveys(
     n_short = min(s.n for s in stats)
     if half_width is None and differentiation == "physid":
         half_width = default_half_width(cut, n_short)
-    if isinstance(decimate, str) and decimate == "auto":
-        nds = decimate_candidates(cut, n_short, info.n_base, nj)
-    else:
-        nds = [_resolve_decimate(decimate, cut, n_short, info.n_base, nj)]
     if differentiation == "physid":
         m = int(half_width)
     else:
-        m = int(math.ceil(6.0 * np.pi / cut))
+        m = butterworth_edge(cut)
+    if isinstance(decimate, str) and decimate == "auto":
+        edge = m if differentiation == "physid" else m + 1  # Butterworth: central difference
+        nds = decimate_candidates(cut, n_short, info.n_base, nj, edge)
+    else:
+        nds = [_resolve_decimate(decimate, cut, n_short, info.n_base, nj)]
     coulomb = coulomb_joints(model)
     rule = stick if stick != 0 and bool(coulomb.any()) else None
     settings = {
