@@ -269,6 +269,14 @@ def test_decimation_candidates_and_the_choice():
     # a state filter dropping 5000 samples at each end leaves 10 000: the cap is 10 000 / 124
     assert decimate_candidates(0.1, 20_000, 10, 2, edge=5000) == [50, 25, 80]
     assert decimate_candidates(0.1, 2_000, 10, 2) == [12]  # capped to keep 20 rows per parameter
+    # the samples the candidates' cap counts out are those the state filters really drop
+    from physid.estimators.idim.filtering import state_filter_drop, states
+
+    q = np.sin(np.linspace(0.0, 20.0, 3000))[:, None] * [1.0, 0.5]
+    for differentiation, half_width in (("physid", 150), ("butterworth", None)):
+        idx = states(q, 1e-3, differentiation, 0.2, half_width)[0]
+        drop = state_filter_drop(differentiation, 0.2, half_width)
+        assert idx[0] == drop and q.shape[0] - 1 - idx[-1] == drop
     assert pick([50, 25], [0.0100, 0.0099])[0] == 50  # within 2 %: the spectrum rule stays
     nd, why = pick([50, 25], [0.0100, 0.0090])
     assert nd == 25 and "cross-validated" in why and "50: 0.01" in why

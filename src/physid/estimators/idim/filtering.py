@@ -38,6 +38,27 @@ def butterworth_edge(cutoff: float) -> int:
     return int(math.ceil(6.0 * np.pi / cutoff))
 
 
+def state_filter_drop(differentiation: str, cutoff: float, half_width: int | None) -> int:
+    """Samples the state filter leaves out at each end of a recording [samples].
+
+    Parameters
+    ----------
+    differentiation : {"physid", "butterworth"}
+    cutoff : float [rad/sample]
+    half_width : int or None
+        M of the physid filter (given: the caller resolves the default first).
+
+    Returns
+    -------
+    int
+        physid: M. Butterworth: its transient (`butterworth_edge`) and the central
+        difference's sample.
+    """
+    if differentiation == "physid":
+        return int(half_width)
+    return butterworth_edge(cutoff) + 1
+
+
 def butterworth_states(q: np.ndarray, dt: float, cutoff: float, order: int = 4):
     """Zero-phase Butterworth (filtfilt) and central differences: the robotics standard.
 

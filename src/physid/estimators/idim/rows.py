@@ -40,8 +40,8 @@ from .decimation import decimation_edge, parallel_decimate
 from .filtering import (
     DIFFERENTIATIONS,
     auto_cutoff,
-    butterworth_edge,
     default_half_width,
+    state_filter_drop,
     states,
 )
 
@@ -372,8 +372,7 @@ def idim_rows(
         # one M for every recording (the instruments of IDIM-IV and `validate` reuse it)
         half_width = default_half_width(cutoff, n_shortest)
     if isinstance(decimate, str) and decimate == "auto" and torque:
-        # samples the state filter drops at each end (Butterworth: and the central difference)
-        edge = half_width if differentiation == "physid" else butterworth_edge(cutoff) + 1
+        edge = state_filter_drop(differentiation, cutoff, half_width)
         nds = decimate_candidates(cutoff, n_shortest, info.n_base, nj, edge)
     else:
         nds = [_resolve_decimate(decimate, cutoff, n_shortest, info.n_base, nj)]

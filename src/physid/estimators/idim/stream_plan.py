@@ -40,7 +40,12 @@ from .._stiction import (
 )
 from .base_parameters import base_regressor_info
 from .choose import decimate_candidates
-from .filtering import DIFFERENTIATIONS, butterworth_edge, default_half_width
+from .filtering import (
+    DIFFERENTIATIONS,
+    butterworth_edge,
+    default_half_width,
+    state_filter_drop,
+)
 from .rows import _resolve_cutoff, _resolve_decimate
 from .uncertainty import STDERR_METHODS
 
@@ -509,7 +514,7 @@ def plan_from_surveys(
     else:
         m = butterworth_edge(cut)
     if isinstance(decimate, str) and decimate == "auto":
-        edge = m if differentiation == "physid" else m + 1  # Butterworth: central difference
+        edge = state_filter_drop(differentiation, cut, half_width)
         nds = decimate_candidates(cut, n_short, info.n_base, nj, edge)
     else:
         nds = [_resolve_decimate(decimate, cut, n_short, info.n_base, nj)]
