@@ -8,6 +8,8 @@ motor side).
 import contextlib
 import io
 import json
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -287,3 +289,57 @@ def test_currents_beside_motor_and_joint_torques_name_both_clashes(tmp_path):
     cols = {f"{stem}{k + 1}": np.zeros(4) for stem in ("im", "taum") for k in range(6)}
     with pytest.raises(ModelFileError, match=r"both motor-side im1..im6 and \['taum1..'\]"):
         model.joint_side_channels(list(cols), cols.__getitem__, "log.csv")
+
+
+def test_a_prismatic_axis_through_a_ball_screw_reads_in_metres_and_newtons(tmp_path):
+    """A revolute-prismatic arm logged as motor angles and currents: the screw's ratio in rad/m
+    gives q2 in m and tau2 in N, which `physid identify` accepts (it refused q2 "in rad"), and
+    the noise-free fit recovers the arm's mass and inertia terms as from the joint-side log."""
+    from physid.signals.joint_side import joint_side
+
+    urdf = Path(__file__).parent / "data" / "arm3_prismatic.urdf"
+    (tmp_path / "arm.urdf").write_text(urdf.read_text())
+    ratios, kt = np.array([100.0, 2 * np.pi / 0.01, 50.0]), np.array([0.1, 0.2, 0.05])
+    body = (
+        'extends = "arm.urdf"\n[transmission]\n'
+        f"gear_ratios = {ratios.tolist()}\ntorque_constants = {kt.tolist()}\n"
+    )
+    (tmp_path / "motor.toml").write_text(body)
+    joint_model = physid.load_model(str(tmp_path / "arm.urdf"))
+    model = physid.load_model(str(tmp_path / "motor.toml"))
+    t = np.arange(0.0, 8.0, 2e-3)
+    w = 2 * np.pi * np.array([[0.25, 0.4, 0.3], [0.6, 0.9, 0.7]])
+    amp = np.array([[0.8, 0.08, 1.0], [0.3, 0.04, 0.5]])
+    q = np.array([0.0, 0.25, 0.0]) + sum(
+        a * np.sin(np.outer(t, f)) for a, f in zip(amp, w, strict=True)
+    )
+    qd = sum(a * f * np.cos(np.outer(t, f)) for a, f in zip(amp, w, strict=True))
+    qdd = sum(-a * f**2 * np.sin(np.outer(t, f)) for a, f in zip(amp, w, strict=True))
+    tau = joint_model.inverse_dynamics(q, qd, qdd)
+    cols = {"t": t} | {f"qm{j + 1}": ratios[j] * q[:, j] for j in range(3)}
+    cols |= {f"im{j + 1}": tau[:, j] / (ratios[j] * kt[j]) for j in range(3)}
+    motor = physid.Recording.from_columns(t, {k: v for k, v in cols.items() if k != "t"})
+    side = joint_side(model, motor)
+    assert (side.unit("q2"), side.unit("tau2")) == ("m", "N")
+    assert (side.unit("q1"), side.unit("tau3")) == ("rad", "N·m")
+    np.testing.assert_allclose(side.select(["q1", "q2", "q3"]), q, atol=1e-12)
+    np.testing.assert_allclose(side.select(["tau1", "tau2", "tau3"]), tau, rtol=1e-12, atol=1e-9)
+    names = list(cols)
+    np.savetxt(
+        tmp_path / "log.csv", np.column_stack([cols[n] for n in names]), delimiter=",",
+        header=",".join(names), comments="",
+    )  # fmt: skip
+    saved = tmp_path / "fit.json"
+    argv = ["identify", str(tmp_path / "log.csv"), "--model", str(tmp_path / "motor.toml")]
+    argv += ["--method", "idim-ols", "--stick-threshold", "0", "--save", str(saved)]
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        assert main(argv) == 0, err.getvalue()
+    est = json.loads(saved.read_text())["parameters"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref = physid.estimators.idim.IDIMEstimator(joint_model, stick_threshold=0).fit(
+            physid.Recording.from_columns(t, {"q": q, "tau": tau})
+        )
+    for name, value in ref.result_.parameters.items():
+        assert est[name] == pytest.approx(value, rel=1e-6, abs=1e-9), name

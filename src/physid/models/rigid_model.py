@@ -193,12 +193,14 @@ class RigidBodyModel(ChainModel):
         Returns
         -------
         (dict, dict)
-            New columns and their units; empty without a transmission or motor channels.
+            New columns and their units (a prismatic joint's in m and N); empty without a
+            transmission or motor channels.
         """
         tr = self._chain.transmission
         if tr is None:
             return {}, {}
-        return tr.joint_side(names, column, source)
+        prismatic = tuple(kind == "prismatic" for kind in self.joint_types)
+        return tr.joint_side(names, column, source, prismatic)
 
     # -- kernels ----------------------------------------------------------------------------
     def _c_kernel(self):

@@ -172,12 +172,15 @@ class Transmission:
             )
         return self.joint_torques(np.asarray(current, float) * self.torque_constants)
 
-    def joint_side(self, names, column, source: str = "the recording") -> tuple:
+    def joint_side(
+        self, names, column, source: str = "the recording", prismatic: tuple = ()
+    ) -> tuple:
         """Joint channels computed from a recording's motor-side channels.
 
         ``qm1..qmn`` (motor angles [rad]) give ``q1..qn`` = K⁻¹ θm + q0; ``taum1..taumn``
         (motor torques [N·m]) give ``tau1..taun`` = Kᵀ τm; ``im1..imn`` (motor currents [A])
-        give ``tau1..taun`` = Kᵀ (kt ⊙ i).
+        give ``tau1..taun`` = Kᵀ (kt ⊙ i). A prismatic joint's q is a length [m] and its
+        τ a force [N] (K's entries for it in rad/m: a ball screw of lead ℓ turns 2π/ℓ).
 
         Parameters
         ----------
@@ -187,11 +190,14 @@ class Transmission:
             ``column(name) -> ndarray (n_samples,)``.
         source : str
             The recording (for messages).
+        prismatic : sequence of bool, optional
+            Per joint: is it prismatic (its channels in m and N; missing entries: revolute).
 
         Returns
         -------
         (dict, dict)
-            New columns (name → ndarray) and their units; empty without motor channels.
+            New columns (name → ndarray) and their units ([rad] and [N·m], [m] and [N] for a
+            prismatic joint); empty without motor channels.
 
         Raises
         ------
@@ -202,7 +208,12 @@ class Transmission:
         n = self.n_motors
         have = set(names)
         out, units = {}, {}
-        kinds = (("qm", "q", "rad"), ("taum", "tau", "N·m"), ("im", "tau", "N·m"))
+        linear = tuple(bool(x) for x in prismatic) + (False,) * (n - len(prismatic))
+        kinds = (
+            ("qm", "q", ("rad", "m")),
+            ("taum", "tau", ("N·m", "N")),
+            ("im", "tau", ("N·m", "N")),
+        )
         for stem, target, unit in kinds:
             wanted = [f"{stem}{k + 1}" for k in range(n)]
             present = [w for w in wanted if w in have]
@@ -231,7 +242,7 @@ class Transmission:
                 joint = self.joint_torques_from_currents(data)
             for j in range(n):
                 out[f"{target}{j + 1}"] = joint[:, j]
-                units[f"{target}{j + 1}"] = unit
+                units[f"{target}{j + 1}"] = unit[linear[j]]
         return out, units
 
 

@@ -28,8 +28,8 @@ def joint_side(model, rec: Recording) -> Recording:
     Returns
     -------
     Recording
-        ``rec`` itself when nothing converts, else a new recording with ``q1..qn`` [rad] and
-        ``tau1..taun`` [N·m] added.
+        ``rec`` itself when nothing converts, else a new recording with ``q1..qn`` [rad, m for
+        a prismatic joint] and ``tau1..taun`` [N·m, N] added.
     """
     convert = getattr(model, "joint_side_channels", None)
     if convert is None:
